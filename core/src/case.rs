@@ -1,0 +1,530 @@
+//! The case file: everything a run needs, in RON.
+//!
+//! A case reads top to bottom: domain, boundaries, gravity, time control, fields (each
+//! with its frame, density, initial region and velocity, and stress models), the exchange
+//! between fields, the pressure solver, and output. Plugins are named by `model` with
+//! their own `params`; the registries turn them into typed models.
+
+use crate::boundary::Boundaries;
+use crate::error::{Error, Result};
+use crate::math::Real;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A plugin chosen by name, with its parameters (checked by the plugin itself).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PluginSpec {
+    /// Registered name, e.g. `"newtonian"`.
+    pub model: String,
+    /// The model's parameters, e.g. `(viscosity: 0.01)`. Omitted: all defaults.
+    #[serde(default = "empty_params")]
+    pub params: serde_json::Value,
+}
+
+fn empty_params() -> serde_json::Value {
+    serde_json::Value::Object(Default::default())
+}
+
+impl PluginSpec {
+    /// A spec with default parameters.
+    pub fn new(model: &str) -> Self {
+        Self { model: model.to_string(), params: empty_params() }
+    }
+    /// A spec with the given parameters.
+    pub fn with(model: &str, params: serde_json::Value) -> Self {
+        Self { model: model.to_string(), params }
+    }
+}
+
+/// The rectangular domain and its grid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Domain {
+    /// Lower-left corner (length).
+    #[serde(default)]
+    pub origin: [Real; 2],
+    /// Width and height (length).
+    pub size: [Real; 2],
+    /// Cells along x and y; cells must be square.
+    pub cells: [usize; 2],
+}
+
+/// Time control.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeControl {
+    /// Simulated time at which the run ends (time).
+    pub end: Real,
+    /// Courant number: Δt ≤ cfl · h / max|u|. Between 0 and 1; 0.25–0.5 is usual.
+    #[serde(default = "default_cfl")]
+    pub cfl: Real,
+    /// Largest time step (time).
+    pub max_dt: Real,
+    /// Use this time step exactly instead of the adaptive one (time). The run still
+    /// reports when it exceeds a model's stable limit.
+    #[serde(default)]
+    pub fixed_dt: Option<Real>,
+    /// Smallest acceptable time step (time): below it the run stops as unstable.
+    #[serde(default = "default_min_dt")]
+    pub min_dt: Real,
+    /// Stop after this many steps even if `end` is not reached.
+    #[serde(default)]
+    pub max_steps: Option<u64>,
+}
+
+fn default_cfl() -> Real {
+    0.4
+}
+fn default_min_dt() -> Real {
+    1e-12
+}
+
+/// Where a field is present at the start.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Region {
+    /// The whole domain.
+    All,
+    /// What the other fields leave free (θ = 1 − Σ others); only for an Eulerian field.
+    Rest,
+    /// An axis-aligned rectangle.
+    Rectangle {
+        /// Lower-left corner.
+        min: [Real; 2],
+        /// Upper-right corner.
+        max: [Real; 2],
+    },
+    /// A disk.
+    Disk {
+        /// Centre.
+        center: [Real; 2],
+        /// Radius.
+        radius: Real,
+    },
+}
+
+impl Region {
+    /// Whether the point `(x, y)` lies in the region (`Rest` and `All` contain everything).
+    pub fn contains(&self, x: Real, y: Real) -> bool {
+        match self {
+            Region::All | Region::Rest => true,
+            Region::Rectangle { min, max } => {
+                x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1]
+            }
+            Region::Disk { center, radius } => {
+                (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius
+            }
+        }
+    }
+}
+
+/// Initial velocity of a field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum InitialVelocity {
+    /// The same velocity everywhere.
+    Uniform([Real; 2]),
+    /// Taylor–Green vortex u = A sin x cos y, v = −A cos x sin y (x, y from the origin).
+    TaylorGreen {
+        /// Amplitude A (length/time).
+        amplitude: Real,
+    },
+    /// Rigid rotation about a centre.
+    RigidRotation {
+        /// Centre of rotation.
+        center: [Real; 2],
+        /// Angular velocity (1/time), counter-clockwise positive.
+        angular_velocity: Real,
+    },
+}
+
+impl Default for InitialVelocity {
+    fn default() -> Self {
+        InitialVelocity::Uniform([0.0, 0.0])
+    }
+}
+
+impl InitialVelocity {
+    /// Velocity at `(x, y)` given the domain origin.
+    pub fn at(&self, x: Real, y: Real, origin: [Real; 2]) -> [Real; 2] {
+        match *self {
+            InitialVelocity::Uniform(u) => u,
+            InitialVelocity::TaylorGreen { amplitude } => {
+                let (x, y) = (x - origin[0], y - origin[1]);
+                [amplitude * x.sin() * y.cos(), -amplitude * x.cos() * y.sin()]
+            }
+            InitialVelocity::RigidRotation { center, angular_velocity } => {
+                [-angular_velocity * (y - center[1]), angular_velocity * (x - center[0])]
+            }
+        }
+    }
+}
+
+/// One field (phase, material).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldSpec {
+    /// Unique name, used by exchange entries and output.
+    pub name: String,
+    /// Material density ρ⁰ (mass/length² in 2D, e.g. g/cm² per unit depth; CGS g/cm³ by convention).
+    pub density: Real,
+    /// The frame: `(model: "eulerian")` or `(model: "lagrangian", params: (...))`.
+    pub frame: PluginSpec,
+    /// Where the field is at the start.
+    pub region: Region,
+    /// Initial velocity.
+    #[serde(default)]
+    pub velocity: InitialVelocity,
+    /// Stress models (viscosity, elasticity, …), applied in order.
+    #[serde(default)]
+    pub stress: Vec<PluginSpec>,
+}
+
+/// How an exchange term is integrated in time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Integration {
+    /// Solved per location with the other fields (stable for any Δt; METHOD.md §3.4).
+    #[default]
+    Implicit,
+    /// Forward Euler from the provisional velocities (stable only for Δt < ρ/(θK)).
+    Explicit,
+}
+
+/// Momentum exchange between two fields.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExchangeSpec {
+    /// The two field names.
+    pub between: [String; 2],
+    /// Registered exchange model name, e.g. `"no_slip"`, `"constant"`.
+    pub model: String,
+    /// The model's parameters.
+    #[serde(default = "empty_params")]
+    pub params: serde_json::Value,
+    /// Implicit (default) or explicit.
+    #[serde(default)]
+    pub integration: Integration,
+}
+
+/// Options of the pressure coupling.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Coupling {
+    /// β in the pressure equation's volume-fraction drift term −β (Σθ − 1)/Δt, 0 ≤ β ≤ 1.
+    #[serde(default = "default_relaxation")]
+    pub volume_fraction_relaxation: Real,
+}
+
+fn default_relaxation() -> Real {
+    0.5
+}
+
+impl Default for Coupling {
+    fn default() -> Self {
+        Self { volume_fraction_relaxation: default_relaxation() }
+    }
+}
+
+/// What the run writes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Simulated time between rows of `diagnostics.csv` (0: every step).
+    #[serde(default)]
+    pub interval: Real,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self { interval: 0.0 }
+    }
+}
+
+/// A whole case.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// Name of the case (used in output).
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Domain and grid.
+    pub domain: Domain,
+    /// Boundary conditions; default: no-slip walls on all sides.
+    #[serde(default)]
+    pub boundaries: Boundaries,
+    /// Gravity (length/time²).
+    #[serde(default)]
+    pub gravity: [Real; 2],
+    /// Time control.
+    pub time: TimeControl,
+    /// The fields.
+    pub fields: Vec<FieldSpec>,
+    /// Momentum exchange between pairs of fields.
+    #[serde(default)]
+    pub exchange: Vec<ExchangeSpec>,
+    /// Pressure solver; `None` for a case without incompressibility constraint
+    /// (e.g. a weakly compressible fluid whose stress model gives the pressure).
+    #[serde(default)]
+    pub pressure: Option<PluginSpec>,
+    /// Pressure-coupling options.
+    #[serde(default)]
+    pub coupling: Coupling,
+    /// Output options.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+/// Maximum number of fields in a case (the exchange solves an N×N system per face).
+pub const MAX_FIELDS: usize = 8;
+
+fn ron_options() -> ron::Options {
+    ron::Options::default()
+}
+
+impl Case {
+    /// Parses a case from RON text; `file` is only used in messages.
+    pub fn from_ron(text: &str, file: &Path) -> Result<Case> {
+        ron_options().from_str::<Case>(text).map_err(|e| Error::Syntax {
+            file: file.to_path_buf(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: explain_ron_error(&e.code),
+        })
+    }
+
+    /// Reads, overrides (`--set path=value`) and validates a case file.
+    pub fn load(file: &Path, overrides: &[String]) -> Result<Case> {
+        let text = std::fs::read_to_string(file)
+            .map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
+        let mut case = Case::from_ron(&text, file)?;
+        case = case.with_overrides(overrides)?;
+        case.validate().map_err(|e| e.in_file(file))?;
+        Ok(case)
+    }
+
+    /// The case as pretty RON (as written to `case.ron`).
+    pub fn to_ron(&self) -> String {
+        let pretty = ron::ser::PrettyConfig::new().depth_limit(6).struct_names(false);
+        ron_options().to_string_pretty(self, pretty).unwrap_or_else(|e| format!("// {e}"))
+    }
+
+    /// Applies `path=value` overrides, e.g. `time.end=0.1`, `fields.water.density=1.5`,
+    /// `fields.0.stress.0.params.viscosity=0.02`. Lists are indexed by position or, for
+    /// lists of named entries, by name. The value is RON; anything that is not valid RON
+    /// is taken as a string.
+    pub fn with_overrides(&self, overrides: &[String]) -> Result<Case> {
+        if overrides.is_empty() {
+            return Ok(self.clone());
+        }
+        let mut tree = serde_json::to_value(self).map_err(|e| Error::Model(e.to_string()))?;
+        for assignment in overrides {
+            let err = |message: String| Error::Override { assignment: assignment.clone(), message };
+            let (path, value) = assignment
+                .split_once('=')
+                .ok_or_else(|| err("expected path=value, e.g. time.end=0.1".into()))?;
+            let value: serde_json::Value = ron_options()
+                .from_str::<serde_json::Value>(value.trim())
+                .unwrap_or_else(|_| serde_json::Value::String(value.trim().to_string()));
+            let mut node = &mut tree;
+            let keys: Vec<&str> = path.trim().split('.').collect();
+            for (depth, key) in keys.iter().enumerate() {
+                let last = depth + 1 == keys.len();
+                let here = keys[..depth].join(".");
+                node = match node {
+                    serde_json::Value::Object(map) => {
+                        if !map.contains_key(*key) {
+                            // plugin params may gain new keys; elsewhere the key must exist
+                            if here.ends_with("params") || here == "params" {
+                                map.insert(key.to_string(), serde_json::Value::Null);
+                            } else {
+                                let keys: Vec<&str> = map.keys().map(|s| s.as_str()).collect();
+                                return Err(err(format!(
+                                    "`{key}` is not an entry of `{}`; its entries are: {}{}",
+                                    if here.is_empty() { "the case" } else { &here },
+                                    keys.join(", "),
+                                    crate::error::did_you_mean(key, keys.iter().copied())
+                                )));
+                            }
+                        }
+                        map.get_mut(*key).expect("checked above")
+                    }
+                    serde_json::Value::Array(list) => {
+                        let index = key.parse::<usize>().ok().or_else(|| {
+                            list.iter().position(|e| e.get("name").and_then(|n| n.as_str()) == Some(key))
+                        });
+                        let n = list.len();
+                        match index.and_then(|i| list.get_mut(i)) {
+                            Some(e) => e,
+                            None => {
+                                return Err(err(format!(
+                                    "`{here}` has {n} entries: use an index 0..{n} or an entry's name, not `{key}`"
+                                )))
+                            }
+                        }
+                    }
+                    _ => {
+                        return Err(err(format!(
+                            "`{here}` is a value, not a group: it has no entry `{key}`"
+                        )))
+                    }
+                };
+                if last {
+                    *node = value.clone();
+                    break;
+                }
+            }
+        }
+        serde_json::from_value::<Case>(tree).map_err(|e| Error::Override {
+            assignment: overrides.join(" "),
+            message: format!("the result is not a valid case: {e}"),
+        })
+    }
+
+    /// Rejects impossible values before step 0, saying how to fix them.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |path: &str, message: String| Err(Error::invalid(path, message));
+        let d = &self.domain;
+        if !(d.size[0] > 0.0 && d.size[1] > 0.0) || !d.size.iter().all(|s| s.is_finite()) {
+            return bad("domain.size", format!("{:?}: both sides must be positive lengths", d.size));
+        }
+        if d.cells[0] < 2 || d.cells[1] < 2 {
+            return bad("domain.cells", format!("{:?}: at least 2 cells in each direction", d.cells));
+        }
+        let (hx, hy) = (d.size[0] / d.cells[0] as Real, d.size[1] / d.cells[1] as Real);
+        if ((hx - hy) / hx).abs() > 1e-9 {
+            return bad(
+                "domain.cells",
+                format!(
+                    "cells must be square, but size {:?} with cells {:?} gives {hx} × {hy}; \
+                     use cells proportional to the size, e.g. ({}, {})",
+                    d.size,
+                    d.cells,
+                    d.cells[0],
+                    (d.size[1] / hx).round() as usize
+                ),
+            );
+        }
+        self.boundaries.validate().map_err(|m| Error::invalid("boundaries", m))?;
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return bad("gravity", "must be finite".into());
+        }
+        let t = &self.time;
+        if !(t.end > 0.0) {
+            return bad("time.end", format!("{}: the end time must be positive", t.end));
+        }
+        if !(t.cfl > 0.0 && t.cfl <= 1.0) {
+            return bad(
+                "time.cfl",
+                format!("{}: the CFL number must lie in (0, 1]; 0.25–0.5 is usual", t.cfl),
+            );
+        }
+        if !(t.max_dt > 0.0) {
+            return bad("time.max_dt", format!("{}: must be positive", t.max_dt));
+        }
+        if let Some(dt) = t.fixed_dt {
+            if !(dt > 0.0) {
+                return bad("time.fixed_dt", format!("{dt}: must be positive, or omit it for an adaptive step"));
+            }
+        }
+        if !(t.min_dt >= 0.0) {
+            return bad("time.min_dt", format!("{}: must be zero or positive", t.min_dt));
+        }
+        if self.fields.is_empty() {
+            return bad("fields", "a case needs at least one field".into());
+        }
+        if self.fields.len() > MAX_FIELDS {
+            return bad("fields", format!("{} fields; at most {MAX_FIELDS}", self.fields.len()));
+        }
+        let (x0, y0) = (d.origin[0], d.origin[1]);
+        let (x1, y1) = (x0 + d.size[0], y0 + d.size[1]);
+        let mut rest = 0;
+        for (k, f) in self.fields.iter().enumerate() {
+            let p = |what: &str| format!("fields.{}.{what}", f.name);
+            if f.name.is_empty() {
+                return bad(&format!("fields.{k}.name"), "a field needs a name".into());
+            }
+            if self.fields[..k].iter().any(|g| g.name == f.name) {
+                return bad(&p("name"), format!("two fields are named `{}`; names must be unique", f.name));
+            }
+            if !(f.density > 0.0 && f.density.is_finite()) {
+                return bad(&p("density"), format!("{}: the material density must be positive", f.density));
+            }
+            match &f.region {
+                Region::Rest => rest += 1,
+                Region::All => {}
+                Region::Rectangle { min, max } => {
+                    if !(min[0] < max[0] && min[1] < max[1]) {
+                        return bad(&p("region"), format!("rectangle min {min:?} must lie below and left of max {max:?}"));
+                    }
+                    if min[0] < x0 - 1e-12 || min[1] < y0 - 1e-12 || max[0] > x1 + 1e-12 || max[1] > y1 + 1e-12 {
+                        return bad(&p("region"), format!(
+                            "rectangle {min:?}–{max:?} reaches outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside"
+                        ));
+                    }
+                }
+                Region::Disk { center, radius } => {
+                    if !(*radius > 0.0) {
+                        return bad(&p("region"), format!("disk radius {radius}: must be positive"));
+                    }
+                    if center[0] - radius < x0 - 1e-12 || center[0] + radius > x1 + 1e-12
+                        || center[1] - radius < y0 - 1e-12 || center[1] + radius > y1 + 1e-12
+                    {
+                        return bad(&p("region"), format!(
+                            "disk at {center:?} with radius {radius} reaches outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside or make it smaller"
+                        ));
+                    }
+                }
+            }
+        }
+        if rest > 1 {
+            return bad("fields", "only one field can take region `Rest` (what the others leave free)".into());
+        }
+        for (k, e) in self.exchange.iter().enumerate() {
+            for name in &e.between {
+                if !self.fields.iter().any(|f| &f.name == name) {
+                    let names: Vec<&str> = self.fields.iter().map(|f| f.name.as_str()).collect();
+                    return bad(&format!("exchange.{k}.between"), format!(
+                        "no field is named `{name}`; fields: {}{}",
+                        names.join(", "),
+                        crate::error::did_you_mean(name, names.iter().copied())
+                    ));
+                }
+            }
+            if e.between[0] == e.between[1] {
+                return bad(&format!("exchange.{k}.between"), "an exchange couples two different fields".into());
+            }
+        }
+        let beta = self.coupling.volume_fraction_relaxation;
+        if !(0.0..=1.0).contains(&beta) {
+            return bad("coupling.volume_fraction_relaxation", format!("{beta}: must lie in [0, 1]"));
+        }
+        if !(self.output.interval >= 0.0) {
+            return bad("output.interval", format!("{}: must be zero (every step) or positive", self.output.interval));
+        }
+        Ok(())
+    }
+}
+
+/// Turns a RON error into a message that says how to fix it.
+fn explain_ron_error(e: &ron::Error) -> String {
+    match e {
+        ron::Error::NoSuchStructField { expected, found, outer } => format!(
+            "unknown key `{found}`{}; valid keys: {}{}",
+            outer.as_ref().map(|o| format!(" in {o}")).unwrap_or_default(),
+            expected.join(", "),
+            crate::error::did_you_mean(found, expected.iter().copied())
+        ),
+        ron::Error::NoSuchEnumVariant { expected, found, outer } => format!(
+            "unknown choice `{found}`{}; valid choices: {}{}",
+            outer.as_ref().map(|o| format!(" for {o}")).unwrap_or_default(),
+            expected.join(", "),
+            crate::error::did_you_mean(found, expected.iter().copied())
+        ),
+        ron::Error::MissingStructField { field, outer } => format!(
+            "missing key `{field}`{}: add `{field}: ...`",
+            outer.as_ref().map(|o| format!(" in {o}")).unwrap_or_default()
+        ),
+        other => other.to_string(),
+    }
+}

@@ -1,0 +1,77 @@
+//! A field's state on the grid: the scratch space every frame fills and reads back.
+
+use crate::grid::{FaceVelocity, Grid};
+use crate::math::Real;
+
+/// One field's quantities on the MAC grid for the current step.
+///
+/// A Lagrangian frame rebuilds it from its points every step; an Eulerian frame keeps
+/// its state here. The core reads and updates it through the phases of a step.
+#[derive(Clone, Debug, Default)]
+pub struct FieldState {
+    /// Volume fraction θ at cell centres.
+    pub theta: Vec<Real>,
+    /// Volume fraction on x-faces (mean of the two neighbouring cells).
+    pub theta_u: Vec<Real>,
+    /// Volume fraction on y-faces.
+    pub theta_v: Vec<Real>,
+    /// Mass in the control volume of each x-face (θρ⁰h² for a full face).
+    pub mass_u: Vec<Real>,
+    /// Mass in the control volume of each y-face.
+    pub mass_v: Vec<Real>,
+    /// Grid velocity: u^n after particles to grid, then provisional, then final.
+    pub velocity: FaceVelocity,
+    /// Velocity at the start of the step (for FLIP increments).
+    pub velocity_old: FaceVelocity,
+    /// Pressure acceleration −w∇p of the last corrector (for the Eulerian predictor).
+    pub pressure_acceleration: FaceVelocity,
+    /// Effective specific volume w of the last exchange solve, on faces (volume/mass).
+    pub specific_volume: FaceVelocity,
+}
+
+impl FieldState {
+    /// Zeroed state for `grid`.
+    pub fn new(grid: &Grid) -> Self {
+        Self {
+            theta: vec![0.0; grid.n_cells()],
+            theta_u: vec![0.0; grid.n_xfaces()],
+            theta_v: vec![0.0; grid.n_yfaces()],
+            mass_u: vec![0.0; grid.n_xfaces()],
+            mass_v: vec![0.0; grid.n_yfaces()],
+            velocity: FaceVelocity::zeros(grid),
+            velocity_old: FaceVelocity::zeros(grid),
+            pressure_acceleration: FaceVelocity::zeros(grid),
+            specific_volume: FaceVelocity::zeros(grid),
+        }
+    }
+
+    /// Face volume fractions from the cell ones: the mean of the two neighbours, the
+    /// inside cell on a wall, the wrapped neighbour on a periodic side.
+    pub fn update_face_fractions(&mut self, grid: &Grid, periodic_x: bool, periodic_y: bool) {
+        let (nx, ny) = (grid.nx, grid.ny);
+        for j in 0..ny {
+            for i in 0..=nx {
+                let l = if i > 0 { Some(i - 1) } else if periodic_x { Some(nx - 1) } else { None };
+                let r = if i < nx { Some(i) } else if periodic_x { Some(0) } else { None };
+                let t = match (l, r) {
+                    (Some(l), Some(r)) => 0.5 * (self.theta[grid.cell(l, j)] + self.theta[grid.cell(r, j)]),
+                    (Some(c), None) | (None, Some(c)) => self.theta[grid.cell(c, j)],
+                    (None, None) => 0.0,
+                };
+                self.theta_u[grid.xface(i, j)] = t;
+            }
+        }
+        for j in 0..=ny {
+            for i in 0..nx {
+                let b = if j > 0 { Some(j - 1) } else if periodic_y { Some(ny - 1) } else { None };
+                let t = if j < ny { Some(j) } else if periodic_y { Some(0) } else { None };
+                let th = match (b, t) {
+                    (Some(b), Some(t)) => 0.5 * (self.theta[grid.cell(i, b)] + self.theta[grid.cell(i, t)]),
+                    (Some(c), None) | (None, Some(c)) => self.theta[grid.cell(i, c)],
+                    (None, None) => 0.0,
+                };
+                self.theta_v[grid.yface(i, j)] = th;
+            }
+        }
+    }
+}

@@ -1,0 +1,23 @@
+//! # multifield-core
+//!
+//! The core of multifield: math types, the MAC grid, the case schema, the plugin traits
+//! and their registries, and the time loop that runs the phases of a step
+//! (see `shared/design/METHOD.md` §3). It depends on neither the frames nor the physics:
+//! they register themselves.
+#![warn(missing_docs)]
+
+pub mod boundary;
+pub mod case;
+pub mod error;
+pub mod exchange;
+pub mod field;
+pub mod grid;
+pub mod math;
+pub mod plugin;
+pub mod poisson;
+pub mod registry;
+pub mod simulation;
+
+pub use error::{Error, Result};
+#[doc(hidden)]
+pub use inventory;

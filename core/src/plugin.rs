@@ -1,0 +1,189 @@
+//! The plugin traits and the context structs they receive.
+//!
+//! Plugins work on a whole field at a time. A context struct carries everything a
+//! plugin may need, so that adding an input later breaks no plugin.
+
+use crate::boundary::Boundaries;
+use crate::case::{InitialVelocity, Region};
+use crate::field::FieldState;
+use crate::grid::Grid;
+use crate::math::{Matrix, Real, Vector};
+use crate::poisson::{PoissonProblem, SolveStats};
+use std::any::Any;
+
+/// What a frame needs to seed its initial state.
+pub struct InitContext<'a> {
+    /// The grid.
+    pub grid: &'a Grid,
+    /// Boundary conditions.
+    pub boundaries: &'a Boundaries,
+    /// The field's name.
+    pub name: &'a str,
+    /// Material density ρ⁰.
+    pub density: Real,
+    /// Where the field starts.
+    pub region: &'a Region,
+    /// Initial velocity.
+    pub velocity: &'a InitialVelocity,
+    /// Initial volume fraction per cell when the core computed it (region `Rest`).
+    pub theta: Option<&'a [Real]>,
+}
+
+/// What a frame sees in a phase of a step.
+pub struct FrameContext<'a> {
+    /// The grid.
+    pub grid: &'a Grid,
+    /// Boundary conditions.
+    pub boundaries: &'a Boundaries,
+    /// Time step.
+    pub dt: Real,
+    /// Time at the start of the step.
+    pub time: Real,
+    /// Gravity.
+    pub gravity: Vector,
+    /// Material density ρ⁰ of the field.
+    pub density: Real,
+    /// The field's grid state.
+    pub state: &'a mut FieldState,
+    /// The field's stress models.
+    pub stress: &'a [Box<dyn StressModel>],
+}
+
+/// A field's frame: where its state lives (grid or material points) and how it is
+/// carried to and from the grid. Implementations live in `multifield-frames`.
+pub trait Frame: Send + Sync {
+    /// Registered name.
+    fn model(&self) -> &'static str;
+    /// Parameters with defaults filled in (written to `case.ron`).
+    fn params(&self) -> serde_json::Value;
+    /// Whether the state lives on material points.
+    fn is_lagrangian(&self) -> bool;
+    /// Seeds the initial state.
+    fn initialize(&mut self, ctx: &InitContext) -> Result<(), String>;
+    /// Step 1–2: mass, velocity, volume fraction (and internal forces of point stresses)
+    /// onto the grid state; must also set `state.velocity_old`.
+    fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String>;
+    /// Step 3: the frame's own part of the predictor (advection for an Eulerian field).
+    fn predict(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {
+        Ok(())
+    }
+    /// Step 7: take the corrected grid velocity back (grid to particles, point stresses).
+    fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String>;
+    /// Step 9: transport of the field's volume with the corrected velocity.
+    fn advect(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {
+        Ok(())
+    }
+    /// Largest speed, for the CFL limit.
+    fn max_speed(&self) -> Real;
+    /// Kinetic energy.
+    fn kinetic_energy(&self) -> Real;
+    /// Linear momentum.
+    fn momentum(&self) -> Vector;
+    /// Total mass.
+    fn mass(&self) -> Real;
+    /// Downcasting, for output writers and tests.
+    fn as_any(&self) -> &dyn Any;
+    /// Mutable downcasting, for checkpoints and tests.
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+/// Data a stress model needs to say its stable time step.
+pub struct TimeStepContext<'a> {
+    /// The grid.
+    pub grid: &'a Grid,
+    /// Material density ρ⁰ of the field.
+    pub density: Real,
+    /// Largest speed in the field.
+    pub max_speed: Real,
+}
+
+/// A grid-level stress evaluation (viscosity on face velocities).
+pub struct GridStressContext<'a> {
+    /// The grid.
+    pub grid: &'a Grid,
+    /// Boundary conditions.
+    pub boundaries: &'a Boundaries,
+    /// Time step.
+    pub dt: Real,
+    /// Material density ρ⁰.
+    pub density: Real,
+    /// The field's grid state; the model updates `state.velocity`.
+    pub state: &'a mut FieldState,
+}
+
+/// A point-level stress evaluation (MPM constitutive models).
+pub struct PointStressContext<'a> {
+    /// Time step.
+    pub dt: Real,
+    /// Material density ρ⁰.
+    pub density: Real,
+    /// Deformation gradient F of each point.
+    pub deformation_gradient: &'a [Matrix],
+    /// Velocity gradient ∇v of each point.
+    pub velocity_gradient: &'a [Matrix],
+    /// Cauchy stress of each point, to be written (the model adds to it).
+    pub stress: &'a mut [Matrix],
+}
+
+/// A stress (constitutive) model of one field.
+pub trait StressModel: Send + Sync {
+    /// Registered name.
+    fn model(&self) -> &'static str;
+    /// Parameters with defaults filled in.
+    fn params(&self) -> serde_json::Value;
+    /// Updates grid velocities with this stress (e.g. viscous diffusion). Default: nothing.
+    fn apply_on_grid(&self, _ctx: &mut GridStressContext) -> Result<(), String> {
+        Ok(())
+    }
+    /// Whether this model needs point stresses (MPM).
+    fn acts_on_points(&self) -> bool {
+        false
+    }
+    /// Adds this model's Cauchy stress at every point. Default: nothing.
+    fn point_stress(&self, _ctx: &mut PointStressContext) {}
+    /// Whether this model makes the field's bodies move rigidly.
+    fn is_rigid(&self) -> bool {
+        false
+    }
+    /// Largest stable time step of this model, or `None` if it sets none.
+    fn stable_dt(&self, _ctx: &TimeStepContext) -> Option<Real> {
+        None
+    }
+}
+
+/// What an exchange model sees: the two fields on the faces.
+pub struct ExchangeContext<'a> {
+    /// The grid.
+    pub grid: &'a Grid,
+    /// First field's grid state.
+    pub a: &'a FieldState,
+    /// Second field's grid state.
+    pub b: &'a FieldState,
+    /// Material densities of the two fields.
+    pub density: [Real; 2],
+}
+
+/// Momentum exchange between two fields: the coefficient K of
+/// θ_a θ_b K (u_b − u_a) in the momentum equations (mass/(volume·time)).
+pub trait ExchangeModel: Send + Sync {
+    /// Registered name.
+    fn model(&self) -> &'static str;
+    /// Parameters with defaults filled in.
+    fn params(&self) -> serde_json::Value;
+    /// K = ∞: the two fields move as one (exact mass-weighted average).
+    fn no_slip(&self) -> bool {
+        false
+    }
+    /// Fills K on every x-face (`kx`) and y-face (`ky`).
+    fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]);
+}
+
+/// A solver for the pressure equation.
+pub trait PressureSolver: Send + Sync {
+    /// Registered name.
+    fn model(&self) -> &'static str;
+    /// Parameters with defaults filled in.
+    fn params(&self) -> serde_json::Value;
+    /// Solves `problem` for `pressure` (which holds the initial guess).
+    fn solve(&mut self, problem: &PoissonProblem, pressure: &mut [Real]) -> crate::Result<SolveStats>;
+}

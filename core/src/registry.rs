@@ -1,0 +1,186 @@
+//! Plugin registries: a name maps to a builder that turns RON parameters into a typed model.
+//!
+//! Crates register with `inventory::submit!` (see [`crate::register_stress!`] and friends);
+//! the core never lists them. Inventory drops a crate nobody references, so each plugin
+//! crate exposes a `link()` function that the binary and the tests call.
+
+use crate::error::{did_you_mean, Error, Result};
+use crate::plugin::{ExchangeModel, Frame, PressureSolver, StressModel};
+use serde::de::DeserializeOwned;
+
+/// The role a plugin plays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Role {
+    /// Where a field's state lives (Eulerian, Lagrangian).
+    Frame,
+    /// A field's stress (viscosity, elasticity, rigidity).
+    Stress,
+    /// Momentum exchange between two fields.
+    Exchange,
+    /// The pressure solve.
+    Pressure,
+}
+
+impl Role {
+    /// The role's name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Frame => "frame",
+            Role::Stress => "stress",
+            Role::Exchange => "exchange",
+            Role::Pressure => "pressure",
+        }
+    }
+    /// All roles.
+    pub const ALL: [Role; 4] = [Role::Frame, Role::Stress, Role::Exchange, Role::Pressure];
+}
+
+/// Documentation of one parameter, for `multifield plugins`.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamDoc {
+    /// Key in the `params` of a case.
+    pub name: &'static str,
+    /// Unit, e.g. "g/(cm·s)", or "-" for dimensionless.
+    pub unit: &'static str,
+    /// Default value, or "required".
+    pub default: &'static str,
+    /// What it is.
+    pub doc: &'static str,
+}
+
+/// A builder for one role.
+#[derive(Clone, Copy)]
+pub enum Builder {
+    /// Builds a frame.
+    Frame(fn(&serde_json::Value) -> Result<Box<dyn Frame>, String>),
+    /// Builds a stress model.
+    Stress(fn(&serde_json::Value) -> Result<Box<dyn StressModel>, String>),
+    /// Builds an exchange model.
+    Exchange(fn(&serde_json::Value) -> Result<Box<dyn ExchangeModel>, String>),
+    /// Builds a pressure solver.
+    Pressure(fn(&serde_json::Value) -> Result<Box<dyn PressureSolver>, String>),
+}
+
+impl Builder {
+    /// The role this builder fills.
+    pub fn role(&self) -> Role {
+        match self {
+            Builder::Frame(_) => Role::Frame,
+            Builder::Stress(_) => Role::Stress,
+            Builder::Exchange(_) => Role::Exchange,
+            Builder::Pressure(_) => Role::Pressure,
+        }
+    }
+}
+
+/// One registered plugin.
+pub struct PluginEntry {
+    /// Registered name (also the file and, in CamelCase, the type name).
+    pub name: &'static str,
+    /// One line on what it is, with its equation or citation.
+    pub summary: &'static str,
+    /// Its parameters.
+    pub params: &'static [ParamDoc],
+    /// The builder.
+    pub build: Builder,
+}
+
+inventory::collect!(PluginEntry);
+
+/// Every registered plugin of `role`, sorted by name.
+pub fn entries(role: Role) -> Vec<&'static PluginEntry> {
+    let mut v: Vec<_> = inventory::iter::<PluginEntry>.into_iter().filter(|e| e.build.role() == role).collect();
+    v.sort_by_key(|e| e.name);
+    v
+}
+
+/// Looks up `name` for `role`; an unknown name lists the registered ones.
+pub fn find(role: Role, name: &str, path: &str) -> Result<&'static PluginEntry> {
+    let all = entries(role);
+    all.iter().find(|e| e.name == name).copied().ok_or_else(|| Error::UnknownPlugin {
+        role: role.name(),
+        name: name.to_string(),
+        path: path.to_string(),
+        choices: if all.is_empty() {
+            "none (is the plugin crate linked? call its link())".to_string()
+        } else {
+            all.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")
+        },
+        hint: did_you_mean(name, all.iter().map(|e| e.name)),
+    })
+}
+
+fn wrap(name: &str, path: &str, r: Result<(), String>) -> Result<()> {
+    r.map_err(|m| Error::invalid(path, format!("{name}: {m}")))
+}
+
+/// Builds the frame `name` with `params`.
+pub fn build_frame(name: &str, params: &serde_json::Value, path: &str) -> Result<Box<dyn Frame>> {
+    match find(Role::Frame, name, path)?.build {
+        Builder::Frame(f) => f(params).map_err(|m| Error::invalid(path, format!("{name}: {m}"))),
+        _ => unreachable!("filtered by role"),
+    }
+}
+/// Builds the stress model `name` with `params`.
+pub fn build_stress(name: &str, params: &serde_json::Value, path: &str) -> Result<Box<dyn StressModel>> {
+    match find(Role::Stress, name, path)?.build {
+        Builder::Stress(f) => f(params).map_err(|m| Error::invalid(path, format!("{name}: {m}"))),
+        _ => unreachable!("filtered by role"),
+    }
+}
+/// Builds the exchange model `name` with `params`.
+pub fn build_exchange(name: &str, params: &serde_json::Value, path: &str) -> Result<Box<dyn ExchangeModel>> {
+    match find(Role::Exchange, name, path)?.build {
+        Builder::Exchange(f) => f(params).map_err(|m| Error::invalid(path, format!("{name}: {m}"))),
+        _ => unreachable!("filtered by role"),
+    }
+}
+/// Builds the pressure solver `name` with `params`.
+pub fn build_pressure(name: &str, params: &serde_json::Value, path: &str) -> Result<Box<dyn PressureSolver>> {
+    match find(Role::Pressure, name, path)?.build {
+        Builder::Pressure(f) => f(params).map_err(|m| Error::invalid(path, format!("{name}: {m}"))),
+        _ => unreachable!("filtered by role"),
+    }
+}
+
+/// Deserializes a plugin's parameters into its typed struct (which should carry
+/// `#[serde(deny_unknown_fields)]`). A `null` or missing `params` means all defaults.
+pub fn parse_params<T: DeserializeOwned>(params: &serde_json::Value) -> Result<T, String> {
+    let v = if params.is_null() { serde_json::Value::Object(Default::default()) } else { params.clone() };
+    serde_json::from_value(v).map_err(|e| {
+        let m = e.to_string();
+        // serde says "unknown field `x`, expected one of `a`, `b`": say "key" as the case does
+        m.replace("unknown field", "unknown parameter").replace("missing field", "missing parameter")
+    })
+}
+
+/// Serializes a plugin's typed parameters back (for `case.ron`).
+pub fn params_value<T: serde::Serialize>(p: &T) -> serde_json::Value {
+    serde_json::to_value(p).unwrap_or(serde_json::Value::Null)
+}
+
+/// Keeps `wrap` used by callers that validate after building.
+pub fn check(name: &str, path: &str, r: Result<(), String>) -> Result<()> {
+    wrap(name, path, r)
+}
+
+/// Registers a plugin: `register!(Stress, "newtonian", Newtonian, "summary", [ParamDoc…])`.
+/// The type must implement `serde::Deserialize`, a `fn validate(&mut self) -> Result<(), String>`
+/// and the role's trait.
+#[macro_export]
+macro_rules! register {
+    ($role:ident, $name:literal, $ty:ty, $summary:expr, $params:expr) => {
+        $crate::inventory::submit! {
+            $crate::registry::PluginEntry {
+                name: $name,
+                summary: $summary,
+                params: $params,
+                build: $crate::registry::Builder::$role(|p| {
+                    let mut m: $ty = $crate::registry::parse_params(p)?;
+                    m.validate()?;
+                    Ok(Box::new(m))
+                }),
+            }
+        }
+    };
+}

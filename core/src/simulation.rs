@@ -1,0 +1,678 @@
+//! The time loop: one step is a readable sequence of named phases (METHOD.md §3).
+//!
+//! 1. particles to grid, 2. volume fractions, 3. predictor, 4. exchange, 5. pressure,
+//! 6. corrector, 7. grid to particles, 8. bodies, 9. advection. Plugins attach to phases
+//! through their traits; nothing depends on registration order.
+
+use crate::boundary::Boundaries;
+use crate::case::{Case, Integration, Region, MAX_FIELDS};
+use crate::error::{Error, Result};
+use crate::exchange::{self, Coefficients, Local};
+use crate::field::FieldState;
+use crate::grid::Grid;
+use crate::math::{vector, Real, Vector};
+use crate::plugin::{
+    ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext, InitContext, PressureSolver,
+    StressModel, TimeStepContext,
+};
+use crate::poisson::PoissonProblem;
+use crate::registry;
+
+/// One field of a running simulation.
+pub struct Field {
+    /// Name from the case.
+    pub name: String,
+    /// Material density ρ⁰.
+    pub density: Real,
+    /// Whether it fills what the others leave (region `Rest`).
+    pub fills_rest: bool,
+    /// Its frame.
+    pub frame: Box<dyn Frame>,
+    /// Its stress models.
+    pub stress: Vec<Box<dyn StressModel>>,
+    /// Its grid state.
+    pub state: FieldState,
+}
+
+/// One exchange entry of a running simulation.
+pub struct Exchange {
+    /// Indices of the two fields.
+    pub fields: [usize; 2],
+    /// The model.
+    pub model: Box<dyn ExchangeModel>,
+    /// Implicit or explicit.
+    pub integration: Integration,
+    kx: Vec<Real>,
+    ky: Vec<Real>,
+}
+
+/// Figures of one step, written to `diagnostics.csv`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepDiagnostics {
+    /// Step number (1 for the first step).
+    pub step: u64,
+    /// Time at the end of the step.
+    pub time: Real,
+    /// The step's Δt.
+    pub dt: Real,
+    /// What limited Δt.
+    pub dt_limit: String,
+    /// Total kinetic energy.
+    pub kinetic_energy: Real,
+    /// Total linear momentum.
+    pub momentum: Vector,
+    /// Total mass.
+    pub mass: Real,
+    /// Largest speed.
+    pub max_speed: Real,
+    /// max |∇·(Σθu) − β(Σθ−1)/Δt| after the projection (1/time).
+    pub max_divergence: Real,
+    /// max |Σθ − 1| over the cells.
+    pub volume_fraction_error: Real,
+    /// Iterations of the pressure solve.
+    pub pressure_iterations: usize,
+    /// Relative residual of the pressure solve.
+    pub pressure_residual: Real,
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// Reached the end time.
+    Completed,
+    /// Stopped because the solution blew up; the reason says how.
+    Unstable(String),
+    /// Stopped by an error.
+    Failed(String),
+}
+
+impl Status {
+    /// "completed", "unstable" or "failed".
+    pub fn label(&self) -> &'static str {
+        match self {
+            Status::Completed => "completed",
+            Status::Unstable(_) => "unstable",
+            Status::Failed(_) => "failed",
+        }
+    }
+    /// The reason (empty when completed).
+    pub fn reason(&self) -> &str {
+        match self {
+            Status::Completed => "",
+            Status::Unstable(r) | Status::Failed(r) => r,
+        }
+    }
+}
+
+/// A running simulation.
+pub struct Simulation {
+    /// The case as run (plugin defaults filled in).
+    pub case: Case,
+    /// The grid.
+    pub grid: Grid,
+    /// Boundary conditions.
+    pub boundaries: Boundaries,
+    /// Gravity.
+    pub gravity: Vector,
+    /// The fields.
+    pub fields: Vec<Field>,
+    /// The exchanges.
+    pub exchanges: Vec<Exchange>,
+    /// The pressure solver, if the case has one.
+    pub pressure_solver: Option<Box<dyn PressureSolver>>,
+    /// Pressure at cell centres.
+    pub pressure: Vec<Real>,
+    /// Simulated time.
+    pub time: Real,
+    /// Steps taken.
+    pub steps: u64,
+    /// Figures of the last step.
+    pub last: StepDiagnostics,
+    /// Kinetic energy at the start.
+    pub initial_energy: Real,
+}
+
+/// Fraction of each cell covered by `region`, by 8×8 sub-sampling.
+pub fn region_fraction(region: &Region, grid: &Grid) -> Vec<Real> {
+    const S: usize = 8;
+    let mut out = vec![0.0; grid.n_cells()];
+    for j in 0..grid.ny {
+        for i in 0..grid.nx {
+            let mut inside = 0;
+            for b in 0..S {
+                for a in 0..S {
+                    let x = grid.origin.x + (i as Real + (a as Real + 0.5) / S as Real) * grid.h;
+                    let y = grid.origin.y + (j as Real + (b as Real + 0.5) / S as Real) * grid.h;
+                    inside += usize::from(region.contains(x, y));
+                }
+            }
+            out[grid.cell(i, j)] = inside as Real / (S * S) as Real;
+        }
+    }
+    out
+}
+
+impl Simulation {
+    /// Builds every model from the registries and seeds the initial state.
+    pub fn new(case: &Case) -> Result<Simulation> {
+        case.validate()?;
+        let mut case = case.clone();
+        let d = &case.domain;
+        let h = d.size[0] / d.cells[0] as Real;
+        let grid = Grid::new(d.cells[0], d.cells[1], h, vector(d.origin));
+        let boundaries = case.boundaries;
+        let mut fields = Vec::new();
+        for (k, spec) in case.fields.iter_mut().enumerate() {
+            let path = format!("fields.{}", spec.name);
+            let frame = registry::build_frame(&spec.frame.model, &spec.frame.params, &format!("{path}.frame"))?;
+            spec.frame.params = frame.params();
+            let mut stress = Vec::new();
+            for (s, st) in spec.stress.iter_mut().enumerate() {
+                let m = registry::build_stress(&st.model, &st.params, &format!("{path}.stress.{s}"))?;
+                st.params = m.params();
+                stress.push(m);
+            }
+            let fills_rest = spec.region == Region::Rest;
+            if fills_rest && frame.is_lagrangian() {
+                return Err(Error::invalid(
+                    format!("{path}.region"),
+                    "region `Rest` is only for an Eulerian field (its volume fraction is what the \
+                     others leave); give a Lagrangian field an explicit region",
+                ));
+            }
+            let _ = k;
+            fields.push(Field {
+                name: spec.name.clone(),
+                density: spec.density,
+                fills_rest,
+                frame,
+                stress,
+                state: FieldState::new(&grid),
+            });
+        }
+        let mut exchanges = Vec::new();
+        for (k, e) in case.exchange.iter_mut().enumerate() {
+            let idx = |n: &String| case_index(&fields, n);
+            let model = registry::build_exchange(&e.model, &e.params, &format!("exchange.{k}"))?;
+            e.params = model.params();
+            exchanges.push(Exchange {
+                fields: [idx(&e.between[0]), idx(&e.between[1])],
+                model,
+                integration: e.integration,
+                kx: vec![0.0; grid.n_xfaces()],
+                ky: vec![0.0; grid.n_yfaces()],
+            });
+        }
+        let pressure_solver = match &mut case.pressure {
+            Some(p) => {
+                let s = registry::build_pressure(&p.model, &p.params, "pressure")?;
+                p.params = s.params();
+                Some(s)
+            }
+            None => None,
+        };
+        // seed: fields with their own region first, then the one that fills the rest
+        let mut occupied = vec![0.0; grid.n_cells()];
+        for (k, f) in fields.iter_mut().enumerate() {
+            if f.fills_rest {
+                continue;
+            }
+            let spec = &case.fields[k];
+            for (o, t) in occupied.iter_mut().zip(region_fraction(&spec.region, &grid)) {
+                *o += t;
+            }
+            f.frame
+                .initialize(&InitContext {
+                    grid: &grid,
+                    boundaries: &boundaries,
+                    name: &f.name,
+                    density: f.density,
+                    region: &spec.region,
+                    velocity: &spec.velocity,
+                    theta: None,
+                })
+                .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
+        }
+        let rest: Vec<Real> = occupied.iter().map(|o| (1.0 - o).max(0.0)).collect();
+        for (k, f) in fields.iter_mut().enumerate() {
+            if !f.fills_rest {
+                continue;
+            }
+            let spec = &case.fields[k];
+            f.frame
+                .initialize(&InitContext {
+                    grid: &grid,
+                    boundaries: &boundaries,
+                    name: &f.name,
+                    density: f.density,
+                    region: &spec.region,
+                    velocity: &spec.velocity,
+                    theta: Some(&rest),
+                })
+                .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
+        }
+        let initial_energy = fields.iter().map(|f| f.frame.kinetic_energy()).sum();
+        Ok(Simulation {
+            gravity: vector(case.gravity),
+            pressure: vec![0.0; grid.n_cells()],
+            case,
+            grid,
+            boundaries,
+            fields,
+            exchanges,
+            pressure_solver,
+            time: 0.0,
+            steps: 0,
+            last: StepDiagnostics::default(),
+            initial_energy,
+        })
+    }
+
+    /// Index of the field named `name`.
+    pub fn field_index(&self, name: &str) -> Option<usize> {
+        self.fields.iter().position(|f| f.name == name)
+    }
+
+    /// Largest speed of any field.
+    pub fn max_speed(&self) -> Real {
+        self.fields.iter().map(|f| f.frame.max_speed()).fold(0.0, Real::max)
+    }
+
+    /// Total kinetic energy.
+    pub fn kinetic_energy(&self) -> Real {
+        self.fields.iter().map(|f| f.frame.kinetic_energy()).sum()
+    }
+
+    /// The next time step and what limits it.
+    pub fn choose_dt(&self) -> (Real, String) {
+        let t = &self.case.time;
+        let remaining = t.end - self.time;
+        if let Some(dt) = t.fixed_dt {
+            return (dt.min(remaining.max(0.0)).max(0.0), "fixed".into());
+        }
+        let h = self.grid.h;
+        let umax = self.max_speed();
+        let g = self.gravity.norm();
+        // Δt (|u| + |g| Δt) ≤ C h: the step keeps the CFL bound even as gravity accelerates the flow
+        let mut best = (t.max_dt, "max_dt".to_string());
+        let cfl = if g > 0.0 {
+            (-umax + (umax * umax + 4.0 * g * t.cfl * h).sqrt()) / (2.0 * g)
+        } else if umax > 0.0 {
+            t.cfl * h / umax
+        } else {
+            Real::INFINITY
+        };
+        if cfl < best.0 {
+            best = (cfl, "cfl".into());
+        }
+        for f in &self.fields {
+            let ctx = TimeStepContext { grid: &self.grid, density: f.density, max_speed: f.frame.max_speed() };
+            for s in &f.stress {
+                if let Some(dt) = s.stable_dt(&ctx) {
+                    if dt < best.0 {
+                        best = (dt, format!("{}({})", s.model(), f.name));
+                    }
+                }
+            }
+        }
+        if remaining < best.0 * (1.0 + 1e-9) {
+            best = (remaining, "end".into());
+        }
+        best
+    }
+
+    /// Advances one step.
+    pub fn step(&mut self) -> Result<StepDiagnostics> {
+        let (dt, limit) = self.choose_dt();
+        self.step_with(dt, limit)
+    }
+
+    /// Advances one step of the given Δt.
+    pub fn step_with(&mut self, dt: Real, dt_limit: String) -> Result<StepDiagnostics> {
+        self.particles_to_grid(dt)?;
+        let volume_fraction_error = self.volume_fractions();
+        self.predictor(dt)?;
+        self.exchange(dt);
+        let (iterations, residual) = self.pressure_projection(dt)?;
+        let max_divergence = self.max_divergence(dt);
+        self.grid_to_particles(dt)?;
+        self.advection(dt)?;
+        self.time += dt;
+        self.steps += 1;
+        let momentum = self.fields.iter().map(|f| f.frame.momentum()).fold(Vector::zeros(), |a, b| a + b);
+        self.last = StepDiagnostics {
+            step: self.steps,
+            time: self.time,
+            dt,
+            dt_limit,
+            kinetic_energy: self.kinetic_energy(),
+            momentum,
+            mass: self.fields.iter().map(|f| f.frame.mass()).sum(),
+            max_speed: self.max_speed(),
+            max_divergence,
+            volume_fraction_error,
+            pressure_iterations: iterations,
+            pressure_residual: residual,
+        };
+        Ok(self.last.clone())
+    }
+
+    fn frame_phase(
+        &mut self,
+        dt: Real,
+        phase: &str,
+        mut f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
+    ) -> Result<()> {
+        for field in &mut self.fields {
+            let mut ctx = FrameContext {
+                grid: &self.grid,
+                boundaries: &self.boundaries,
+                dt,
+                time: self.time,
+                gravity: self.gravity,
+                density: field.density,
+                state: &mut field.state,
+                stress: &field.stress,
+            };
+            f(field.frame.as_mut(), &mut ctx)
+                .map_err(|m| Error::Model(format!("{phase} of field `{}`: {m}", field.name)))?;
+        }
+        Ok(())
+    }
+
+    /// Phase 1: every frame puts its state on the grid.
+    fn particles_to_grid(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "particles to grid", |fr, ctx| fr.to_grid(ctx))
+    }
+
+    /// Phase 2: volume fractions; the field of region `Rest` takes what the others leave.
+    /// Returns max |Σθ − 1|.
+    fn volume_fractions(&mut self) -> Real {
+        let n = self.grid.n_cells();
+        let mut others = vec![0.0; n];
+        for f in self.fields.iter().filter(|f| !f.fills_rest) {
+            for (o, t) in others.iter_mut().zip(&f.state.theta) {
+                *o += t;
+            }
+        }
+        let (px, py) = (self.boundaries.periodic_x(), self.boundaries.periodic_y());
+        let area = self.grid.cell_area();
+        for f in &mut self.fields {
+            if f.fills_rest {
+                for (t, o) in f.state.theta.iter_mut().zip(&others) {
+                    *t = (1.0 - o).max(0.0);
+                }
+            }
+            f.state.update_face_fractions(&self.grid, px, py);
+            if !f.frame.is_lagrangian() {
+                let s = &mut f.state;
+                for (m, t) in s.mass_u.iter_mut().zip(&s.theta_u) {
+                    *m = t * f.density * area;
+                }
+                for (m, t) in s.mass_v.iter_mut().zip(&s.theta_v) {
+                    *m = t * f.density * area;
+                }
+            }
+        }
+        let mut err: Real = 0.0;
+        for c in 0..n {
+            let s: Real = self.fields.iter().map(|f| f.state.theta[c]).sum();
+            err = err.max((s - 1.0).abs());
+        }
+        err
+    }
+
+    /// Phase 3: frame predictors (advection), gravity, grid stresses.
+    fn predictor(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "predictor", |fr, ctx| fr.predict(ctx))?;
+        let g = self.gravity;
+        for f in &mut self.fields {
+            let s = &mut f.state;
+            s.velocity.u.iter_mut().for_each(|u| *u += dt * g.x);
+            s.velocity.v.iter_mut().for_each(|v| *v += dt * g.y);
+            for m in &f.stress {
+                let mut ctx = GridStressContext {
+                    grid: &self.grid,
+                    boundaries: &self.boundaries,
+                    dt,
+                    density: f.density,
+                    state: s,
+                };
+                m.apply_on_grid(&mut ctx)
+                    .map_err(|e| Error::Model(format!("stress `{}` of field `{}`: {e}", m.model(), f.name)))?;
+            }
+            self.boundaries.enforce(&self.grid, &mut s.velocity);
+        }
+        Ok(())
+    }
+
+    /// Phase 4: implicit (or explicit) momentum exchange on every face.
+    fn exchange(&mut self, dt: Real) {
+        let n = self.fields.len();
+        let area = self.grid.cell_area();
+        for e in &mut self.exchanges {
+            let [a, b] = e.fields;
+            let ctx = ExchangeContext {
+                grid: &self.grid,
+                a: &self.fields[a].state,
+                b: &self.fields[b].state,
+                density: [self.fields[a].density, self.fields[b].density],
+            };
+            if e.model.no_slip() {
+                e.kx.fill(Real::INFINITY);
+                e.ky.fill(Real::INFINITY);
+            } else {
+                e.model.coefficients(&ctx, &mut e.kx, &mut e.ky);
+            }
+        }
+        let densities: Vec<Real> = self.fields.iter().map(|f| f.density).collect();
+        for lattice in 0..2 {
+            let nf = if lattice == 0 { self.grid.n_xfaces() } else { self.grid.n_yfaces() };
+            for face in 0..nf {
+                let mut loc = Local {
+                    n,
+                    rho: [0.0; MAX_FIELDS],
+                    theta: [0.0; MAX_FIELDS],
+                    material_density: [1.0; MAX_FIELDS],
+                    u: [0.0; MAX_FIELDS],
+                    w: [0.0; MAX_FIELDS],
+                };
+                for (k, f) in self.fields.iter().enumerate() {
+                    let s = &f.state;
+                    let (m, t, u) = if lattice == 0 {
+                        (s.mass_u[face], s.theta_u[face], s.velocity.u[face])
+                    } else {
+                        (s.mass_v[face], s.theta_v[face], s.velocity.v[face])
+                    };
+                    loc.rho[k] = m / area;
+                    loc.theta[k] = t;
+                    loc.u[k] = u;
+                    loc.material_density[k] = densities[k];
+                }
+                let mut implicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
+                let mut explicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
+                let mut any_explicit = false;
+                for e in &self.exchanges {
+                    let kk = if lattice == 0 { e.kx[face] } else { e.ky[face] };
+                    let [a, b] = e.fields;
+                    let target = if e.integration == Integration::Explicit && !kk.is_infinite() {
+                        any_explicit = true;
+                        &mut explicit
+                    } else {
+                        &mut implicit
+                    };
+                    target[a][b] = kk;
+                    target[b][a] = kk;
+                }
+                if any_explicit {
+                    exchange::explicit(&mut loc, &explicit, dt);
+                }
+                exchange::solve(&mut loc, &implicit, dt);
+                for (k, f) in self.fields.iter_mut().enumerate() {
+                    let s = &mut f.state;
+                    if lattice == 0 {
+                        s.velocity.u[face] = loc.u[k];
+                        s.specific_volume.u[face] = loc.w[k];
+                    } else {
+                        s.velocity.v[face] = loc.u[k];
+                        s.specific_volume.v[face] = loc.w[k];
+                    }
+                }
+            }
+        }
+    }
+
+    /// −β(Σθ − 1)/Δt + ∇·(Σθu) per cell: the constraint residual.
+    fn constraint(&self, dt: Real) -> Vec<Real> {
+        constraint_of(&self.grid, &self.fields, self.case.coupling.volume_fraction_relaxation, dt)
+    }
+
+    /// Phases 5–6: the pressure equation and the corrector. Returns (iterations, residual).
+    fn pressure_projection(&mut self, dt: Real) -> Result<(usize, Real)> {
+        let Some(solver) = self.pressure_solver.as_mut() else {
+            return Ok((0, 0.0));
+        };
+        let g = &self.grid;
+        let bc = &self.boundaries;
+        let mut cx = vec![0.0; g.n_xfaces()];
+        let mut cy = vec![0.0; g.n_yfaces()];
+        for f in &self.fields {
+            let s = &f.state;
+            for (c, (t, w)) in cx.iter_mut().zip(s.theta_u.iter().zip(&s.specific_volume.u)) {
+                *c += dt * t * w;
+            }
+            for (c, (t, w)) in cy.iter_mut().zip(s.theta_v.iter().zip(&s.specific_volume.v)) {
+                *c += dt * t * w;
+            }
+        }
+        for j in 0..g.ny {
+            for i in [0, g.nx] {
+                if bc.xface_fixed(g, i) {
+                    cx[g.xface(i, j)] = 0.0;
+                }
+            }
+        }
+        for j in [0, g.ny] {
+            if bc.yface_fixed(g, j) {
+                for i in 0..g.nx {
+                    cy[g.yface(i, j)] = 0.0;
+                }
+            }
+        }
+        let residual = constraint_of(g, &self.fields, self.case.coupling.volume_fraction_relaxation, dt);
+        let rhs: Vec<Real> = residual.iter().map(|r| -r).collect();
+        let problem = PoissonProblem::new(g, bc, cx, cy, rhs);
+        let stats = solver.solve(&problem, &mut self.pressure)?;
+        problem.fix_constant(&mut self.pressure);
+        // corrector: u_k = ū_k − Δt w_k ∇p
+        let p = &self.pressure;
+        let (nx, ny) = (g.nx, g.ny);
+        let outflow = |side| match bc.side(side) {
+            crate::boundary::Boundary::Outflow { pressure } => Some(pressure),
+            _ => None,
+        };
+        let (pl, pr, pb, pt) = (
+            outflow(crate::boundary::Side::Left),
+            outflow(crate::boundary::Side::Right),
+            outflow(crate::boundary::Side::Bottom),
+            outflow(crate::boundary::Side::Top),
+        );
+        let mut gx = vec![0.0; g.n_xfaces()];
+        let mut gy = vec![0.0; g.n_yfaces()];
+        for j in 0..ny {
+            for i in 0..=nx {
+                let grad = if i > 0 && i < nx {
+                    (p[g.cell(i, j)] - p[g.cell(i - 1, j)]) / g.h
+                } else if bc.periodic_x() {
+                    (p[g.cell(0, j)] - p[g.cell(nx - 1, j)]) / g.h
+                } else if i == 0 {
+                    pl.map_or(0.0, |pd| 2.0 * (p[g.cell(0, j)] - pd) / g.h)
+                } else {
+                    pr.map_or(0.0, |pd| 2.0 * (pd - p[g.cell(nx - 1, j)]) / g.h)
+                };
+                gx[g.xface(i, j)] = grad;
+            }
+        }
+        for j in 0..=ny {
+            for i in 0..nx {
+                let grad = if j > 0 && j < ny {
+                    (p[g.cell(i, j)] - p[g.cell(i, j - 1)]) / g.h
+                } else if bc.periodic_y() {
+                    (p[g.cell(i, 0)] - p[g.cell(i, ny - 1)]) / g.h
+                } else if j == 0 {
+                    pb.map_or(0.0, |pd| 2.0 * (p[g.cell(i, 0)] - pd) / g.h)
+                } else {
+                    pt.map_or(0.0, |pd| 2.0 * (pd - p[g.cell(i, ny - 1)]) / g.h)
+                };
+                gy[g.yface(i, j)] = grad;
+            }
+        }
+        for f in &mut self.fields {
+            let s = &mut f.state;
+            for k in 0..gx.len() {
+                let a = -s.specific_volume.u[k] * gx[k];
+                s.pressure_acceleration.u[k] = a;
+                s.velocity.u[k] += dt * a;
+            }
+            for k in 0..gy.len() {
+                let a = -s.specific_volume.v[k] * gy[k];
+                s.pressure_acceleration.v[k] = a;
+                s.velocity.v[k] += dt * a;
+            }
+            bc.enforce(g, &mut s.velocity);
+        }
+        Ok((stats.iterations, stats.residual))
+    }
+
+    fn max_divergence(&self, dt: Real) -> Real {
+        if self.pressure_solver.is_none() {
+            return 0.0;
+        }
+        self.constraint(dt).iter().fold(0.0, |m, x| m.max(x.abs()))
+    }
+
+    /// Phase 7: every frame takes the corrected grid velocity back.
+    fn grid_to_particles(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "grid to particles", |fr, ctx| fr.from_grid(ctx))
+    }
+
+    /// Phase 9: Eulerian transport of volume fractions.
+    fn advection(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "advection", |fr, ctx| fr.advect(ctx))
+    }
+}
+
+/// Volume flux Σθu on x-faces and y-faces.
+fn mixture_flux(grid: &Grid, fields: &[Field]) -> (Vec<Real>, Vec<Real>) {
+    let mut fx = vec![0.0; grid.n_xfaces()];
+    let mut fy = vec![0.0; grid.n_yfaces()];
+    for f in fields {
+        let s = &f.state;
+        for (o, (t, u)) in fx.iter_mut().zip(s.theta_u.iter().zip(&s.velocity.u)) {
+            *o += t * u;
+        }
+        for (o, (t, v)) in fy.iter_mut().zip(s.theta_v.iter().zip(&s.velocity.v)) {
+            *o += t * v;
+        }
+    }
+    (fx, fy)
+}
+
+/// ∇·(Σθu) − β(Σθ − 1)/Δt per cell: the residual of the constraint the pressure enforces.
+pub fn constraint_of(g: &Grid, fields: &[Field], beta: Real, dt: Real) -> Vec<Real> {
+    let (fx, fy) = mixture_flux(g, fields);
+    let mut out = vec![0.0; g.n_cells()];
+    for j in 0..g.ny {
+        for i in 0..g.nx {
+            let div = (fx[g.xface(i + 1, j)] - fx[g.xface(i, j)] + fy[g.yface(i, j + 1)] - fy[g.yface(i, j)]) / g.h;
+            let c = g.cell(i, j);
+            let sum: Real = fields.iter().map(|f| f.state.theta[c]).sum();
+            out[c] = div - beta * (sum - 1.0) / dt;
+        }
+    }
+    out
+}
+
+fn case_index(fields: &[Field], name: &str) -> usize {
+    fields.iter().position(|f| f.name == name).expect("validated: exchange names exist")
+}
