@@ -97,12 +97,7 @@ pub struct Boundaries {
 
 impl Default for Boundaries {
     fn default() -> Self {
-        Self {
-            left: Boundary::NoSlip,
-            right: Boundary::NoSlip,
-            bottom: Boundary::NoSlip,
-            top: Boundary::NoSlip,
-        }
+        Self { left: Boundary::NoSlip, right: Boundary::NoSlip, bottom: Boundary::NoSlip, top: Boundary::NoSlip }
     }
 }
 

@@ -108,12 +108,8 @@ impl Region {
     pub fn contains(&self, x: Real, y: Real) -> bool {
         match self {
             Region::All | Region::Rest => true,
-            Region::Rectangle { min, max } => {
-                x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1]
-            }
-            Region::Disk { center, radius } => {
-                (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius
-            }
+            Region::Rectangle { min, max } => x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1],
+            Region::Disk { center, radius } => (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius,
         }
     }
 }
@@ -295,8 +291,7 @@ impl Case {
 
     /// Reads, overrides (`--set path=value`) and validates a case file.
     pub fn load(file: &Path, overrides: &[String]) -> Result<Case> {
-        let text = std::fs::read_to_string(file)
-            .map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(file).map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
         let mut case = Case::from_ron(&text, file)?;
         case = case.with_overrides(overrides)?;
         case.validate().map_err(|e| e.in_file(file))?;
@@ -320,9 +315,8 @@ impl Case {
         let mut tree = serde_json::to_value(self).map_err(|e| Error::Model(e.to_string()))?;
         for assignment in overrides {
             let err = |message: String| Error::Override { assignment: assignment.clone(), message };
-            let (path, value) = assignment
-                .split_once('=')
-                .ok_or_else(|| err("expected path=value, e.g. time.end=0.1".into()))?;
+            let (path, value) =
+                assignment.split_once('=').ok_or_else(|| err("expected path=value, e.g. time.end=0.1".into()))?;
             let value: serde_json::Value = ron_options()
                 .from_str::<serde_json::Value>(value.trim())
                 .unwrap_or_else(|_| serde_json::Value::String(value.trim().to_string()));
@@ -350,9 +344,10 @@ impl Case {
                         map.get_mut(*key).expect("checked above")
                     }
                     serde_json::Value::Array(list) => {
-                        let index = key.parse::<usize>().ok().or_else(|| {
-                            list.iter().position(|e| e.get("name").and_then(|n| n.as_str()) == Some(key))
-                        });
+                        let index = key
+                            .parse::<usize>()
+                            .ok()
+                            .or_else(|| list.iter().position(|e| e.get("name").and_then(|n| n.as_str()) == Some(key)));
                         let n = list.len();
                         match index.and_then(|i| list.get_mut(i)) {
                             Some(e) => e,
@@ -363,11 +358,7 @@ impl Case {
                             }
                         }
                     }
-                    _ => {
-                        return Err(err(format!(
-                            "`{here}` is a value, not a group: it has no entry `{key}`"
-                        )))
-                    }
+                    _ => return Err(err(format!("`{here}` is a value, not a group: it has no entry `{key}`"))),
                 };
                 if last {
                     *node = value.clone();
@@ -414,10 +405,7 @@ impl Case {
             return bad("time.end", format!("{}: the end time must be positive", t.end));
         }
         if !(t.cfl > 0.0 && t.cfl <= 1.0) {
-            return bad(
-                "time.cfl",
-                format!("{}: the CFL number must lie in (0, 1]; 0.25–0.5 is usual", t.cfl),
-            );
+            return bad("time.cfl", format!("{}: the CFL number must lie in (0, 1]; 0.25–0.5 is usual", t.cfl));
         }
         if !(t.max_dt > 0.0) {
             return bad("time.max_dt", format!("{}: must be positive", t.max_dt));
@@ -455,7 +443,10 @@ impl Case {
                 Region::All => {}
                 Region::Rectangle { min, max } => {
                     if !(min[0] < max[0] && min[1] < max[1]) {
-                        return bad(&p("region"), format!("rectangle min {min:?} must lie below and left of max {max:?}"));
+                        return bad(
+                            &p("region"),
+                            format!("rectangle min {min:?} must lie below and left of max {max:?}"),
+                        );
                     }
                     if min[0] < x0 - 1e-12 || min[1] < y0 - 1e-12 || max[0] > x1 + 1e-12 || max[1] > y1 + 1e-12 {
                         return bad(&p("region"), format!(
@@ -467,8 +458,10 @@ impl Case {
                     if !(*radius > 0.0) {
                         return bad(&p("region"), format!("disk radius {radius}: must be positive"));
                     }
-                    if center[0] - radius < x0 - 1e-12 || center[0] + radius > x1 + 1e-12
-                        || center[1] - radius < y0 - 1e-12 || center[1] + radius > y1 + 1e-12
+                    if center[0] - radius < x0 - 1e-12
+                        || center[0] + radius > x1 + 1e-12
+                        || center[1] - radius < y0 - 1e-12
+                        || center[1] + radius > y1 + 1e-12
                     {
                         return bad(&p("region"), format!(
                             "disk at {center:?} with radius {radius} reaches outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside or make it smaller"
@@ -484,11 +477,14 @@ impl Case {
             for name in &e.between {
                 if !self.fields.iter().any(|f| &f.name == name) {
                     let names: Vec<&str> = self.fields.iter().map(|f| f.name.as_str()).collect();
-                    return bad(&format!("exchange.{k}.between"), format!(
-                        "no field is named `{name}`; fields: {}{}",
-                        names.join(", "),
-                        crate::error::did_you_mean(name, names.iter().copied())
-                    ));
+                    return bad(
+                        &format!("exchange.{k}.between"),
+                        format!(
+                            "no field is named `{name}`; fields: {}{}",
+                            names.join(", "),
+                            crate::error::did_you_mean(name, names.iter().copied())
+                        ),
+                    );
                 }
             }
             if e.between[0] == e.between[1] {

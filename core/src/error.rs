@@ -87,9 +87,7 @@ impl Error {
     /// Attaches the case file name to an [`Error::Invalid`].
     pub fn in_file(self, file: &std::path::Path) -> Self {
         match self {
-            Error::Invalid { path, message, .. } => {
-                Error::Invalid { file: file.to_path_buf(), path, message }
-            }
+            Error::Invalid { path, message, .. } => Error::Invalid { file: file.to_path_buf(), path, message },
             other => other,
         }
     }

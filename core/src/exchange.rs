@@ -35,8 +35,7 @@ pub type Coefficients = [[Real; MAX_FIELDS]; MAX_FIELDS];
 pub fn solve(loc: &mut Local, k: &Coefficients, dt: Real) {
     let n = loc.n;
     // absent fields take no part: keep u*, w = 1/ρ⁰
-    let present: [bool; MAX_FIELDS] =
-        std::array::from_fn(|i| i < n && loc.rho[i] > 1e-10 * loc.material_density[i]);
+    let present: [bool; MAX_FIELDS] = std::array::from_fn(|i| i < n && loc.rho[i] > 1e-10 * loc.material_density[i]);
     // clusters of no-slip pairs (union–find on at most 8 entries)
     let mut parent: [usize; MAX_FIELDS] = std::array::from_fn(|i| i);
     fn root(p: &mut [usize; MAX_FIELDS], mut i: usize) -> usize {

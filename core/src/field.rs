@@ -51,8 +51,20 @@ impl FieldState {
         let (nx, ny) = (grid.nx, grid.ny);
         for j in 0..ny {
             for i in 0..=nx {
-                let l = if i > 0 { Some(i - 1) } else if periodic_x { Some(nx - 1) } else { None };
-                let r = if i < nx { Some(i) } else if periodic_x { Some(0) } else { None };
+                let l = if i > 0 {
+                    Some(i - 1)
+                } else if periodic_x {
+                    Some(nx - 1)
+                } else {
+                    None
+                };
+                let r = if i < nx {
+                    Some(i)
+                } else if periodic_x {
+                    Some(0)
+                } else {
+                    None
+                };
                 let t = match (l, r) {
                     (Some(l), Some(r)) => 0.5 * (self.theta[grid.cell(l, j)] + self.theta[grid.cell(r, j)]),
                     (Some(c), None) | (None, Some(c)) => self.theta[grid.cell(c, j)],
@@ -63,8 +75,20 @@ impl FieldState {
         }
         for j in 0..=ny {
             for i in 0..nx {
-                let b = if j > 0 { Some(j - 1) } else if periodic_y { Some(ny - 1) } else { None };
-                let t = if j < ny { Some(j) } else if periodic_y { Some(0) } else { None };
+                let b = if j > 0 {
+                    Some(j - 1)
+                } else if periodic_y {
+                    Some(ny - 1)
+                } else {
+                    None
+                };
+                let t = if j < ny {
+                    Some(j)
+                } else if periodic_y {
+                    Some(0)
+                } else {
+                    None
+                };
                 let th = match (b, t) {
                     (Some(b), Some(t)) => 0.5 * (self.theta[grid.cell(i, b)] + self.theta[grid.cell(i, t)]),
                     (Some(c), None) | (None, Some(c)) => self.theta[grid.cell(i, c)],

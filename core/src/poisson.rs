@@ -65,13 +65,7 @@ pub fn sum(a: &[Real]) -> Real {
 impl PoissonProblem {
     /// Assembles a problem from face coefficients `c` (not yet divided by h²) and the
     /// right-hand side `b`, with Dirichlet values from the outflow sides.
-    pub fn new(
-        grid: &Grid,
-        boundaries: &Boundaries,
-        cx: Vec<Real>,
-        cy: Vec<Real>,
-        mut rhs: Vec<Real>,
-    ) -> Self {
+    pub fn new(grid: &Grid, boundaries: &Boundaries, cx: Vec<Real>, cy: Vec<Real>, mut rhs: Vec<Real>) -> Self {
         let h2 = grid.h * grid.h;
         let cx: Vec<Real> = cx.into_iter().map(|c| c / h2).collect();
         let cy: Vec<Real> = cy.into_iter().map(|c| c / h2).collect();
@@ -82,9 +76,13 @@ impl PoissonProblem {
                 let (nx, ny) = (grid.nx, grid.ny);
                 match side {
                     Side::Left => (0..ny).for_each(|j| rhs[grid.cell(0, j)] += 2.0 * cx[grid.xface(0, j)] * pressure),
-                    Side::Right => (0..ny).for_each(|j| rhs[grid.cell(nx - 1, j)] += 2.0 * cx[grid.xface(nx, j)] * pressure),
+                    Side::Right => {
+                        (0..ny).for_each(|j| rhs[grid.cell(nx - 1, j)] += 2.0 * cx[grid.xface(nx, j)] * pressure)
+                    }
                     Side::Bottom => (0..nx).for_each(|i| rhs[grid.cell(i, 0)] += 2.0 * cy[grid.yface(i, 0)] * pressure),
-                    Side::Top => (0..nx).for_each(|i| rhs[grid.cell(i, ny - 1)] += 2.0 * cy[grid.yface(i, ny)] * pressure),
+                    Side::Top => {
+                        (0..nx).for_each(|i| rhs[grid.cell(i, ny - 1)] += 2.0 * cy[grid.yface(i, ny)] * pressure)
+                    }
                 }
             }
         }

@@ -12,8 +12,8 @@ use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
-    ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext, InitContext, PressureSolver,
-    StressModel, TimeStepContext,
+    ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext, InitContext, PressureSolver, StressModel,
+    TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;

@@ -1,1 +1,21 @@
+//! # multifield-physics
+//!
+//! The physics plugins of multifield, one model per file:
+//! `stress/` (constitutive models), `exchange/` (inter-field momentum exchange),
+//! `pressure/` (solvers of the pressure equation). Each registers itself with the core's
+//! registries; call [`link`] once from a binary or test so the linker keeps this crate.
+#![warn(missing_docs)]
 
+pub mod exchange;
+pub mod pressure;
+pub mod stress;
+
+/// The names this crate registers, by role: the test of the registry checks them.
+pub const SHIPPED: &[(&str, &[&str])] =
+    &[("stress", &["newtonian"]), ("exchange", &["constant", "no_slip"]), ("pressure", &["pcg"])];
+
+/// Keeps this crate's registrations in the final binary (inventory drops crates that
+/// nothing references). Cheap; call it once at start-up.
+pub fn link() {
+    std::hint::black_box(SHIPPED);
+}

@@ -1,0 +1,1 @@
+//! Eulerian frame (being written).

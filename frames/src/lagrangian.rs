@@ -1,0 +1,1 @@
+//! Lagrangian frame (being written).

@@ -1,0 +1,4 @@
+//! Momentum-exchange models between two fields.
+
+pub mod constant;
+pub mod no_slip;

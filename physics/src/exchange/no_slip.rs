@@ -1,0 +1,44 @@
+//! No-slip coupling, K = ∞: the two fields move as one with their mass-weighted
+//! velocity (exact; no large number enters the solve). This is how a fully resolved body
+//! and the fluid around it share one velocity (METHOD.md §2).
+
+use multifield_core::math::Real;
+use multifield_core::plugin::{ExchangeContext, ExchangeModel};
+use multifield_core::registry::params_value;
+use serde::{Deserialize, Serialize};
+
+/// K = ∞ between two fields.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoSlip {}
+
+impl NoSlip {
+    /// Nothing to check.
+    pub fn validate(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+multifield_core::register!(
+    Exchange,
+    "no_slip",
+    NoSlip,
+    "K = ∞: the two fields share one velocity (exact mass-weighted average)",
+    &[]
+);
+
+impl ExchangeModel for NoSlip {
+    fn model(&self) -> &'static str {
+        "no_slip"
+    }
+    fn params(&self) -> serde_json::Value {
+        params_value(self)
+    }
+    fn no_slip(&self) -> bool {
+        true
+    }
+    fn coefficients(&self, _ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
+        kx.fill(Real::INFINITY);
+        ky.fill(Real::INFINITY);
+    }
+}

@@ -1,0 +1,3 @@
+//! Solvers of the pressure equation.
+
+pub mod pcg;

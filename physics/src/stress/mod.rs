@@ -1,0 +1,3 @@
+//! Stress (constitutive) models: `ls physics/src/stress/` lists them.
+
+pub mod newtonian;
