@@ -1,0 +1,385 @@
+//! Running a case and writing its output.
+//!
+//! A run writes three files into its output directory:
+//!
+//! - `case.ron`: the case as run, every plugin default filled in (re-parseable);
+//! - `diagnostics.csv`: one row every `output.interval` of simulated time (every step when
+//!   it is 0) and always the last step, flushed row by row so a killed run leaves a
+//!   readable file; columns [`CSV_HEADER`];
+//! - `summary.json`: how the run ended ([`Summary`]), written whatever happens once the
+//!   directory exists.
+//!
+//! Every run watches for instability after each step and stops as `"unstable"` when
+//! - the kinetic energy or the largest speed is not finite;
+//! - the chosen Δt falls below `time.min_dt` (the last, shortened step that lands on
+//!   `time.end` excepted);
+//! - the kinetic energy exceeds [`ENERGY_GROWTH`] × E_ref, with
+//!   E_ref = max(E₀, ½ M |g| L, ½ M U_b², ½ M (L / t_end)²), where E₀ is the initial kinetic
+//!   energy, M the total mass, L the longer side of the domain, U_b the fastest prescribed
+//!   boundary velocity and t_end `time.end`. Each term is an energy the case can reach
+//!   physically (the start, a fall across the domain, the driving walls, a flow crossing
+//!   the domain once in the run); a million times the largest of them is a blow-up.
+//!
+//! An error of a solver or a model (or a panic inside one) ends the run as `"failed"`
+//! with the message.
+
+use crate::core::boundary::{Boundary, Side};
+use crate::core::case::Case;
+use crate::core::error::Error;
+use crate::core::math::Real;
+use crate::core::simulation::{Simulation, Status, StepDiagnostics};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::Serialize;
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The columns of `diagnostics.csv`, in order.
+pub const CSV_HEADER: &str = "step,time,dt,dt_limit,kinetic_energy,momentum_x,momentum_y,mass,max_speed,\
+max_divergence,volume_fraction_error,pressure_iterations,pressure_residual";
+
+/// Kinetic energy above this multiple of the reference energy (module doc) is a blow-up.
+pub const ENERGY_GROWTH: Real = 1e6;
+
+/// How to run.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Worker threads; 0 lets rayon choose (all cores, or `RAYON_NUM_THREADS`).
+    pub threads: usize,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+impl RunOptions {
+    /// Default threads, no progress bar (for tests and scripts).
+    pub fn quiet() -> Self {
+        Self { threads: 0, quiet: true }
+    }
+}
+
+/// What `summary.json` holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// `"completed"`, `"unstable"` or `"failed"`.
+    pub status: String,
+    /// Why the run stopped early, or what bounded it (empty when it reached `time.end`).
+    pub reason: String,
+    /// Name of the case.
+    pub case: String,
+    /// Steps taken.
+    pub steps: u64,
+    /// Simulated time reached.
+    pub simulated_time: Real,
+    /// `time.end` of the case.
+    pub end_time: Real,
+    /// Wall-clock time of the time loop (seconds).
+    pub wall_seconds: f64,
+    /// Worker threads used.
+    pub threads: usize,
+    /// Kinetic energy at the start.
+    pub initial_kinetic_energy: Real,
+    /// Kinetic energy after the last step.
+    pub final_kinetic_energy: Real,
+    /// Energy above which the run is declared unstable (module doc).
+    pub kinetic_energy_bound: Real,
+    /// Largest constraint residual max |∇·(Σθu) − β(Σθ−1)/Δt| seen over the run.
+    pub max_divergence: Real,
+    /// Largest max |Σθ − 1| seen over the run.
+    pub max_volume_fraction_error: Real,
+    /// Pressure iterations summed over all steps.
+    pub pressure_iterations_total: u64,
+    /// Smallest Δt taken.
+    pub min_dt: Real,
+    /// What limited the last step.
+    pub last_dt_limit: String,
+    /// Rows written to `diagnostics.csv`.
+    pub diagnostics_rows: u64,
+}
+
+/// The result of [`run`]: the summary as written, and the output directory.
+#[derive(Debug)]
+pub struct Outcome {
+    /// How the run ended.
+    pub status: Status,
+    /// What was written to `summary.json`.
+    pub summary: Summary,
+    /// Where the files are.
+    pub output_dir: PathBuf,
+}
+
+/// Energy scale E_ref of the instability bound (module doc).
+pub fn reference_energy(sim: &Simulation) -> Real {
+    let case = &sim.case;
+    let mass: Real = sim.fields.iter().map(|f| f.frame.mass()).sum();
+    let length = case.domain.size[0].max(case.domain.size[1]);
+    let g = (case.gravity[0].powi(2) + case.gravity[1].powi(2)).sqrt();
+    let wall = Side::ALL
+        .iter()
+        .map(|&s| match case.boundaries.side(s) {
+            Boundary::Velocity { velocity, .. } => (velocity[0].powi(2) + velocity[1].powi(2)).sqrt(),
+            _ => 0.0,
+        })
+        .fold(0.0, Real::max);
+    let crossing = length / case.time.end;
+    [sim.initial_energy, 0.5 * mass * g * length, 0.5 * mass * wall * wall, 0.5 * mass * crossing * crossing]
+        .into_iter()
+        .fold(0.0, Real::max)
+}
+
+/// A name usable as a directory: letters, digits, `-`, `_` and `.`; anything else becomes `_`.
+pub fn directory_name(case_name: &str) -> String {
+    let s: String =
+        case_name.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' }).collect();
+    if s.is_empty() || s.chars().all(|c| c == '.') {
+        "case".into()
+    } else {
+        s
+    }
+}
+
+/// `diagnostics.csv`, one flushed row at a time.
+struct Diagnostics {
+    file: BufWriter<File>,
+    path: PathBuf,
+    rows: u64,
+}
+
+impl Diagnostics {
+    fn create(path: PathBuf) -> Result<Self, Error> {
+        let io = |source| Error::Io { path: path.clone(), source };
+        let mut file = BufWriter::new(File::create(&path).map_err(io)?);
+        writeln!(file, "{CSV_HEADER}").and_then(|_| file.flush()).map_err(io)?;
+        Ok(Self { file, path, rows: 0 })
+    }
+    fn write(&mut self, d: &StepDiagnostics) -> Result<(), Error> {
+        let limit = d.dt_limit.replace([',', '"', '\n'], ";");
+        let x = number;
+        writeln!(
+            self.file,
+            "{},{},{},{limit},{},{},{},{},{},{},{},{},{}",
+            d.step,
+            x(d.time),
+            x(d.dt),
+            x(d.kinetic_energy),
+            x(d.momentum.x),
+            x(d.momentum.y),
+            x(d.mass),
+            x(d.max_speed),
+            x(d.max_divergence),
+            x(d.volume_fraction_error),
+            d.pressure_iterations,
+            x(d.pressure_residual)
+        )
+        .and_then(|_| self.file.flush())
+        .map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        self.rows += 1;
+        Ok(())
+    }
+}
+
+/// A number as it round-trips, in plain notation for moderate magnitudes and in
+/// scientific notation otherwise (`1.5e-16`, not 0.000000000000000150…).
+pub fn number(x: Real) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+fn write_file(path: &Path, text: &str) -> Result<(), Error> {
+    std::fs::write(path, text).map_err(|source| Error::Io { path: path.to_path_buf(), source })
+}
+
+fn write_summary(dir: &Path, summary: &Summary) -> Result<(), Error> {
+    let text = serde_json::to_string_pretty(summary).map_err(|e| Error::Model(e.to_string()))?;
+    write_file(&dir.join("summary.json"), &(text + "\n"))
+}
+
+fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "panic".into())
+}
+
+fn progress_bar(quiet: bool, end: Real) -> ProgressBar {
+    if quiet || !std::io::stdout().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    // position: simulated time in thousandths of time.end; drawn only once the run is long
+    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30.cyan/blue} {percent:>3}% {msg} ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(format!("t = 0 / {end}"));
+    bar
+}
+
+/// Runs `case` and writes its output into `output_dir` (created if needed).
+///
+/// Returns `Err` only when the case cannot start: a plugin that is not registered or
+/// whose parameters are invalid (bad input; `summary.json` still says `"failed"`), or an
+/// output file that cannot be written. Instabilities and errors during the time loop end
+/// in an [`Outcome`] whose status says so.
+pub fn run(case: &Case, output_dir: &Path, options: &RunOptions) -> Result<Outcome, Error> {
+    std::fs::create_dir_all(output_dir).map_err(|source| Error::Io { path: output_dir.to_path_buf(), source })?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads)
+        .build()
+        .map_err(|e| Error::Model(format!("cannot start {} worker threads: {e}", options.threads)))?;
+    let threads = pool.current_num_threads();
+    pool.install(|| run_in_pool(case, output_dir, options, threads))
+}
+
+fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) -> Result<Outcome, Error> {
+    let mut summary = Summary {
+        status: String::new(),
+        reason: String::new(),
+        case: case.name.clone(),
+        steps: 0,
+        simulated_time: 0.0,
+        end_time: case.time.end,
+        wall_seconds: 0.0,
+        threads,
+        initial_kinetic_energy: 0.0,
+        final_kinetic_energy: 0.0,
+        kinetic_energy_bound: 0.0,
+        max_divergence: 0.0,
+        max_volume_fraction_error: 0.0,
+        pressure_iterations_total: 0,
+        min_dt: Real::INFINITY,
+        last_dt_limit: String::new(),
+        diagnostics_rows: 0,
+    };
+    let mut sim = match Simulation::new(case) {
+        Ok(sim) => sim,
+        Err(e) => {
+            write_file(&dir.join("case.ron"), &case.to_ron())?;
+            let status = Status::Failed(e.to_string());
+            summary.status = status.label().into();
+            summary.reason = status.reason().into();
+            summary.min_dt = 0.0;
+            write_summary(dir, &summary)?;
+            return Err(e);
+        }
+    };
+    write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
+    let mut csv = Diagnostics::create(dir.join("diagnostics.csv"))?;
+    let bound = ENERGY_GROWTH * reference_energy(&sim);
+    summary.initial_kinetic_energy = sim.initial_energy;
+    summary.final_kinetic_energy = sim.initial_energy;
+    summary.kinetic_energy_bound = bound;
+
+    let time = sim.case.time.clone();
+    let interval = sim.case.output.interval;
+    let mut next_output = interval;
+    let bar = progress_bar(options.quiet, time.end);
+    let start = Instant::now();
+    let mut last_draw = start;
+    let mut status = Status::Completed;
+    let mut last_row_written = true;
+    let done = |t: Real| t >= time.end * (1.0 - 1e-12);
+    while !done(sim.time) {
+        if let Some(max) = time.max_steps {
+            if sim.steps >= max {
+                summary.reason =
+                    format!("stopped by time.max_steps = {max} at t = {} (time.end = {})", sim.time, time.end);
+                break;
+            }
+        }
+        let (dt, limit) = sim.choose_dt();
+        let last_step = dt >= (time.end - sim.time) * (1.0 - 1e-9);
+        if !(dt >= time.min_dt) && !last_step {
+            status = Status::Unstable(format!(
+                "Δt = {dt:e} (limited by {limit}) fell below time.min_dt = {:e} at step {}, t = {}",
+                time.min_dt,
+                sim.steps + 1,
+                sim.time
+            ));
+            break;
+        }
+        let stepped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sim.step_with(dt, limit)));
+        let d = match stepped {
+            Ok(Ok(d)) => d,
+            Ok(Err(e)) => {
+                status = Status::Failed(format!("step {}, t = {}: {e}", sim.steps + 1, sim.time));
+                break;
+            }
+            Err(p) => {
+                status = Status::Failed(format!(
+                    "step {}, t = {}: a model panicked: {}",
+                    sim.steps + 1,
+                    sim.time,
+                    panic_message(p)
+                ));
+                break;
+            }
+        };
+        summary.steps = d.step;
+        summary.simulated_time = d.time;
+        summary.final_kinetic_energy = d.kinetic_energy;
+        summary.max_divergence = summary.max_divergence.max(d.max_divergence);
+        summary.max_volume_fraction_error = summary.max_volume_fraction_error.max(d.volume_fraction_error);
+        summary.pressure_iterations_total += d.pressure_iterations as u64;
+        summary.min_dt = summary.min_dt.min(d.dt);
+        summary.last_dt_limit = d.dt_limit.clone();
+
+        let unstable = if !d.kinetic_energy.is_finite() || !d.max_speed.is_finite() {
+            Some(format!(
+                "non-finite solution at step {}, t = {}: kinetic energy {}, largest speed {}",
+                d.step, d.time, d.kinetic_energy, d.max_speed
+            ))
+        } else if d.kinetic_energy > bound {
+            Some(format!(
+                "kinetic energy {:e} at step {}, t = {} exceeds the bound {bound:e} \
+                 ({ENERGY_GROWTH:e} × the reference energy; see `multifield::run`): reduce time.cfl or time.fixed_dt",
+                d.kinetic_energy, d.step, d.time
+            ))
+        } else {
+            None
+        };
+        let due = interval <= 0.0 || d.time >= next_output * (1.0 - 1e-9) || unstable.is_some() || done(d.time);
+        if due {
+            csv.write(&d)?;
+            if interval > 0.0 {
+                while next_output <= d.time * (1.0 + 1e-9) {
+                    next_output += interval;
+                }
+            }
+        }
+        last_row_written = due;
+        if let Some(reason) = unstable {
+            status = Status::Unstable(reason);
+            break;
+        }
+        let now = Instant::now();
+        if now.duration_since(last_draw) > Duration::from_millis(200) {
+            if bar.is_hidden() && now.duration_since(start) > Duration::from_millis(500) && !options.quiet {
+                bar.set_draw_target(ProgressDrawTarget::stdout());
+            }
+            let rate = sim.steps as f64 / now.duration_since(start).as_secs_f64();
+            bar.set_position((1000.0 * (sim.time / time.end)).clamp(0.0, 1000.0) as u64);
+            bar.set_message(format!("t = {:.4e} / {} | {rate:.0} steps/s", sim.time, time.end));
+            last_draw = now;
+        }
+    }
+    bar.finish_and_clear();
+    if !last_row_written && sim.steps > 0 {
+        // the last step is always in the file, whatever the interval or why the run stopped
+        csv.write(&sim.last)?;
+    }
+    summary.wall_seconds = start.elapsed().as_secs_f64();
+    summary.diagnostics_rows = csv.rows;
+    if summary.steps == 0 {
+        summary.min_dt = 0.0;
+    }
+    summary.status = status.label().into();
+    if status != Status::Completed {
+        summary.reason = status.reason().into();
+    }
+    write_summary(dir, &summary)?;
+    Ok(Outcome { status, summary, output_dir: dir.to_path_buf() })
+}
