@@ -1,1 +1,455 @@
-//! Lagrangian frame (being written).
+//! Lagrangian frame: the field lives on material points {m, x, v, V⁰, F, stress}; the grid
+//! is scratch space rebuilt every step. FLIP for a fluid, MPM for a solid.
+//!
+//! Particles to grid (METHOD.md §1, §3.1): `m_i = Σ m_p S_ip`, `(mu)_i = Σ m_p S_ip (v_p + C_p (x_i − x_p))`,
+//! `θ_c = Σ V_p S_pc / h²`, internal force `f_i = −Σ V_p σ_p ∇S_ip`; provisional `u* = u + Δt f/m`.
+//! Grid to particles (§3.7): `x_p += Δt Σ u_i S`, and per transfer scheme
+//! PIC `v_p = Σ u_i S`; FLIP `v_p = α (v_p + Σ (u_i − u_i^old) S) + (1 − α) Σ u_i S`
+//! (Brackbill & Ruppel 1986); APIC `v_p = Σ u_i S`, `C_p` from the grid (Jiang et al. 2015);
+//! `F ← (I + Δt ∇v) F`, `V = det F · V⁰`.
+//!
+//! The transfer scheme and the shape function are values chosen in the case (`transfer`,
+//! `shape`), not solver types.
+
+use crate::scatter::{self, point_weights, PointsIn, Scatter};
+use crate::shape::Shape;
+use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::grid::Grid;
+use multifield_core::math::{Matrix, Real, Vector};
+use multifield_core::plugin::{Frame, FrameContext, InitContext, PointStressContext};
+use multifield_core::registry::{params_value, ParamDoc};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::any::Any;
+
+/// Grid-to-particle transfer scheme.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transfer {
+    /// Particle-in-cell: the point takes the grid velocity (dissipative).
+    Pic,
+    /// FLIP increment blended with PIC by `flip_blend`.
+    Flip,
+    /// Affine particle-in-cell (conserves angular momentum, little dissipation).
+    Apic,
+}
+
+/// Material points of one field (structure of arrays).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Points {
+    /// Positions.
+    pub x: Vec<Vector>,
+    /// Velocities.
+    pub v: Vec<Vector>,
+    /// Masses.
+    pub m: Vec<Real>,
+    /// Initial volumes.
+    pub vol0: Vec<Real>,
+    /// Deformation gradients.
+    pub f: Vec<Matrix>,
+    /// Velocity gradients of the last step.
+    pub grad_v: Vec<Matrix>,
+    /// Cauchy stress of the last evaluation.
+    pub stress: Vec<Matrix>,
+    /// APIC affine velocity of the x component.
+    pub c_u: Vec<Vector>,
+    /// APIC affine velocity of the y component.
+    pub c_v: Vec<Vector>,
+    /// Body each point belongs to (0 when the field has no bodies).
+    pub body: Vec<u32>,
+}
+
+impl Points {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+    /// Current volume of point `p`.
+    pub fn volume(&self, p: usize) -> Real {
+        self.vol0[p] * self.f[p].determinant()
+    }
+    fn push(&mut self, x: Vector, v: Vector, m: Real, vol: Real) {
+        self.x.push(x);
+        self.v.push(v);
+        self.m.push(m);
+        self.vol0.push(vol);
+        self.f.push(Matrix::identity());
+        self.grad_v.push(Matrix::zeros());
+        self.stress.push(Matrix::zeros());
+        self.c_u.push(Vector::zeros());
+        self.c_v.push(Vector::zeros());
+        self.body.push(0);
+    }
+}
+
+/// The Lagrangian frame.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Lagrangian {
+    /// Points per cell along each axis at seeding (n × n per cell).
+    #[serde(default = "default_ppc")]
+    pub points_per_cell: usize,
+    /// `"linear"` (the seed's) or `"quadratic"` (B-spline).
+    #[serde(default = "default_shape")]
+    pub shape: Shape,
+    /// `"pic"`, `"flip"` or `"apic"`.
+    #[serde(default = "default_transfer")]
+    pub transfer: Transfer,
+    /// α of the FLIP/PIC blend (only for `"flip"`), 0.95–0.99 usual.
+    #[serde(default = "default_blend")]
+    pub flip_blend: Real,
+    /// The points.
+    #[serde(skip)]
+    pub points: Points,
+    #[serde(skip)]
+    scatter: Option<Scatter>,
+    #[serde(skip)]
+    vol: Vec<Real>,
+    #[serde(skip)]
+    has_point_stress: bool,
+}
+
+fn default_ppc() -> usize {
+    2
+}
+fn default_shape() -> Shape {
+    Shape::Linear
+}
+fn default_transfer() -> Transfer {
+    Transfer::Flip
+}
+fn default_blend() -> Real {
+    0.97
+}
+
+impl Lagrangian {
+    /// Checks the parameters.
+    pub fn validate(&mut self) -> Result<(), String> {
+        if !(1..=8).contains(&self.points_per_cell) {
+            return Err(format!("points_per_cell {}: must lie in 1..=8 (2 or 3 usual)", self.points_per_cell));
+        }
+        if !(0.0..=1.0).contains(&self.flip_blend) {
+            return Err(format!("flip_blend {}: must lie in [0, 1] (0.95–0.99 usual)", self.flip_blend));
+        }
+        Ok(())
+    }
+
+    /// A frame with the given options and no points (for building in code).
+    pub fn new(points_per_cell: usize, shape: Shape, transfer: Transfer, flip_blend: Real) -> Self {
+        Self {
+            points_per_cell,
+            shape,
+            transfer,
+            flip_blend,
+            points: Points::default(),
+            scatter: None,
+            vol: Vec::new(),
+            has_point_stress: false,
+        }
+    }
+}
+
+multifield_core::register!(
+    Frame,
+    "lagrangian",
+    Lagrangian,
+    "material points (FLIP fluid / MPM solid); grid rebuilt every step",
+    &[
+        ParamDoc { name: "points_per_cell", unit: "-", default: "2", doc: "n for n × n points per cell at seeding" },
+        ParamDoc { name: "shape", unit: "-", default: "\"linear\"", doc: "\"linear\" or \"quadratic\" (B-spline)" },
+        ParamDoc { name: "transfer", unit: "-", default: "\"flip\"", doc: "\"pic\", \"flip\" (blend) or \"apic\"" },
+        ParamDoc { name: "flip_blend", unit: "-", default: "0.97", doc: "α of the FLIP/PIC blend" },
+    ]
+);
+
+/// Reads a lattice value with ghost nodes from the boundary conditions.
+#[inline]
+fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j: isize) -> Real {
+    let (nx, ny) = (grid.nx, grid.ny);
+    let (ni, nj) = if x_faces { (nx + 1, ny) } else { (nx, ny + 1) };
+    let width = ni;
+    let inside = i >= 0 && (i as usize) < ni && j >= 0 && (j as usize) < nj;
+    if inside {
+        return arr[i as usize + j as usize * width];
+    }
+    let (ii, mi) = scatter::map_axis(i, nx, x_faces, bc.periodic_x());
+    let (jj, mj) = scatter::map_axis(j, ny, !x_faces, bc.periodic_y());
+    let val = arr[ii as usize + jj as usize * width];
+    // normal component mirrored across its wall: odd; tangential: the wall's ghost rule
+    let mut out = val;
+    if x_faces {
+        if mi {
+            out = -out;
+        }
+        if mj {
+            let side = if j < 0 { Side::Bottom } else { Side::Top };
+            out = bc.tangential_ghost(side, out, (i as Real / nx as Real).clamp(0.0, 1.0));
+        }
+    } else {
+        if mj {
+            out = -out;
+        }
+        if mi {
+            let side = if i < 0 { Side::Left } else { Side::Right };
+            out = bc.tangential_ghost(side, out, (j as Real / ny as Real).clamp(0.0, 1.0));
+        }
+    }
+    out
+}
+
+impl Frame for Lagrangian {
+    fn model(&self) -> &'static str {
+        "lagrangian"
+    }
+    fn params(&self) -> serde_json::Value {
+        params_value(self)
+    }
+    fn is_lagrangian(&self) -> bool {
+        true
+    }
+
+    fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
+        let g = ctx.grid;
+        let n = self.points_per_cell;
+        let dv = g.cell_area() / (n * n) as Real;
+        let origin = [g.origin.x, g.origin.y];
+        for j in 0..g.ny {
+            for i in 0..g.nx {
+                for b in 0..n {
+                    for a in 0..n {
+                        let x = g.origin.x + (i as Real + (a as Real + 0.5) / n as Real) * g.h;
+                        let y = g.origin.y + (j as Real + (b as Real + 0.5) / n as Real) * g.h;
+                        if ctx.region.contains(x, y) {
+                            let v = ctx.velocity.at(x, y, origin);
+                            self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
+                        }
+                    }
+                }
+            }
+        }
+        if self.points.is_empty() {
+            return Err("the region holds no material point: enlarge it or refine the grid".into());
+        }
+        if self.transfer == Transfer::Apic {
+            // initial affine velocity from the initial field's gradient (central differences)
+            let d = 1e-6 * g.h;
+            for p in 0..self.points.len() {
+                let x = self.points.x[p];
+                let at = |dx: Real, dy: Real| ctx.velocity.at(x.x + dx, x.y + dy, origin);
+                let (xp, xm, yp, ym) = (at(d, 0.0), at(-d, 0.0), at(0.0, d), at(0.0, -d));
+                self.points.c_u[p] = Vector::new(xp[0] - xm[0], yp[0] - ym[0]) / (2.0 * d);
+                self.points.c_v[p] = Vector::new(xp[1] - xm[1], yp[1] - ym[1]) / (2.0 * d);
+            }
+        }
+        Ok(())
+    }
+
+    fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        let g = ctx.grid;
+        let pts = &mut self.points;
+        let n = pts.len();
+        self.has_point_stress = ctx.stress.iter().any(|s| s.acts_on_points());
+        if self.has_point_stress {
+            pts.stress.par_iter_mut().for_each(|s| *s = Matrix::zeros());
+            for model in ctx.stress.iter().filter(|s| s.acts_on_points()) {
+                model.point_stress(&mut PointStressContext {
+                    dt: ctx.dt,
+                    density: ctx.density,
+                    deformation_gradient: &pts.f,
+                    velocity_gradient: &pts.grad_v,
+                    stress: &mut pts.stress,
+                });
+            }
+        }
+        self.vol.resize(n, 0.0);
+        self.vol.par_iter_mut().enumerate().for_each(|(p, v)| *v = pts.vol0[p] * pts.f[p].determinant());
+        let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
+        scatter.run(
+            g,
+            ctx.boundaries,
+            self.shape,
+            &PointsIn {
+                x: &pts.x,
+                v: &pts.v,
+                m: &pts.m,
+                vol: &self.vol,
+                affine: (self.transfer == Transfer::Apic).then_some((&pts.c_u[..], &pts.c_v[..])),
+                stress: self.has_point_stress.then_some(&pts.stress[..]),
+            },
+        );
+        let s = &mut *ctx.state;
+        let area = g.cell_area();
+        let tiny = 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max);
+        for j in 0..g.ny {
+            for i in 0..g.nx {
+                s.theta[g.cell(i, j)] = scatter.at(scatter::VOLUME, i as isize, j as isize) / area;
+            }
+        }
+        let dt = ctx.dt;
+        for j in 0..g.ny {
+            for i in 0..=g.nx {
+                let k = g.xface(i, j);
+                let (ii, jj) = (i as isize, j as isize);
+                let m = scatter.at(scatter::MASS_U, ii, jj);
+                s.mass_u[k] = m;
+                let (u, f) = if m > tiny {
+                    (scatter.at(scatter::MOM_U, ii, jj) / m, scatter.at(scatter::FORCE_U, ii, jj) / m)
+                } else {
+                    (0.0, 0.0)
+                };
+                s.velocity_old.u[k] = u;
+                s.velocity.u[k] = u + dt * f;
+            }
+        }
+        for j in 0..=g.ny {
+            for i in 0..g.nx {
+                let k = g.yface(i, j);
+                let (ii, jj) = (i as isize, j as isize);
+                let m = scatter.at(scatter::MASS_V, ii, jj);
+                s.mass_v[k] = m;
+                let (v, f) = if m > tiny {
+                    (scatter.at(scatter::MOM_V, ii, jj) / m, scatter.at(scatter::FORCE_V, ii, jj) / m)
+                } else {
+                    (0.0, 0.0)
+                };
+                s.velocity_old.v[k] = v;
+                s.velocity.v[k] = v + dt * f;
+            }
+        }
+        ctx.boundaries.enforce(g, &mut s.velocity_old);
+        ctx.boundaries.enforce(g, &mut s.velocity);
+        Ok(())
+    }
+
+    fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        let g = ctx.grid;
+        let bc = ctx.boundaries;
+        let s = &*ctx.state;
+        let (shape, transfer, alpha, dt, h) = (self.shape, self.transfer, self.flip_blend, ctx.dt, g.h);
+        let ns = shape.support();
+        let dinv = shape.apic_d_inverse(h);
+        let track_f = self.has_point_stress;
+        let pts = &mut self.points;
+        let lo = g.origin;
+        let hi = g.origin + g.size();
+        let eps = 1e-9 * h;
+        pts.x
+            .par_iter_mut()
+            .zip(pts.v.par_iter_mut())
+            .zip(pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()))
+            .zip(pts.c_u.par_iter_mut().zip(pts.c_v.par_iter_mut()))
+            .for_each(|(((x, v), (f, gv)), (cu, cv))| {
+                let w = point_weights(shape, g, *x);
+                let (mut upic, mut du) = (Vector::zeros(), Vector::zeros());
+                let (mut gu, mut gvv) = (Vector::zeros(), Vector::zeros());
+                let (mut au, mut av) = (Vector::zeros(), Vector::zeros());
+                for b in 0..ns {
+                    let j = w.yc.base + b as isize;
+                    for a in 0..ns {
+                        let i = w.xf.base + a as isize;
+                        let sw = w.xf.w[a] * w.yc.w[b];
+                        let un = sample(g, bc, &s.velocity.u, true, i, j);
+                        let uo = sample(g, bc, &s.velocity_old.u, true, i, j);
+                        upic.x += sw * un;
+                        du.x += sw * (un - uo);
+                        let grad = Vector::new(w.xf.dw[a] * w.yc.w[b], w.xf.w[a] * w.yc.dw[b]) / h;
+                        gu += un * grad;
+                        if dinv.is_some() {
+                            au += sw * un * Vector::new(i as Real - w.xi.x, j as Real + 0.5 - w.xi.y) * h;
+                        }
+                    }
+                }
+                for b in 0..ns {
+                    let j = w.yf.base + b as isize;
+                    for a in 0..ns {
+                        let i = w.xc.base + a as isize;
+                        let sw = w.xc.w[a] * w.yf.w[b];
+                        let vn = sample(g, bc, &s.velocity.v, false, i, j);
+                        let vo = sample(g, bc, &s.velocity_old.v, false, i, j);
+                        upic.y += sw * vn;
+                        du.y += sw * (vn - vo);
+                        let grad = Vector::new(w.xc.dw[a] * w.yf.w[b], w.xc.w[a] * w.yf.dw[b]) / h;
+                        gvv += vn * grad;
+                        if dinv.is_some() {
+                            av += sw * vn * Vector::new(i as Real + 0.5 - w.xi.x, j as Real - w.xi.y) * h;
+                        }
+                    }
+                }
+                *v = match transfer {
+                    Transfer::Pic | Transfer::Apic => upic,
+                    Transfer::Flip => alpha * (*v + du) + (1.0 - alpha) * upic,
+                };
+                if transfer == Transfer::Apic {
+                    match dinv {
+                        Some(d) => {
+                            *cu = au * d;
+                            *cv = av * d;
+                        }
+                        None => {
+                            *cu = gu;
+                            *cv = gvv;
+                        }
+                    }
+                }
+                let l = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
+                *gv = l;
+                if track_f {
+                    *f = (Matrix::identity() + dt * l) * *f;
+                }
+                *x += dt * upic;
+                // keep points in the domain: wrap periodic sides, stop at walls
+                for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
+                    let len = hi[axis] - lo[axis];
+                    if periodic {
+                        if x[axis] < lo[axis] || x[axis] >= hi[axis] {
+                            x[axis] = lo[axis] + (x[axis] - lo[axis]).rem_euclid(len);
+                        }
+                    } else if x[axis] < lo[axis] + eps {
+                        x[axis] = lo[axis] + eps;
+                        v[axis] = v[axis].max(0.0);
+                    } else if x[axis] > hi[axis] - eps {
+                        x[axis] = hi[axis] - eps;
+                        v[axis] = v[axis].min(0.0);
+                    }
+                }
+            });
+        Ok(())
+    }
+
+    fn max_speed(&self) -> Real {
+        self.points.v.par_iter().map(|v| v.norm()).reduce(|| 0.0, Real::max)
+    }
+    fn kinetic_energy(&self) -> Real {
+        let e: Vec<Real> = self
+            .points
+            .m
+            .par_chunks(4096)
+            .zip(self.points.v.par_chunks(4096))
+            .map(|(m, v)| m.iter().zip(v).map(|(m, v)| 0.5 * m * v.norm_squared()).sum())
+            .collect();
+        e.iter().sum()
+    }
+    fn momentum(&self) -> Vector {
+        let e: Vec<Vector> = self
+            .points
+            .m
+            .par_chunks(4096)
+            .zip(self.points.v.par_chunks(4096))
+            .map(|(m, v)| m.iter().zip(v).fold(Vector::zeros(), |a, (m, v)| a + *m * v))
+            .collect();
+        e.iter().fold(Vector::zeros(), |a, b| a + b)
+    }
+    fn mass(&self) -> Real {
+        self.points.m.iter().sum()
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}

@@ -8,6 +8,7 @@
 
 pub mod eulerian;
 pub mod lagrangian;
+pub mod scatter;
 pub mod shape;
 
 /// The frame names this crate registers.

@@ -1,0 +1,313 @@
+//! Deterministic parallel particles-to-grid scatter.
+//!
+//! Points are binned by cell row (a stable counting sort) into horizontal stripes. Each
+//! stripe scatters into its own small buffer in parallel; the buffers are then added into
+//! the grid row by row, always in stripe order. No atomics, no locks: the sums are the same
+//! bits for any number of threads. Lattices are padded by two ghost nodes on each side;
+//! ghost contributions are folded back (wrapped on periodic sides, mirrored at walls).
+
+use crate::shape::{Shape, Weights1};
+use multifield_core::boundary::Boundaries;
+use multifield_core::grid::Grid;
+use multifield_core::math::{Matrix, Real, Vector};
+use rayon::prelude::*;
+
+/// Channels scattered in one pass.
+pub const CHANNELS: usize = 7;
+/// x-face mass.
+pub const MASS_U: usize = 0;
+/// x-face momentum.
+pub const MOM_U: usize = 1;
+/// x-face internal force.
+pub const FORCE_U: usize = 2;
+/// y-face mass.
+pub const MASS_V: usize = 3;
+/// y-face momentum.
+pub const MOM_V: usize = 4;
+/// y-face internal force.
+pub const FORCE_V: usize = 5;
+/// Cell volume.
+pub const VOLUME: usize = 6;
+
+const PAD: usize = 2;
+
+/// Read-only view of the points for a scatter.
+pub struct PointsIn<'a> {
+    /// Positions.
+    pub x: &'a [Vector],
+    /// Velocities.
+    pub v: &'a [Vector],
+    /// Masses.
+    pub m: &'a [Real],
+    /// Current volumes.
+    pub vol: &'a [Real],
+    /// APIC affine rows (c_u, c_v), or `None` for PIC/FLIP.
+    pub affine: Option<(&'a [Vector], &'a [Vector])>,
+    /// Cauchy stress (+ nothing when absent).
+    pub stress: Option<&'a [Matrix]>,
+}
+
+/// Scratch space of the scatter, kept between steps.
+pub struct Scatter {
+    nxp: usize,
+    nyp: usize,
+    rows_per_stripe: usize,
+    stripes: usize,
+    buffers: Vec<Vec<Real>>,
+    /// The padded global lattices, channel-major.
+    pub padded: Vec<Real>,
+    order: Vec<u32>,
+    start: Vec<usize>,
+}
+
+/// The 1D weights of a point on the face and centre lattices.
+#[derive(Clone, Copy)]
+pub struct PointWeights {
+    /// Along x at integer nodes (x-faces).
+    pub xf: Weights1,
+    /// Along x at half nodes (cells, y-faces).
+    pub xc: Weights1,
+    /// Along y at integer nodes (y-faces).
+    pub yf: Weights1,
+    /// Along y at half nodes (cells, x-faces).
+    pub yc: Weights1,
+    /// Position in cell units from the origin.
+    pub xi: Vector,
+}
+
+/// Weights of a point at `x`.
+#[inline(always)]
+pub fn point_weights(shape: Shape, grid: &Grid, x: Vector) -> PointWeights {
+    let xi = (x - grid.origin) / grid.h;
+    PointWeights {
+        xf: shape.weights(xi.x),
+        xc: shape.weights(xi.x - 0.5),
+        yf: shape.weights(xi.y),
+        yc: shape.weights(xi.y - 0.5),
+        xi,
+    }
+}
+
+impl Scatter {
+    /// Scratch for `grid`.
+    pub fn new(grid: &Grid) -> Self {
+        let rows_per_stripe = 4;
+        let stripes = grid.ny.div_ceil(rows_per_stripe);
+        let nxp = grid.nx + 1 + 2 * PAD;
+        let nyp = grid.ny + 1 + 2 * PAD;
+        Self {
+            nxp,
+            nyp,
+            rows_per_stripe,
+            stripes,
+            buffers: vec![vec![0.0; CHANNELS * (rows_per_stripe + 2 * PAD) * nxp]; stripes],
+            padded: vec![0.0; CHANNELS * nxp * nyp],
+            order: Vec::new(),
+            start: vec![0; stripes + 1],
+        }
+    }
+
+    /// Value of channel `c` at lattice node (i, j) (both may be ghosts down to −2).
+    #[inline]
+    pub fn at(&self, c: usize, i: isize, j: isize) -> Real {
+        self.padded[c * self.nxp * self.nyp + (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.nxp]
+    }
+    #[inline]
+    fn at_mut(&mut self, c: usize, i: isize, j: isize) -> &mut Real {
+        &mut self.padded[c * self.nxp * self.nyp + (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.nxp]
+    }
+
+    /// Scatters mass, momentum, internal force and volume of all points.
+    pub fn run(&mut self, grid: &Grid, bc: &Boundaries, shape: Shape, pts: &PointsIn) {
+        let n = pts.x.len();
+        // stable counting sort by stripe
+        let h = grid.h;
+        let stripe_of = |x: &Vector| {
+            let j = (((x.y - grid.origin.y) / h).floor().max(0.0) as usize).min(grid.ny - 1);
+            j / self.rows_per_stripe
+        };
+        self.start.iter_mut().for_each(|s| *s = 0);
+        for x in pts.x {
+            self.start[stripe_of(x) + 1] += 1;
+        }
+        for s in 0..self.stripes {
+            self.start[s + 1] += self.start[s];
+        }
+        self.order.resize(n, 0);
+        let mut fill = self.start.clone();
+        for (p, x) in pts.x.iter().enumerate() {
+            let s = stripe_of(x);
+            self.order[fill[s]] = p as u32;
+            fill[s] += 1;
+        }
+        let (nxp, rows) = (self.nxp, self.rows_per_stripe + 2 * PAD);
+        let (order, start) = (&self.order, &self.start);
+        let rps = self.rows_per_stripe as isize;
+        let dinv = shape.apic_d_inverse(h);
+        self.buffers.par_iter_mut().enumerate().for_each(|(s, buf)| {
+            buf.iter_mut().for_each(|b| *b = 0.0);
+            let row0 = s as isize * rps - PAD as isize; // lattice row of buffer row 0
+            let plane = rows * nxp;
+            let idx =
+                |c: usize, i: isize, j: isize| c * plane + (i + PAD as isize) as usize + (j - row0) as usize * nxp;
+            for &p in &order[start[s]..start[s + 1]] {
+                let p = p as usize;
+                let w = point_weights(shape, grid, pts.x[p]);
+                let (m, v, vol) = (pts.m[p], pts.v[p], pts.vol[p]);
+                let sigma = pts.stress.map(|s| s[p]);
+                let affine = pts.affine.map(|(cu, cv)| (cu[p], cv[p]));
+                let ns = shape.support();
+                // x-faces: x at integer nodes, y at half nodes
+                for b in 0..ns {
+                    let j = w.yc.base + b as isize;
+                    for a in 0..ns {
+                        let i = w.xf.base + a as isize;
+                        let sw = w.xf.w[a] * w.yc.w[b];
+                        let mut mom = v.x;
+                        if let Some((cu, _)) = affine {
+                            let d = Vector::new(i as Real - w.xi.x, j as Real + 0.5 - w.xi.y) * h;
+                            mom += cu.dot(&d);
+                        }
+                        buf[idx(MASS_U, i, j)] += m * sw;
+                        buf[idx(MOM_U, i, j)] += m * sw * mom;
+                        if let Some(sg) = sigma {
+                            let g = Vector::new(w.xf.dw[a] * w.yc.w[b], w.xf.w[a] * w.yc.dw[b]) / h;
+                            buf[idx(FORCE_U, i, j)] -= vol * (sg[(0, 0)] * g.x + sg[(0, 1)] * g.y);
+                        }
+                    }
+                }
+                // y-faces: x at half nodes, y at integer nodes
+                for b in 0..ns {
+                    let j = w.yf.base + b as isize;
+                    for a in 0..ns {
+                        let i = w.xc.base + a as isize;
+                        let sw = w.xc.w[a] * w.yf.w[b];
+                        let mut mom = v.y;
+                        if let Some((_, cv)) = affine {
+                            let d = Vector::new(i as Real + 0.5 - w.xi.x, j as Real - w.xi.y) * h;
+                            mom += cv.dot(&d);
+                        }
+                        buf[idx(MASS_V, i, j)] += m * sw;
+                        buf[idx(MOM_V, i, j)] += m * sw * mom;
+                        if let Some(sg) = sigma {
+                            let g = Vector::new(w.xc.dw[a] * w.yf.w[b], w.xc.w[a] * w.yf.dw[b]) / h;
+                            buf[idx(FORCE_V, i, j)] -= vol * (sg[(1, 0)] * g.x + sg[(1, 1)] * g.y);
+                        }
+                    }
+                }
+                // cells
+                for b in 0..ns {
+                    let j = w.yc.base + b as isize;
+                    for a in 0..ns {
+                        let i = w.xc.base + a as isize;
+                        buf[idx(VOLUME, i, j)] += vol * w.xc.w[a] * w.yc.w[b];
+                    }
+                }
+            }
+            let _ = dinv;
+        });
+        // reduce stripe buffers into the padded lattices, row by row in stripe order
+        let nyp = self.nyp;
+        let buffers = &self.buffers;
+        let stripes = self.stripes;
+        self.padded.par_chunks_mut(nxp).enumerate().for_each(|(k, row)| {
+            let (c, jp) = (k / nyp, k % nyp);
+            let j = jp as isize - PAD as isize;
+            row.iter_mut().for_each(|r| *r = 0.0);
+            for (s, buf) in buffers.iter().enumerate().take(stripes) {
+                let row0 = s as isize * rps - PAD as isize;
+                if j < row0 || j >= row0 + rows as isize {
+                    continue;
+                }
+                let off = c * rows * nxp + (j - row0) as usize * nxp;
+                for (r, b) in row.iter_mut().zip(&buf[off..off + nxp]) {
+                    *r += b;
+                }
+            }
+        });
+        self.fold(grid, bc);
+    }
+
+    /// Folds ghost contributions into the domain: wrap on periodic sides, mirror at walls
+    /// (the normal momentum changes sign in its mirror image).
+    fn fold(&mut self, grid: &Grid, bc: &Boundaries) {
+        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (nx, ny) = (grid.nx as isize, grid.ny as isize);
+        // per channel: (nodes along x are faces?, nodes along y are faces?, normal axis for sign)
+        let layout = |c: usize| -> (bool, bool, Option<usize>) {
+            match c {
+                MASS_U | FORCE_U => (true, false, None),
+                MOM_U => (true, false, Some(0)),
+                MASS_V | FORCE_V => (false, true, None),
+                MOM_V => (false, true, Some(1)),
+                _ => (false, false, None),
+            }
+        };
+        for c in 0..CHANNELS {
+            let (fx, fy, normal) = layout(c);
+            let (ni, nj) = (if fx { nx + 1 } else { nx }, if fy { ny + 1 } else { ny });
+            let pad = PAD as isize;
+            for jg in -pad..(ny + 1 + pad) {
+                let row_outside = jg < 0 || jg >= nj;
+                for ig in -pad..(nx + 1 + pad) {
+                    if !row_outside && ig >= 0 && ig < ni {
+                        continue;
+                    }
+                    let val = self.at(c, ig, jg);
+                    if val == 0.0 {
+                        continue;
+                    }
+                    let (i, sx) = map_axis(ig, grid.nx, fx, px);
+                    let (j, sy) = map_axis(jg, grid.ny, fy, py);
+                    let sign = match normal {
+                        Some(0) if sx => -1.0,
+                        Some(1) if sy => -1.0,
+                        _ => 1.0,
+                    };
+                    *self.at_mut(c, ig, jg) = 0.0;
+                    *self.at_mut(c, i, j) += sign * val;
+                }
+            }
+            // a periodic face lattice: node n is node 0
+            if fx && px {
+                for j in 0..nj {
+                    let v = self.at(c, nx, j);
+                    *self.at_mut(c, 0, j) += v;
+                    *self.at_mut(c, nx, j) = self.at(c, 0, j);
+                }
+            }
+            if fy && py {
+                for i in 0..ni {
+                    let v = self.at(c, i, ny);
+                    *self.at_mut(c, i, 0) += v;
+                    *self.at_mut(c, i, ny) = self.at(c, i, 0);
+                }
+            }
+        }
+    }
+}
+
+/// Maps a ghost node index along one axis into the domain: `(index, mirrored)`.
+/// `faces`: nodes at integer positions 0..=n (else at k + ½, k = 0..n−1).
+#[inline]
+pub fn map_axis(k: isize, n: usize, faces: bool, periodic: bool) -> (isize, bool) {
+    let n = n as isize;
+    if periodic {
+        return (k.rem_euclid(n), false);
+    }
+    if faces {
+        if k < 0 {
+            (-k, true)
+        } else if k > n {
+            (2 * n - k, true)
+        } else {
+            (k, false)
+        }
+    } else if k < 0 {
+        (-1 - k, true)
+    } else if k >= n {
+        (2 * n - 1 - k, true)
+    } else {
+        (k, false)
+    }
+}
