@@ -422,14 +422,12 @@ impl Simulation {
         err
     }
 
-    /// Phase 3: frame predictors (advection), gravity, grid stresses.
+    /// Phase 3: frame predictors (advection), grid stresses, gravity.
     fn predictor(&mut self, dt: Real) -> Result<()> {
         self.frame_phase(dt, "predictor", |fr, ctx| fr.predict(ctx))?;
         let g = self.gravity;
         for f in &mut self.fields {
             let s = &mut f.state;
-            s.velocity.u.iter_mut().for_each(|u| *u += dt * g.x);
-            s.velocity.v.iter_mut().for_each(|v| *v += dt * g.y);
             for m in &f.stress {
                 let mut ctx = GridStressContext {
                     grid: &self.grid,
@@ -441,6 +439,10 @@ impl Simulation {
                 m.apply_on_grid(&mut ctx)
                     .map_err(|e| Error::Model(format!("stress `{}` of field `{}`: {e}", m.model(), f.name)))?;
             }
+            // gravity after the stresses: a viscous stencil must not act on the gravity
+            // increment Δt g, which the pressure cancels at rest (hydrostatic box with walls)
+            s.velocity.u.iter_mut().for_each(|u| *u += dt * g.x);
+            s.velocity.v.iter_mut().for_each(|v| *v += dt * g.y);
             self.boundaries.enforce(&self.grid, &mut s.velocity);
         }
         Ok(())
