@@ -206,12 +206,14 @@ pub struct ExchangeSpec {
 #[serde(deny_unknown_fields)]
 pub struct Coupling {
     /// β in the pressure equation's volume-fraction drift term −β (Σθ − 1)/Δt, 0 ≤ β ≤ 1.
+    /// The correcting velocity is about β h (Σθ − 1)/Δt: keep β small (default 0.1) or
+    /// it injects noise into a Lagrangian fluid whose θ fluctuates from point to point.
     #[serde(default = "default_relaxation")]
     pub volume_fraction_relaxation: Real,
 }
 
 fn default_relaxation() -> Real {
-    0.5
+    0.1
 }
 
 impl Default for Coupling {
