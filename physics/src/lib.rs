@@ -12,7 +12,7 @@ pub mod stress;
 
 /// The names this crate registers, by role: the test of the registry checks them.
 pub const SHIPPED: &[(&str, &[&str])] =
-    &[("stress", &["newtonian"]), ("exchange", &["constant", "no_slip"]), ("pressure", &["pcg"])];
+    &[("stress", &["newtonian"]), ("exchange", &["constant", "no_slip"]), ("pressure", &["cholesky", "multigrid", "pcg"])];
 
 /// Keeps this crate's registrations in the final binary (inventory drops crates that
 /// nothing references). Cheap; call it once at start-up.

@@ -7,6 +7,7 @@
 use multifield_core::math::Real;
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
+use super::multigrid::{default_sweeps, Hierarchy};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::{Error, Result};
 use rayon::prelude::*;
@@ -20,13 +21,15 @@ pub enum PreconditionerKind {
     None,
     /// Diagonal scaling.
     Jacobi,
+    /// One geometric multigrid V-cycle (see [`super::multigrid`]).
+    Multigrid,
 }
 
 /// Conjugate gradients with a preconditioner.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pcg {
-    /// `"jacobi"` or `"none"`.
+    /// `"multigrid"`, `"jacobi"` or `"none"`.
     #[serde(default = "default_pre")]
     pub preconditioner: PreconditionerKind,
     /// Relative residual |b − Ap|/|b| to reach.
@@ -35,6 +38,9 @@ pub struct Pcg {
     /// Iteration cap.
     #[serde(default = "default_iters")]
     pub max_iterations: usize,
+    /// Multigrid hierarchy, kept across solves.
+    #[serde(skip)]
+    multigrid: Hierarchy,
 }
 
 fn default_pre() -> PreconditionerKind {
@@ -48,6 +54,16 @@ fn default_iters() -> usize {
 }
 
 impl Pcg {
+    /// A solver with the given preconditioner, tolerance and iteration cap.
+    pub fn new(preconditioner: PreconditionerKind, tolerance: Real, max_iterations: usize) -> Self {
+        Self { preconditioner, tolerance, max_iterations, multigrid: Hierarchy::new(default_sweeps()) }
+    }
+
+    /// Sizes of the multigrid levels of the last solve, finest first (empty without multigrid).
+    pub fn multigrid_levels(&self) -> Vec<(usize, usize)> {
+        self.multigrid.level_sizes()
+    }
+
     /// Checks the parameters.
     pub fn validate(&mut self) -> std::result::Result<(), String> {
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
@@ -56,6 +72,7 @@ impl Pcg {
         if self.max_iterations == 0 {
             return Err("max_iterations must be at least 1".into());
         }
+        self.multigrid = Hierarchy::new(default_sweeps());
         Ok(())
     }
 }
@@ -66,7 +83,7 @@ multifield_core::register!(
     Pcg,
     "preconditioned conjugate gradients on the 5-point operator (warm start, deterministic)",
     &[
-        ParamDoc { name: "preconditioner", unit: "-", default: "\"jacobi\"", doc: "\"jacobi\" or \"none\"" },
+        ParamDoc { name: "preconditioner", unit: "-", default: "\"jacobi\"", doc: "\"multigrid\" (V-cycle), \"jacobi\" or \"none\"" },
         ParamDoc { name: "tolerance", unit: "-", default: "1e-9", doc: "relative residual |b − Ap|/|b| to reach" },
         ParamDoc {
             name: "max_iterations",
@@ -161,6 +178,11 @@ impl PressureSolver for Pcg {
                     z.par_iter_mut().zip(r.par_iter().zip(inv.par_iter())).for_each(|(z, (r, d))| *z = r * d)
                 })
             }
+            PreconditionerKind::Multigrid => {
+                self.multigrid.setup(problem).map_err(Error::Model)?;
+                let mg = &mut self.multigrid;
+                pcg("pcg", problem, x, self.tolerance, self.max_iterations, |r, z| mg.precondition(r, z))
+            }
         }
     }
 }
@@ -200,7 +222,7 @@ mod tests {
             }
             let prob = PoissonProblem::new(&g, &bc, cxw, cyw, rhs);
             let mut p = vec![0.0; g.n_cells()];
-            let mut s = Pcg { preconditioner: PreconditionerKind::Jacobi, tolerance: 1e-12, max_iterations: 10_000 };
+            let mut s = Pcg::new(PreconditionerKind::Jacobi, 1e-12, 10_000);
             s.solve(&prob, &mut p).unwrap();
             prob.fix_constant(&mut p);
             let err = (0..g.n_cells()).map(|k| (p[k] - exact(k % n, k / n)).abs()).fold(0.0, Real::max);
@@ -227,10 +249,10 @@ mod tests {
         // −p'' = 0 with p = 2 on the right and no flux elsewhere: p ≡ 2
         let prob = PoissonProblem::new(&g, &bc, cx, cy, vec![0.0; g.n_cells()]);
         let mut p = vec![0.0; g.n_cells()];
-        let mut s = Pcg { preconditioner: PreconditionerKind::Jacobi, tolerance: 1e-12, max_iterations: 10_000 };
+        let mut s = Pcg::new(PreconditionerKind::Jacobi, 1e-12, 10_000);
         s.solve(&prob, &mut p).unwrap();
         assert!(p.iter().all(|v| (v - 2.0).abs() < 1e-9));
-        let mut s = Pcg { preconditioner: PreconditionerKind::None, tolerance: 1e-14, max_iterations: 3 };
+        let mut s = Pcg::new(PreconditionerKind::None, 1e-14, 3);
         let mut p = vec![0.0; g.n_cells()];
         let e = s.solve(&prob, &mut p).unwrap_err().to_string();
         assert!(e.contains("did not reach") && e.contains("residual history"), "{e}");
