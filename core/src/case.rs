@@ -101,6 +101,98 @@ pub enum Region {
         /// Radius.
         radius: Real,
     },
+    /// Named bodies, each tracked on its own (centroid, velocity, rotation, force in
+    /// `bodies.csv`); only for a Lagrangian field.
+    Bodies(Vec<BodySpec>),
+}
+
+/// The shape of a body.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum BodyShape {
+    /// A disk.
+    Disk {
+        /// Centre.
+        center: [Real; 2],
+        /// Radius.
+        radius: Real,
+    },
+    /// An axis-aligned rectangle.
+    Rectangle {
+        /// Lower-left corner.
+        min: [Real; 2],
+        /// Upper-right corner.
+        max: [Real; 2],
+    },
+}
+
+impl BodyShape {
+    /// Whether `(x, y)` lies in the shape.
+    pub fn contains(&self, x: Real, y: Real) -> bool {
+        match self {
+            BodyShape::Disk { center, radius } => (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius,
+            BodyShape::Rectangle { min, max } => x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1],
+        }
+    }
+    /// Bounding box (min, max).
+    pub fn bounds(&self) -> ([Real; 2], [Real; 2]) {
+        match self {
+            BodyShape::Disk { center, radius } => {
+                ([center[0] - radius, center[1] - radius], [center[0] + radius, center[1] + radius])
+            }
+            BodyShape::Rectangle { min, max } => (*min, *max),
+        }
+    }
+}
+
+/// How a body moves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Motion {
+    /// Moves under the forces on it.
+    #[default]
+    Free,
+    /// Held at rest.
+    Fixed,
+    /// Moves with a given velocity and angular velocity.
+    Prescribed {
+        /// Velocity of the centroid (length/time).
+        velocity: [Real; 2],
+        /// Angular velocity (1/time), counter-clockwise positive.
+        #[serde(default)]
+        angular_velocity: Real,
+    },
+}
+
+/// A named body of a Lagrangian field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Unique name (the `body` column of `bodies.csv`).
+    pub name: String,
+    /// Its shape at the start.
+    pub shape: BodyShape,
+    /// Free (default), fixed, or prescribed.
+    #[serde(default)]
+    pub motion: Motion,
+    /// Initial velocity of the centroid.
+    #[serde(default)]
+    pub velocity: [Real; 2],
+    /// Initial angular velocity (1/time).
+    #[serde(default)]
+    pub angular_velocity: Real,
+}
+
+impl BodySpec {
+    /// Initial velocity at `(x, y)`: rigid motion about the shape's centre.
+    pub fn velocity_at(&self, x: Real, y: Real) -> [Real; 2] {
+        let (lo, hi) = self.shape.bounds();
+        let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        let (v, w) = match self.motion {
+            Motion::Prescribed { velocity, angular_velocity } => (velocity, angular_velocity),
+            Motion::Fixed => ([0.0, 0.0], 0.0),
+            Motion::Free => (self.velocity, self.angular_velocity),
+        };
+        [v[0] - w * (y - c[1]), v[1] + w * (x - c[0])]
+    }
 }
 
 impl Region {
@@ -110,6 +202,15 @@ impl Region {
             Region::All | Region::Rest => true,
             Region::Rectangle { min, max } => x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1],
             Region::Disk { center, radius } => (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius,
+            Region::Bodies(bodies) => bodies.iter().any(|b| b.shape.contains(x, y)),
+        }
+    }
+
+    /// Index (from 1) of the body containing `(x, y)`, 0 if none or no bodies.
+    pub fn body_at(&self, x: Real, y: Real) -> u32 {
+        match self {
+            Region::Bodies(bodies) => bodies.iter().position(|b| b.shape.contains(x, y)).map_or(0, |k| k as u32 + 1),
+            _ => 0,
         }
     }
 }
@@ -454,6 +555,45 @@ impl Case {
                         return bad(&p("region"), format!(
                             "rectangle {min:?}–{max:?} reaches outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside"
                         ));
+                    }
+                }
+                Region::Bodies(bodies) => {
+                    if bodies.is_empty() {
+                        return bad(&p("region"), "an empty list of bodies: give at least one".into());
+                    }
+                    for (b, body) in bodies.iter().enumerate() {
+                        let bp = format!("fields.{}.region.{}", f.name, body.name);
+                        if bodies[..b].iter().any(|o| o.name == body.name) {
+                            return bad(&bp, format!("two bodies are named `{}`; names must be unique", body.name));
+                        }
+                        let (lo, hi) = body.shape.bounds();
+                        if let BodyShape::Disk { radius, .. } = body.shape {
+                            if !(radius > 0.0) {
+                                return bad(&bp, format!("disk radius {radius}: must be positive"));
+                            }
+                        }
+                        if !(lo[0] < hi[0] && lo[1] < hi[1]) {
+                            return bad(&bp, format!("rectangle min {lo:?} must lie below and left of max {hi:?}"));
+                        }
+                        if lo[0] < x0 - 1e-12 || lo[1] < y0 - 1e-12 || hi[0] > x1 + 1e-12 || hi[1] > y1 + 1e-12 {
+                            return bad(&bp, format!(
+                                "body `{}` spans [{}, {}] × [{}, {}], outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside",
+                                body.name, lo[0], hi[0], lo[1], hi[1]
+                            ));
+                        }
+                        for other in &bodies[..b] {
+                            if let (BodyShape::Disk { center: c1, radius: r1 }, BodyShape::Disk { center: c2, radius: r2 }) =
+                                (&body.shape, &other.shape)
+                            {
+                                let d = ((c1[0] - c2[0]).powi(2) + (c1[1] - c2[1]).powi(2)).sqrt();
+                                if d < r1 + r2 {
+                                    return bad(&bp, format!(
+                                        "body `{}` overlaps body `{}` (centres {d} apart, radii {r1} + {r2}); move them apart",
+                                        body.name, other.name
+                                    ));
+                                }
+                            }
+                        }
                     }
                 }
                 Region::Disk { center, radius } => {

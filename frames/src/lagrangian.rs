@@ -14,6 +14,7 @@
 use crate::scatter::{self, point_weights, PointsIn, Scatter};
 use crate::shape::Shape;
 use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::case::Region;
 use multifield_core::grid::Grid;
 use multifield_core::math::{Matrix, Real, Vector};
 use multifield_core::plugin::{Frame, FrameContext, InitContext, PointStressContext};
@@ -224,8 +225,13 @@ impl Frame for Lagrangian {
                         let x = g.origin.x + (i as Real + (a as Real + 0.5) / n as Real) * g.h;
                         let y = g.origin.y + (j as Real + (b as Real + 0.5) / n as Real) * g.h;
                         if ctx.region.contains(x, y) {
-                            let v = ctx.velocity.at(x, y, origin);
+                            let body = ctx.region.body_at(x, y);
+                            let v = match ctx.region {
+                                Region::Bodies(b) if body > 0 => b[body as usize - 1].velocity_at(x, y),
+                                _ => ctx.velocity.at(x, y, origin),
+                            };
                             self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
+                            *self.points.body.last_mut().expect("just pushed") = body;
                         }
                     }
                 }
