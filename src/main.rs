@@ -62,11 +62,9 @@ enum Failure {
 }
 
 impl From<Error> for Failure {
+    /// Errors of reading and checking a case are bad input.
     fn from(e: Error) -> Self {
-        match e {
-            Error::Io { .. } => Failure::Run(e.to_string()),
-            e => Failure::Input(e),
-        }
+        Failure::Input(e)
     }
 }
 
@@ -110,7 +108,11 @@ fn main() -> ExitCode {
 
 fn run_case(case: &Case, out: Option<PathBuf>, options: &RunOptions) -> Result<(), Failure> {
     let dir = out.unwrap_or_else(|| Path::new("out").join(run::directory_name(&case.name)));
-    let outcome = run::run(case, &dir, options)?;
+    // a case that cannot start is bad input; an output file that cannot be written is not
+    let outcome = run::run(case, &dir, options).map_err(|e| match e {
+        Error::Io { .. } => Failure::Run(e.to_string()),
+        e => Failure::Input(e),
+    })?;
     let s = &outcome.summary;
     println!(
         "{}: {} steps to t = {} in {:.2} s on {} thread{} (final kinetic energy {:.6e}, max divergence {:.2e})",
@@ -140,6 +142,12 @@ fn region_text(r: &Region) -> String {
         Region::Rest => "what the other fields leave".into(),
         Region::Rectangle { min, max } => format!("rectangle {min:?}–{max:?}"),
         Region::Disk { center, radius } => format!("disk at {center:?}, radius {radius}"),
+        Region::Bodies(bodies) => format!(
+            "{} bod{} ({})",
+            bodies.len(),
+            if bodies.len() == 1 { "y" } else { "ies" },
+            bodies.iter().map(|b| b.name.as_str()).collect::<Vec<_>>().join(", ")
+        ),
     }
 }
 

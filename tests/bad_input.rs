@@ -1,0 +1,211 @@
+//! Bad input is rejected before step 0 with a message that names the place and the fix,
+//! and the binary exits with code 2 instead of panicking.
+
+use multifield::core::case::Case;
+use multifield::core::simulation::Simulation;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const GOOD: &str = r#"(
+    name: "box",
+    domain: (size: (1.0, 1.0), cells: (8, 8)),
+    time: (end: 0.1, cfl: 0.4, max_dt: 0.01),
+    fields: [
+        (
+            name: "water",
+            density: 1.0,
+            frame: (model: "eulerian"),
+            region: All,
+            stress: [(model: "newtonian", params: (viscosity: 0.01))],
+        ),
+    ],
+    pressure: Some((model: "pcg")),
+)
+"#;
+
+/// Writes `text` to a file named `name` in this test binary's scratch directory.
+fn case_file(name: &str, text: &str) -> PathBuf {
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_input").join(name);
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The error message of loading (and, if that passes, building) `text` with `overrides`.
+fn error_of(name: &str, text: &str, overrides: &[&str]) -> String {
+    multifield::link_all();
+    let path = case_file(name, text);
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    let e = match Case::load(&path, &overrides) {
+        Err(e) => e,
+        Ok(case) => match Simulation::new(&case) {
+            Err(e) => e,
+            Ok(_) => panic!("{name}: accepted"),
+        },
+    };
+    e.to_string()
+}
+
+fn assert_contains(message: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(message.contains(p), "message lacks `{p}`:\n{message}");
+    }
+}
+
+#[test]
+fn the_good_case_is_accepted() {
+    multifield::link_all();
+    let case = Case::load(&case_file("good.ron", GOOD), &[]).unwrap();
+    Simulation::new(&case).unwrap();
+}
+
+#[test]
+fn a_syntax_error_names_file_line_and_column() {
+    // line 4: the `,` after `max_dt: 0.01` became `;`
+    let text = GOOD.replace("max_dt: 0.01)", "max_dt: 0.01;)");
+    let m = error_of("syntax.ron", &text, &[]);
+    let path = case_file("syntax.ron", &text);
+    assert!(m.starts_with(&format!("{}:4:", path.display())), "no file:line:column at the start: {m}");
+    let column: usize = m[path.display().to_string().len() + 3..].split(':').next().unwrap().parse().unwrap();
+    assert!((40..=50).contains(&column), "column {column} should point at the `;` (col 44): {m}");
+}
+
+#[test]
+fn an_unknown_key_lists_the_valid_ones() {
+    let m = error_of("key.ron", &GOOD.replace("density: 1.0", "densty: 1.0"), &[]);
+    assert_contains(
+        &m,
+        &[
+            "key.ron:8:13: ",
+            "unknown key `densty`",
+            "valid keys:",
+            "name",
+            "density",
+            "frame",
+            "did you mean `density`?",
+        ],
+    );
+}
+
+#[test]
+fn an_unknown_plugin_lists_the_registered_ones_and_the_close_one() {
+    let m = error_of("plugin.ron", &GOOD.replace("\"newtonian\"", "\"newtonain\""), &[]);
+    assert_contains(
+        &m,
+        &[
+            "unknown stress model `newtonain`",
+            "fields.water.stress.0",
+            "registered stress models: ",
+            "newtonian",
+            "did you mean `newtonian`?",
+        ],
+    );
+    let m = error_of("frame.ron", &GOOD.replace("\"eulerian\"", "\"eulerain\""), &[]);
+    assert_contains(&m, &["unknown frame model `eulerain`", "eulerian, lagrangian", "did you mean `eulerian`?"]);
+}
+
+#[test]
+fn a_negative_density_is_rejected_with_the_fix() {
+    let m = error_of("density.ron", &GOOD.replace("density: 1.0", "density: -1.0"), &[]);
+    assert_contains(&m, &["density.ron", "fields.water.density", "-1", "the material density must be positive"]);
+}
+
+#[test]
+fn a_cfl_number_of_zero_or_less_is_rejected_with_the_fix() {
+    for cfl in ["0.0", "-0.5"] {
+        let m = error_of("cfl.ron", &GOOD.replace("cfl: 0.4", &format!("cfl: {cfl}")), &[]);
+        assert_contains(&m, &["time.cfl", "the CFL number must lie in (0, 1]; 0.25–0.5 is usual"]);
+    }
+}
+
+#[test]
+fn a_region_outside_the_domain_is_rejected_with_the_fix() {
+    let m = error_of("region.ron", &GOOD.replace("region: All", "region: Disk(center: (0.9, 0.5), radius: 0.2)"), &[]);
+    assert_contains(&m, &["fields.water.region", "reaches outside the domain [0, 1] × [0, 1]", "move it inside"]);
+    let text = GOOD.replace("region: All", "region: Rectangle(min: (0.5, 0.5), max: (1.5, 1.0))");
+    let m = error_of("rectangle.ron", &text, &[]);
+    assert_contains(&m, &["fields.water.region", "reaches outside the domain", "move it inside"]);
+}
+
+#[test]
+fn a_periodic_side_paired_with_a_wall_is_rejected_with_the_fix() {
+    let text =
+        GOOD.replace("time:", "boundaries: (left: Periodic, right: NoSlip, bottom: NoSlip, top: NoSlip),\n    time:");
+    let m = error_of("periodic.ron", &text, &[]);
+    assert_contains(
+        &m,
+        &["boundaries.left is Periodic but boundaries.right is NoSlip", "make both Periodic or neither"],
+    );
+}
+
+#[test]
+fn an_override_of_an_unknown_entry_lists_the_entries() {
+    let m = error_of("override.ron", GOOD, &["tme.end=1.0"]);
+    assert_contains(&m, &["--set tme.end=1.0", "`tme` is not an entry of `the case`", "time", "did you mean `time`?"]);
+    let m = error_of("override2.ron", GOOD, &["time.ned=1.0"]);
+    assert_contains(
+        &m,
+        &["`ned` is not an entry of `time`", "cfl, end, fixed_dt, max_dt, max_steps, min_dt", "did you mean `end`?"],
+    );
+    let m = error_of("override3.ron", GOOD, &["fields.air.density=1.0"]);
+    assert_contains(&m, &["`fields` has 1 entries", "an entry's name, not `air`"]);
+    let m = error_of("override4.ron", GOOD, &["time.cfl=-1"]);
+    assert_contains(&m, &["time.cfl", "the CFL number must lie in (0, 1]"]);
+}
+
+#[test]
+fn invalid_plugin_parameters_say_which_and_why() {
+    let m = error_of("params.ron", &GOOD.replace("viscosity: 0.01", "viscosity: 0.01, viscsity: 2.0"), &[]);
+    assert_contains(&m, &["fields.water.stress.0", "newtonian", "unknown parameter `viscsity`", "viscosity"]);
+    let m = error_of("params2.ron", &GOOD.replace("viscosity: 0.01", "viscosity: -0.01"), &[]);
+    assert_contains(&m, &["fields.water.stress.0", "viscosity -0.01: must be zero or positive"]);
+}
+
+fn multifield(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_multifield")).args(args).output().expect("the binary runs");
+    (
+        out.status.code().expect("exited, not killed"),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_binary_exits_with_code_2_and_the_message_on_bad_input() {
+    let path = case_file("binary.ron", &GOOD.replace("density: 1.0", "density: -1.0"));
+    let p = path.to_str().unwrap();
+    for command in ["run", "check"] {
+        let (code, _, stderr) = multifield(&[command, p, "--out", env!("CARGO_TARGET_TMPDIR")]);
+        if command == "check" {
+            // `check` has no --out: clap rejects it, also with code 2
+            assert_eq!(code, 2, "{stderr}");
+            continue;
+        }
+        assert_eq!(code, 2, "{command}: {stderr}");
+        assert_eq!(
+            stderr.trim(),
+            format!("error: {p}: fields.water.density: -1: the material density must be positive")
+        );
+    }
+    let (code, _, stderr) = multifield(&["check", p]);
+    assert_eq!(code, 2);
+    assert!(stderr.starts_with("error: ") && stderr.contains("the material density must be positive"), "{stderr}");
+
+    let syntax = case_file("binary_syntax.ron", &GOOD.replace("max_dt: 0.01)", "max_dt: 0.01;)"));
+    let (code, _, stderr) = multifield(&["check", syntax.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(stderr.starts_with(&format!("error: {}:4:", syntax.display())), "{stderr}");
+
+    let (code, _, stderr) = multifield(&["check", p, "--set", "time.nope=1"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("`nope` is not an entry of `time`"), "{stderr}");
+
+    let (code, _, stderr) = multifield(&["run", "no/such/case.ron", "-q"]);
+    assert_eq!(code, 2);
+    assert!(stderr.starts_with("error: no/such/case.ron: "), "{stderr}");
+
+    let plugin = case_file("binary_plugin.ron", &GOOD.replace("\"pcg\"", "\"pgc\""));
+    let (code, _, stderr) = multifield(&["check", plugin.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("unknown pressure model `pgc`") && stderr.contains("did you mean `pcg`?"), "{stderr}");
+}
