@@ -149,6 +149,11 @@ pub trait StressModel: Send + Sync {
     fn stable_dt(&self, _ctx: &TimeStepContext) -> Option<Real> {
         None
     }
+    /// Stored (strain) energy per unit reference volume ψ(F), for energy checks;
+    /// `None` for a model that stores none (viscosity, rigidity).
+    fn strain_energy_density(&self, _f: &Matrix) -> Option<Real> {
+        None
+    }
 }
 
 /// What an exchange model sees: the two fields on the faces.

@@ -17,7 +17,7 @@ use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::case::Region;
 use multifield_core::grid::Grid;
 use multifield_core::math::{Matrix, Real, Vector};
-use multifield_core::plugin::{Frame, FrameContext, InitContext, PointStressContext};
+use multifield_core::plugin::{Frame, FrameContext, InitContext, PointStressContext, StressModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -151,6 +151,26 @@ impl Lagrangian {
             vol: Vec::new(),
             has_point_stress: false,
         }
+    }
+
+    /// Stored elastic energy Σ_p V⁰_p ψ(F_p) of the models that define a strain-energy
+    /// density ψ (`StressModel::strain_energy_density`); 0 for models that store none.
+    pub fn strain_energy(&self, models: &[Box<dyn StressModel>]) -> Real {
+        let pts = &self.points;
+        models
+            .iter()
+            .map(|model| {
+                let e: Vec<Real> = pts
+                    .f
+                    .par_chunks(4096)
+                    .zip(pts.vol0.par_chunks(4096))
+                    .map(|(f, v0)| {
+                        f.iter().zip(v0).map(|(f, v0)| v0 * model.strain_energy_density(f).unwrap_or(0.0)).sum()
+                    })
+                    .collect();
+                e.iter().sum::<Real>()
+            })
+            .sum()
     }
 }
 
