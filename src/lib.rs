@@ -22,6 +22,7 @@ pub use multifield_core as core;
 pub use multifield_frames as frames;
 pub use multifield_physics as physics;
 
+pub mod cli;
 pub mod run;
 
 /// Keeps the registrations of the frames and physics crates in the final binary

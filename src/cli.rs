@@ -1,0 +1,256 @@
+//! The `multifield` command line: run, check and describe cases, list the plugins.
+//!
+//! Exit codes: 0 the run completed (or the check passed), 1 the run ended unstable or
+//! failed, 2 bad input (the case file, an override, the command line).
+//!
+//! A program that links more plugins calls [`main`] after their `link()` functions and
+//! gets the same command line with its plugins registered:
+//!
+//! ```no_run
+//! fn main() -> std::process::ExitCode {
+//!     // my_plugins::link();
+//!     multifield::cli::main()
+//! }
+//! ```
+
+use crate::core::case::{Case, Region};
+use crate::core::error::Error;
+use crate::core::registry::{self, Role};
+use crate::core::simulation::{Simulation, Status};
+use crate::run::{self, RunOptions};
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Multifield (multiphase) flow: every field picks an Eulerian or Lagrangian frame;
+/// stress, exchange and pressure are plugins. With no command, runs the built-in
+/// lid-driven cavity (examples/lid_driven_cavity.ron) into out/lid_driven_cavity/.
+#[derive(Parser)]
+#[command(name = "multifield", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a case; writes case.ron, diagnostics.csv and summary.json.
+    Run {
+        /// The case file (RON).
+        case: PathBuf,
+        /// Output directory [default: out/<case name>].
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// Worker threads [default: all cores].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        threads: usize,
+        /// Override an entry: `--set time.end=0.5`, `--set fields.water.density=1.2`.
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        overrides: Vec<String>,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Parse, validate and build every plugin of a case without stepping; describe it.
+    Check {
+        /// The case file (RON).
+        case: PathBuf,
+        /// Override an entry, as for `run`.
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        overrides: Vec<String>,
+    },
+    /// List every registered plugin by role, with its parameters, units and defaults.
+    Plugins,
+}
+
+/// Why the command stopped.
+enum Failure {
+    /// Bad input: exit code 2.
+    Input(Error),
+    /// The run or its output failed: exit code 1.
+    Run(String),
+}
+
+impl From<Error> for Failure {
+    /// Errors of reading and checking a case are bad input.
+    fn from(e: Error) -> Self {
+        Failure::Input(e)
+    }
+}
+
+/// Parses the command line and runs it; links the shipped frames and physics first.
+pub fn main() -> ExitCode {
+    crate::link_all();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => {
+            let file = Path::new(crate::DEFAULT_CASE_FILE);
+            Case::from_ron(crate::DEFAULT_CASE, file)
+                .and_then(|c| c.validate().map_err(|e| e.in_file(file)).map(|_| c))
+                .map_err(Failure::from)
+                .and_then(|case| {
+                    println!("running the built-in case {} ({})", case.name, file.display());
+                    run_case(&case, None, &RunOptions::default())
+                })
+        }
+        Some(Command::Run { case, out, threads, overrides, quiet }) => Case::load(&case, &overrides)
+            .map_err(Failure::from)
+            .and_then(|c| run_case(&c, out, &RunOptions { threads, quiet })),
+        Some(Command::Check { case, overrides }) => {
+            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| check(&c, &case))
+        }
+        Some(Command::Plugins) => {
+            plugins();
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Input(e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Run(m)) => {
+            eprintln!("error: {m}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn run_case(case: &Case, out: Option<PathBuf>, options: &RunOptions) -> Result<(), Failure> {
+    let dir = out.unwrap_or_else(|| Path::new("out").join(run::directory_name(&case.name)));
+    // a case that cannot start is bad input; an output file that cannot be written is not
+    let outcome = run::run(case, &dir, options).map_err(|e| match e {
+        Error::Io { .. } => Failure::Run(e.to_string()),
+        e => Failure::Input(e),
+    })?;
+    let s = &outcome.summary;
+    println!(
+        "{}: {} steps to t = {} in {:.2} s on {} thread{} (final kinetic energy {:.6e}, max divergence {:.2e})",
+        s.status,
+        s.steps,
+        s.simulated_time,
+        s.wall_seconds,
+        s.threads,
+        if s.threads == 1 { "" } else { "s" },
+        s.final_kinetic_energy,
+        s.max_divergence
+    );
+    if !s.reason.is_empty() {
+        println!("  {}", s.reason);
+    }
+    println!("output: {}/ (case.ron, diagnostics.csv, summary.json)", dir.display());
+    match outcome.status {
+        Status::Completed => Ok(()),
+        Status::Unstable(r) => Err(Failure::Run(format!("the run became unstable: {r}"))),
+        Status::Failed(r) => Err(Failure::Run(format!("the run failed: {r}"))),
+    }
+}
+
+fn region_text(r: &Region) -> String {
+    match r {
+        Region::All => "the whole domain".into(),
+        Region::Rest => "what the other fields leave".into(),
+        Region::Rectangle { min, max } => format!("rectangle {min:?}–{max:?}"),
+        Region::Disk { center, radius } => format!("disk at {center:?}, radius {radius}"),
+        Region::Bodies(bodies) => format!(
+            "{} bod{} ({})",
+            bodies.len(),
+            if bodies.len() == 1 { "y" } else { "ies" },
+            bodies.iter().map(|b| b.name.as_str()).collect::<Vec<_>>().join(", ")
+        ),
+    }
+}
+
+fn params_text(v: &serde_json::Value) -> String {
+    match v.as_object() {
+        Some(m) if m.is_empty() => String::new(),
+        Some(m) => format!("({})", m.iter().map(|(k, v)| format!("{k}: {v}")).collect::<Vec<_>>().join(", ")),
+        None if v.is_null() => String::new(),
+        None => v.to_string(),
+    }
+}
+
+fn check(case: &Case, file: &Path) -> Result<(), Failure> {
+    let sim = Simulation::new(case).map_err(|e| Failure::Input(e.in_file(file)))?;
+    let c = &sim.case;
+    let g = &sim.grid;
+    println!("{}: {} is valid", file.display(), c.name);
+    if !c.description.is_empty() {
+        println!("  {}", c.description.trim());
+    }
+    println!(
+        "domain   {} × {} from {:?}, {} × {} cells of h = {}",
+        c.domain.size[0], c.domain.size[1], c.domain.origin, g.nx, g.ny, g.h
+    );
+    let b = &c.boundaries;
+    println!("sides    left {:?}, right {:?}, bottom {:?}, top {:?}", b.left, b.right, b.bottom, b.top);
+    println!("gravity  {:?}", c.gravity);
+    let t = &c.time;
+    println!(
+        "time     end {}, cfl {}, max_dt {}{}{}",
+        t.end,
+        t.cfl,
+        t.max_dt,
+        t.fixed_dt.map(|d| format!(", fixed_dt {d}")).unwrap_or_default(),
+        t.max_steps.map(|n| format!(", max_steps {n}")).unwrap_or_default()
+    );
+    for (spec, f) in c.fields.iter().zip(&sim.fields) {
+        println!(
+            "field    {}: density {}, {} frame {}, {}, mass {:.6e}",
+            spec.name,
+            spec.density,
+            spec.frame.model,
+            params_text(&spec.frame.params),
+            region_text(&spec.region),
+            f.frame.mass()
+        );
+        for s in &spec.stress {
+            println!("           stress {} {}", s.model, params_text(&s.params));
+        }
+    }
+    for e in &c.exchange {
+        println!(
+            "exchange {} – {}: {} {} ({:?})",
+            e.between[0],
+            e.between[1],
+            e.model,
+            params_text(&e.params),
+            e.integration
+        );
+    }
+    match &c.pressure {
+        Some(p) => println!("pressure {} {}", p.model, params_text(&p.params)),
+        None => println!("pressure none (no incompressibility constraint)"),
+    }
+    let (dt, limit) = sim.choose_dt();
+    println!(
+        "start    kinetic energy {:.6e}; first Δt {:.3e} (limited by {limit}), about {:.0} steps to t = {}",
+        sim.initial_energy,
+        dt,
+        (t.end / dt).ceil(),
+        t.end
+    );
+    println!(
+        "output   a diagnostics row every {}",
+        if c.output.interval > 0.0 { format!("{} of simulated time", c.output.interval) } else { "step".into() }
+    );
+    Ok(())
+}
+
+fn plugins() {
+    for role in Role::ALL {
+        let entries = registry::entries(role);
+        println!("{} models ({}):", role.name(), entries.len());
+        if entries.is_empty() {
+            println!("  none registered");
+        }
+        for e in entries {
+            println!("  {:<14} {}", e.name, e.summary);
+            for p in e.params {
+                println!("      {:<18} [{}] default {}: {}", p.name, p.unit, p.default, p.doc);
+            }
+        }
+        println!();
+    }
+}
