@@ -6,13 +6,18 @@
 //! registries; call [`link`] once from a binary or test so the linker keeps this crate.
 #![warn(missing_docs)]
 
+pub mod contact;
 pub mod exchange;
 pub mod pressure;
 pub mod stress;
 
 /// The names this crate registers, by role: the test of the registry checks them.
-pub const SHIPPED: &[(&str, &[&str])] =
-    &[("stress", &["newtonian"]), ("exchange", &["constant", "no_slip"]), ("pressure", &["cholesky", "multigrid", "pcg"])];
+pub const SHIPPED: &[(&str, &[&str])] = &[
+    ("stress", &["linear_elastic", "neo_hookean", "newtonian", "rigid"]),
+    ("exchange", &["constant", "no_slip"]),
+    ("pressure", &["cholesky", "multigrid", "pcg"]),
+    ("contact", &["repulsion"]),
+];
 
 /// Keeps this crate's registrations in the final binary (inventory drops crates that
 /// nothing references). Cheap; call it once at start-up.
