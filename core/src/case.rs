@@ -232,6 +232,14 @@ pub enum InitialVelocity {
         /// Angular velocity (1/time), counter-clockwise positive.
         angular_velocity: Real,
     },
+    /// A sine along x, u = A sin(k (x − x₀)), v = 0, with x₀ the domain origin: the first
+    /// mode of a bar fixed at x₀ for k = π/(2L) (Bardenhagen's vibrating bar).
+    SineX {
+        /// Amplitude A (length/time).
+        amplitude: Real,
+        /// Wavenumber k (1/length).
+        wavenumber: Real,
+    },
 }
 
 impl Default for InitialVelocity {
@@ -252,6 +260,7 @@ impl InitialVelocity {
             InitialVelocity::RigidRotation { center, angular_velocity } => {
                 [-angular_velocity * (y - center[1]), angular_velocity * (x - center[0])]
             }
+            InitialVelocity::SineX { amplitude, wavenumber } => [amplitude * (wavenumber * (x - origin[0])).sin(), 0.0],
         }
     }
 }
