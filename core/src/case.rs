@@ -375,6 +375,9 @@ pub struct Case {
     /// (e.g. a weakly compressible fluid whose stress model gives the pressure).
     #[serde(default)]
     pub pressure: Option<PluginSpec>,
+    /// Repulsion between bodies and walls (e.g. `(model: "repulsion")`); none by default.
+    #[serde(default)]
+    pub contact: Option<PluginSpec>,
     /// Pressure-coupling options.
     #[serde(default)]
     pub coupling: Coupling,

@@ -47,6 +47,35 @@ pub struct FrameContext<'a> {
     pub state: &'a mut FieldState,
     /// The field's stress models.
     pub stress: &'a [Box<dyn StressModel>],
+    /// Contact force and torque on each of the field's bodies (phase 8), by body index.
+    pub body_forces: &'a [(Vector, Real)],
+}
+
+/// The state of one body of a field, as frames report it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BodyState {
+    /// Name from the case.
+    pub name: String,
+    /// Mass.
+    pub mass: Real,
+    /// Moment of inertia about the centroid (per unit depth).
+    pub inertia: Real,
+    /// Volume (area in 2D).
+    pub volume: Real,
+    /// Radius of the disk (or of the disk of equal area).
+    pub radius: Real,
+    /// Centroid.
+    pub position: Vector,
+    /// Velocity of the centroid.
+    pub velocity: Vector,
+    /// Angular velocity (counter-clockwise positive).
+    pub angular_velocity: Real,
+    /// Hydrodynamic force of the last step: dP/dt − M g − contact.
+    pub force: Vector,
+    /// Hydrodynamic torque of the last step.
+    pub torque: Real,
+    /// Whether contact forces move it (free bodies).
+    pub free: bool,
 }
 
 /// A field's frame: where its state lives (grid or material points) and how it is
@@ -81,6 +110,10 @@ pub trait Frame: Send + Sync {
     fn momentum(&self) -> Vector;
     /// Total mass.
     fn mass(&self) -> Real;
+    /// The field's bodies (empty when its region has none).
+    fn bodies(&self) -> Vec<BodyState> {
+        Vec::new()
+    }
     /// Downcasting, for output writers and tests.
     fn as_any(&self) -> &dyn Any;
     /// Mutable downcasting, for checkpoints and tests.
@@ -181,6 +214,32 @@ pub trait ExchangeModel: Send + Sync {
     }
     /// Fills K on every x-face (`kx`) and y-face (`ky`).
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]);
+}
+
+/// What a contact model sees.
+pub struct ContactContext<'a> {
+    /// The grid.
+    pub grid: &'a Grid,
+    /// Boundary conditions (walls repel bodies; periodic sides do not).
+    pub boundaries: &'a Boundaries,
+    /// Gravity.
+    pub gravity: Vector,
+    /// Every body of every field.
+    pub bodies: &'a [BodyState],
+}
+
+/// Short-range repulsion between bodies and between bodies and walls.
+pub trait ContactModel: Send + Sync {
+    /// Registered name.
+    fn model(&self) -> &'static str;
+    /// Parameters with defaults filled in.
+    fn params(&self) -> serde_json::Value;
+    /// Force and torque on each body (same order as `ctx.bodies`).
+    fn forces(&self, ctx: &ContactContext, out: &mut [(Vector, Real)]);
+    /// Largest stable time step while bodies are in range, `None` otherwise.
+    fn stable_dt(&self, _ctx: &ContactContext) -> Option<Real> {
+        None
+    }
 }
 
 /// A solver for the pressure equation.

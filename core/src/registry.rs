@@ -5,7 +5,7 @@
 //! crate exposes a `link()` function that the binary and the tests call.
 
 use crate::error::{did_you_mean, Error, Result};
-use crate::plugin::{ExchangeModel, Frame, PressureSolver, StressModel};
+use crate::plugin::{ContactModel, ExchangeModel, Frame, PressureSolver, StressModel};
 use serde::de::DeserializeOwned;
 
 /// The role a plugin plays.
@@ -19,6 +19,8 @@ pub enum Role {
     Exchange,
     /// The pressure solve.
     Pressure,
+    /// Repulsion between bodies.
+    Contact,
 }
 
 impl Role {
@@ -29,10 +31,11 @@ impl Role {
             Role::Stress => "stress",
             Role::Exchange => "exchange",
             Role::Pressure => "pressure",
+            Role::Contact => "contact",
         }
     }
     /// All roles.
-    pub const ALL: [Role; 4] = [Role::Frame, Role::Stress, Role::Exchange, Role::Pressure];
+    pub const ALL: [Role; 5] = [Role::Frame, Role::Stress, Role::Exchange, Role::Pressure, Role::Contact];
 }
 
 /// Documentation of one parameter, for `multifield plugins`.
@@ -59,6 +62,8 @@ pub enum Builder {
     Exchange(fn(&serde_json::Value) -> Result<Box<dyn ExchangeModel>, String>),
     /// Builds a pressure solver.
     Pressure(fn(&serde_json::Value) -> Result<Box<dyn PressureSolver>, String>),
+    /// Builds a contact model.
+    Contact(fn(&serde_json::Value) -> Result<Box<dyn ContactModel>, String>),
 }
 
 impl Builder {
@@ -69,6 +74,7 @@ impl Builder {
             Builder::Stress(_) => Role::Stress,
             Builder::Exchange(_) => Role::Exchange,
             Builder::Pressure(_) => Role::Pressure,
+            Builder::Contact(_) => Role::Contact,
         }
     }
 }
@@ -139,6 +145,14 @@ pub fn build_exchange(name: &str, params: &serde_json::Value, path: &str) -> Res
 pub fn build_pressure(name: &str, params: &serde_json::Value, path: &str) -> Result<Box<dyn PressureSolver>> {
     match find(Role::Pressure, name, path)?.build {
         Builder::Pressure(f) => f(params).map_err(|m| Error::invalid(path, format!("{name}: {m}"))),
+        _ => unreachable!("filtered by role"),
+    }
+}
+
+/// Builds the contact model `name` with `params`.
+pub fn build_contact(name: &str, params: &serde_json::Value, path: &str) -> Result<Box<dyn ContactModel>> {
+    match find(Role::Contact, name, path)?.build {
+        Builder::Contact(f) => f(params).map_err(|m| Error::invalid(path, format!("{name}: {m}"))),
         _ => unreachable!("filtered by role"),
     }
 }

@@ -12,7 +12,7 @@ use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
-    ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext, InitContext, PressureSolver, StressModel,
+    BodyState, ContactContext, ContactModel, ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext, InitContext, PressureSolver, StressModel,
     TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
@@ -120,6 +120,10 @@ pub struct Simulation {
     pub exchanges: Vec<Exchange>,
     /// The pressure solver, if the case has one.
     pub pressure_solver: Option<Box<dyn PressureSolver>>,
+    /// The contact model, if the case has one.
+    pub contact: Option<Box<dyn ContactModel>>,
+    /// Contact force and torque on each body of each field (phase 8).
+    pub body_forces: Vec<Vec<(Vector, Real)>>,
     /// Pressure at cell centres.
     pub pressure: Vec<Real>,
     /// Simulated time.
@@ -211,6 +215,14 @@ impl Simulation {
             }
             None => None,
         };
+        let contact = match &mut case.contact {
+            Some(c) => {
+                let m = registry::build_contact(&c.model, &c.params, "contact")?;
+                c.params = m.params();
+                Some(m)
+            }
+            None => None,
+        };
         // seed: fields with their own region first, then the one that fills the rest
         let mut occupied = vec![0.0; grid.n_cells()];
         for (k, f) in fields.iter_mut().enumerate() {
@@ -252,6 +264,7 @@ impl Simulation {
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }
         let initial_energy = fields.iter().map(|f| f.frame.kinetic_energy()).sum();
+        let n_fields = fields.len();
         Ok(Simulation {
             gravity: vector(case.gravity),
             pressure: vec![0.0; grid.n_cells()],
@@ -261,6 +274,8 @@ impl Simulation {
             fields,
             exchanges,
             pressure_solver,
+            contact,
+            body_forces: vec![Vec::new(); n_fields],
             time: 0.0,
             steps: 0,
             last: StepDiagnostics::default(),
@@ -315,6 +330,15 @@ impl Simulation {
                 }
             }
         }
+        if let Some(c) = &self.contact {
+            let bodies: Vec<BodyState> = self.fields.iter().flat_map(|f| f.frame.bodies()).collect();
+            let ctx = ContactContext { grid: &self.grid, boundaries: &self.boundaries, gravity: self.gravity, bodies: &bodies };
+            if let Some(dt) = c.stable_dt(&ctx) {
+                if dt < best.0 {
+                    best = (dt, format!("contact({})", c.model()));
+                }
+            }
+        }
         if remaining < best.0 * (1.0 + 1e-9) {
             best = (remaining, "end".into());
         }
@@ -335,6 +359,7 @@ impl Simulation {
         self.exchange(dt);
         let (iterations, residual) = self.pressure_projection(dt)?;
         let max_divergence = self.max_divergence(dt);
+        self.contact_forces();
         self.grid_to_particles(dt)?;
         self.advection(dt)?;
         self.time += dt;
@@ -363,7 +388,7 @@ impl Simulation {
         phase: &str,
         mut f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
     ) -> Result<()> {
-        for field in &mut self.fields {
+        for (k, field) in self.fields.iter_mut().enumerate() {
             let mut ctx = FrameContext {
                 grid: &self.grid,
                 boundaries: &self.boundaries,
@@ -373,6 +398,7 @@ impl Simulation {
                 density: field.density,
                 state: &mut field.state,
                 stress: &field.stress,
+                body_forces: &self.body_forces[k],
             };
             f(field.frame.as_mut(), &mut ctx)
                 .map_err(|m| Error::Model(format!("{phase} of field `{}`: {m}", field.name)))?;
@@ -631,6 +657,32 @@ impl Simulation {
             return 0.0;
         }
         self.constraint(dt).iter().fold(0.0, |m, x| m.max(x.abs()))
+    }
+
+    /// Phase 8 (bodies): contact forces from the positions at the start of the step; the
+    /// frames apply them with the rigid projection in grid-to-particles.
+    fn contact_forces(&mut self) {
+        let Some(c) = &self.contact else {
+            return;
+        };
+        let per_field: Vec<Vec<BodyState>> = self.fields.iter().map(|f| f.frame.bodies()).collect();
+        let all: Vec<BodyState> = per_field.iter().flatten().cloned().collect();
+        if all.is_empty() {
+            return;
+        }
+        let mut out = vec![(Vector::zeros(), 0.0); all.len()];
+        let ctx = ContactContext { grid: &self.grid, boundaries: &self.boundaries, gravity: self.gravity, bodies: &all };
+        c.forces(&ctx, &mut out);
+        let mut k = 0;
+        for (f, bodies) in per_field.iter().enumerate() {
+            self.body_forces[f] = out[k..k + bodies.len()].to_vec();
+            k += bodies.len();
+        }
+    }
+
+    /// Every body of every field with its field's name.
+    pub fn bodies(&self) -> Vec<(String, BodyState)> {
+        self.fields.iter().flat_map(|f| f.frame.bodies().into_iter().map(|b| (f.name.clone(), b))).collect()
     }
 
     /// Phase 7: every frame takes the corrected grid velocity back.

@@ -14,10 +14,10 @@
 use crate::scatter::{self, point_weights, PointsIn, Scatter};
 use crate::shape::Shape;
 use multifield_core::boundary::{Boundaries, Side};
-use multifield_core::case::Region;
+use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::Grid;
-use multifield_core::math::{Matrix, Real, Vector};
-use multifield_core::plugin::{Frame, FrameContext, InitContext, PointStressContext, StressModel};
+use multifield_core::math::{cross, Matrix, Real, Vector};
+use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext, PointStressContext, StressModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -112,6 +112,29 @@ pub struct Lagrangian {
     vol: Vec<Real>,
     #[serde(skip)]
     has_point_stress: bool,
+    /// The field's bodies (empty when its region has none).
+    #[serde(skip)]
+    pub bodies: Vec<Body>,
+    #[serde(skip)]
+    x_old: Vec<Vector>,
+}
+
+/// A body of a Lagrangian field: its definition and its state.
+#[derive(Clone, Debug)]
+pub struct Body {
+    /// Free, fixed or prescribed.
+    pub motion: Motion,
+    /// Its reported state.
+    pub state: BodyState,
+}
+
+/// Per-body sums over the points.
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    m: Real,
+    mx: Vector,
+    p: Vector,
+    vol: Real,
 }
 
 fn default_ppc() -> usize {
@@ -150,7 +173,133 @@ impl Lagrangian {
             scatter: None,
             vol: Vec::new(),
             has_point_stress: false,
+            bodies: Vec::new(),
+            x_old: Vec::new(),
         }
+    }
+
+    /// Mass, centroid, momentum and volume of each body (index 0 = points of no body).
+    fn body_sums(&self) -> Vec<Sums> {
+        let mut s = vec![Sums::default(); self.bodies.len() + 1];
+        let p = &self.points;
+        for k in 0..p.len() {
+            let b = &mut s[p.body[k] as usize];
+            b.m += p.m[k];
+            b.mx += p.m[k] * p.x[k];
+            b.p += p.m[k] * p.v[k];
+            b.vol += p.vol0[k] * p.f[k].determinant();
+        }
+        s
+    }
+
+    /// Angular momentum about `centres` and moment of inertia, per body, of points at `x`.
+    fn body_angular(&self, x: &[Vector], centres: &[Vector]) -> (Vec<Real>, Vec<Real>) {
+        let n = self.bodies.len() + 1;
+        let (mut l, mut i) = (vec![0.0; n], vec![0.0; n]);
+        let p = &self.points;
+        for k in 0..p.len() {
+            let b = p.body[k] as usize;
+            let r = x[k] - centres[b];
+            l[b] += p.m[k] * cross(r, p.v[k]);
+            // a point stands for a square of side a: its own inertia m a²/6
+            i[b] += p.m[k] * (r.norm_squared() + p.vol0[k] / 6.0);
+        }
+        (l, i)
+    }
+
+    /// Mass-weighted centroid of each body for points at `x`.
+    fn centres(&self, x: &[Vector]) -> Vec<Vector> {
+        let n = self.bodies.len() + 1;
+        let (mut c, mut m) = (vec![Vector::zeros(); n], vec![0.0; n]);
+        for k in 0..self.points.len() {
+            let b = self.points.body[k] as usize;
+            c[b] += self.points.m[k] * x[k];
+            m[b] += self.points.m[k];
+        }
+        c.iter().zip(&m).map(|(c, m)| if *m > 0.0 { c / *m } else { Vector::zeros() }).collect()
+    }
+
+    /// Refreshes the bodies' mass, centroid, velocity and angular velocity from the points.
+    fn measure_bodies(&mut self) {
+        if self.bodies.is_empty() {
+            return;
+        }
+        let sums = self.body_sums();
+        let centres = self.centres(&self.points.x);
+        let (l, inertia) = self.body_angular(&self.points.x, &centres);
+        for (k, body) in self.bodies.iter_mut().enumerate() {
+            let s = &sums[k + 1];
+            let st = &mut body.state;
+            st.mass = s.m;
+            st.volume = s.vol;
+            st.position = centres[k + 1];
+            st.velocity = if s.m > 0.0 { s.p / s.m } else { Vector::zeros() };
+            st.inertia = inertia[k + 1];
+            st.angular_velocity = if inertia[k + 1] > 0.0 { l[k + 1] / inertia[k + 1] } else { 0.0 };
+        }
+    }
+
+    /// Rigid projection (METHOD.md §4): each body's points take the rigid motion with the
+    /// same linear and angular momentum as the grid gave them (plus the contact impulse),
+    /// V = P/M, ω = L/I, and move rigidly. Records the hydrodynamic force and torque
+    /// (momentum change from the grid less the weight). A deformable body only receives
+    /// the contact impulse on all its points.
+    fn rigid_projection(&mut self, dt: Real, gravity: Vector, forces: &[(Vector, Real)], rigid: bool, apic: bool) {
+        let before: Vec<(Vector, Real)> =
+            self.bodies.iter().map(|b| (b.state.velocity, b.state.angular_velocity)).collect();
+        let sums = self.body_sums();
+        // the velocities are the new grid ones, the positions to use are those at the start
+        let x_old = std::mem::take(&mut self.x_old);
+        let centres = self.centres(&x_old);
+        let (l, inertia) = self.body_angular(&x_old, &centres);
+        let mut motion = vec![(Vector::zeros(), 0.0); self.bodies.len() + 1];
+        for (k, body) in self.bodies.iter_mut().enumerate() {
+            let b = k + 1;
+            let s = &sums[b];
+            if s.m <= 0.0 {
+                continue;
+            }
+            let (fc, tc) = forces.get(k).copied().unwrap_or((Vector::zeros(), 0.0));
+            let (v0, w0) = before[k];
+            body.state.force = (s.p - s.m * v0) / dt - s.m * gravity;
+            body.state.torque = (l[b] - inertia[b] * w0) / dt;
+            motion[b] = if !rigid {
+                (dt * fc / s.m, dt * tc / inertia[b])
+            } else {
+                match body.motion {
+                    Motion::Free => ((s.p + dt * fc) / s.m, (l[b] + dt * tc) / inertia[b]),
+                    Motion::Fixed => (Vector::zeros(), 0.0),
+                    Motion::Prescribed { velocity, angular_velocity } => {
+                        (Vector::new(velocity[0], velocity[1]), angular_velocity)
+                    }
+                }
+            };
+        }
+        let pts = &mut self.points;
+        for k in 0..pts.len() {
+            let b = pts.body[k] as usize;
+            if b == 0 {
+                continue;
+            }
+            let (v, w) = motion[b];
+            let c = centres[b];
+            if rigid {
+                let r = x_old[k] - c;
+                let (sn, cs) = (w * dt).sin_cos();
+                let r_new = Vector::new(cs * r.x - sn * r.y, sn * r.x + cs * r.y);
+                pts.x[k] = c + dt * v + r_new;
+                pts.v[k] = v + w * Vector::new(-r_new.y, r_new.x);
+                if apic {
+                    pts.c_u[k] = Vector::new(0.0, -w);
+                    pts.c_v[k] = Vector::new(w, 0.0);
+                }
+            } else {
+                let r = pts.x[k] - c;
+                pts.v[k] += v + w * Vector::new(-r.y, r.x);
+            }
+        }
+        self.x_old = x_old;
+        self.measure_bodies();
     }
 
     /// Stored elastic energy Σ_p V⁰_p ψ(F_p) of the models that define a strain-energy
@@ -260,6 +409,34 @@ impl Frame for Lagrangian {
         if self.points.is_empty() {
             return Err("the region holds no material point: enlarge it or refine the grid".into());
         }
+        if let Region::Bodies(specs) = ctx.region {
+            for (k, spec) in specs.iter().enumerate() {
+                if !self.points.body.contains(&(k as u32 + 1)) {
+                    return Err(format!(
+                        "body `{}` holds no material point: it is smaller than a cell; refine the grid",
+                        spec.name
+                    ));
+                }
+            }
+            self.bodies = specs
+                .iter()
+                .map(|spec| Body {
+                    motion: spec.motion,
+                    state: BodyState {
+                        name: spec.name.clone(),
+                        radius: match spec.shape {
+                            BodyShape::Disk { radius, .. } => radius,
+                            BodyShape::Rectangle { min, max } => {
+                                ((max[0] - min[0]) * (max[1] - min[1]) / std::f64::consts::PI).sqrt()
+                            }
+                        },
+                        free: spec.motion == Motion::Free,
+                        ..BodyState::default()
+                    },
+                })
+                .collect();
+            self.measure_bodies();
+        }
         if self.transfer == Transfer::Apic {
             // initial affine velocity from the initial field's gradient (central differences)
             let d = 1e-6 * g.h;
@@ -359,6 +536,11 @@ impl Frame for Lagrangian {
         let ns = shape.support();
         let dinv = shape.apic_d_inverse(h);
         let track_f = self.has_point_stress;
+        let rigid = ctx.stress.iter().any(|m| m.is_rigid()) && !self.bodies.is_empty();
+        let transfer = if rigid { Transfer::Pic } else { transfer };
+        if !self.bodies.is_empty() {
+            self.x_old.clone_from(&self.points.x);
+        }
         let pts = &mut self.points;
         let lo = g.origin;
         let hi = g.origin + g.size();
@@ -443,7 +625,15 @@ impl Frame for Lagrangian {
                     }
                 }
             });
+        if !self.bodies.is_empty() {
+            let apic = self.transfer == Transfer::Apic;
+            self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic);
+        }
         Ok(())
+    }
+
+    fn bodies(&self) -> Vec<BodyState> {
+        self.bodies.iter().map(|b| b.state.clone()).collect()
     }
 
     fn max_speed(&self) -> Real {

@@ -1,0 +1,3 @@
+//! Contact models between bodies and walls.
+
+pub mod repulsion;

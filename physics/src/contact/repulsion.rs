@@ -1,0 +1,218 @@
+//! Short-range repulsion between bodies and between bodies and walls
+//! (Glowinski et al., J. Comput. Phys. 169, 2001; Wan & Turek, Int. J. Numer. Meth. Fluids
+//! 51, 2006). The grid cannot resolve the lubrication film of two disks that kiss; this
+//! force keeps them apart:
+//!
+//!   F_ij = (c_ij / ε) ((R_i + R_j + ρ − d_ij)/ρ)² (X_i − X_j)/d_ij   for d_ij ≤ R_i + R_j + ρ,
+//!
+//! zero beyond; c_ij = ½ (M_i + M_j) |g| (the weight; `force_scale` when there is no
+//! gravity), ρ = `range_cells` · h, ε = `stiffness`. A wall acts through the mirror image
+//! of the body. Its stiffness k = 2c/(ερ) limits the step while bodies are in range:
+//! Δt ≤ `dt_factor` · sqrt(M/k) (METHOD.md §5).
+
+use multifield_core::boundary::{Boundary, Side};
+use multifield_core::math::{Real, Vector};
+use multifield_core::plugin::{BodyState, ContactContext, ContactModel};
+use multifield_core::registry::{params_value, ParamDoc};
+use serde::{Deserialize, Serialize};
+
+/// Glowinski / Wan–Turek repulsion.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Repulsion {
+    /// Range ρ of the force, in cells.
+    #[serde(default = "default_range")]
+    pub range_cells: Real,
+    /// ε: the force at full range overlap is the weight divided by ε (dimensionless).
+    #[serde(default = "default_stiffness")]
+    pub stiffness: Real,
+    /// Force scale c when there is no gravity (force per unit depth).
+    #[serde(default)]
+    pub force_scale: Real,
+    /// Whether walls repel bodies.
+    #[serde(default = "default_walls")]
+    pub walls: bool,
+    /// Fraction of sqrt(M/k) allowed as a time step while bodies are in range.
+    #[serde(default = "default_dt_factor")]
+    pub dt_factor: Real,
+}
+
+fn default_range() -> Real {
+    2.0
+}
+fn default_stiffness() -> Real {
+    1e-2
+}
+fn default_walls() -> bool {
+    true
+}
+fn default_dt_factor() -> Real {
+    0.1
+}
+
+impl Repulsion {
+    /// Checks the parameters.
+    pub fn validate(&mut self) -> Result<(), String> {
+        if !(self.range_cells > 0.0) {
+            return Err(format!("range_cells {}: must be positive (about 2 cells)", self.range_cells));
+        }
+        if !(self.stiffness > 0.0) {
+            return Err(format!("stiffness {}: must be positive (smaller is stiffer)", self.stiffness));
+        }
+        if !(self.force_scale >= 0.0) {
+            return Err(format!("force_scale {}: must be zero or positive", self.force_scale));
+        }
+        if !(self.dt_factor > 0.0 && self.dt_factor <= 1.0) {
+            return Err(format!("dt_factor {}: must lie in (0, 1]", self.dt_factor));
+        }
+        Ok(())
+    }
+
+    fn scale(&self, ctx: &ContactContext, a: &BodyState, b: Option<&BodyState>) -> Real {
+        let m = b.map_or(a.mass, |b| 0.5 * (a.mass + b.mass));
+        let g = ctx.gravity.norm();
+        if g > 0.0 {
+            m * g
+        } else {
+            self.force_scale
+        }
+    }
+
+    /// Every interacting pair: (i, Some(j)) for bodies, (i, None) with the image position
+    /// for walls; returns (i, j, image, centre distance, sum of radii).
+    fn pairs(&self, ctx: &ContactContext, mut f: impl FnMut(usize, Option<usize>, Vector, Real, Real)) {
+        let rho = self.range_cells * ctx.grid.h;
+        let bodies = ctx.bodies;
+        for i in 0..bodies.len() {
+            for j in (i + 1)..bodies.len() {
+                let d = (bodies[i].position - bodies[j].position).norm();
+                let reach = bodies[i].radius + bodies[j].radius;
+                if d <= reach + 2.0 * rho {
+                    f(i, Some(j), bodies[j].position, d, reach);
+                }
+            }
+            if !self.walls {
+                continue;
+            }
+            let lo = ctx.grid.origin;
+            let hi = lo + ctx.grid.size();
+            let x = bodies[i].position;
+            for side in Side::ALL {
+                if matches!(ctx.boundaries.side(side), Boundary::Periodic | Boundary::Outflow { .. }) {
+                    continue;
+                }
+                let image = match side {
+                    Side::Left => Vector::new(2.0 * lo.x - x.x, x.y),
+                    Side::Right => Vector::new(2.0 * hi.x - x.x, x.y),
+                    Side::Bottom => Vector::new(x.x, 2.0 * lo.y - x.y),
+                    Side::Top => Vector::new(x.x, 2.0 * hi.y - x.y),
+                };
+                let d = (x - image).norm();
+                let reach = 2.0 * bodies[i].radius;
+                if d <= reach + 2.0 * rho {
+                    f(i, None, image, d, reach);
+                }
+            }
+        }
+    }
+}
+
+multifield_core::register!(
+    Contact,
+    "repulsion",
+    Repulsion,
+    "Glowinski/Wan–Turek short-range repulsion (c/ε)((Ri+Rj+ρ−d)/ρ)² between bodies and walls",
+    &[
+        ParamDoc { name: "range_cells", unit: "cells", default: "2.0", doc: "range ρ of the force" },
+        ParamDoc { name: "stiffness", unit: "-", default: "1e-2", doc: "ε: force at full overlap = weight/ε" },
+        ParamDoc { name: "force_scale", unit: "force/length", default: "0", doc: "c when gravity is zero" },
+        ParamDoc { name: "walls", unit: "-", default: "true", doc: "whether walls repel bodies" },
+        ParamDoc { name: "dt_factor", unit: "-", default: "0.1", doc: "Δt ≤ dt_factor·sqrt(M/k) while in range" },
+    ]
+);
+
+impl ContactModel for Repulsion {
+    fn model(&self) -> &'static str {
+        "repulsion"
+    }
+    fn params(&self) -> serde_json::Value {
+        params_value(self)
+    }
+    fn forces(&self, ctx: &ContactContext, out: &mut [(Vector, Real)]) {
+        let rho = self.range_cells * ctx.grid.h;
+        out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
+        self.pairs(ctx, |i, j, other, d, reach| {
+            if d > reach + rho || d <= 0.0 {
+                return;
+            }
+            let a = &ctx.bodies[i];
+            let c = self.scale(ctx, a, j.map(|j| &ctx.bodies[j]));
+            let magnitude = c / self.stiffness * ((reach + rho - d) / rho).powi(2);
+            let n = (a.position - other) / d;
+            out[i].0 += magnitude * n;
+            if let Some(j) = j {
+                out[j].0 -= magnitude * n;
+            }
+        });
+    }
+    fn stable_dt(&self, ctx: &ContactContext) -> Option<Real> {
+        let rho = self.range_cells * ctx.grid.h;
+        let mut best: Option<Real> = None;
+        self.pairs(ctx, |i, j, _, _, _| {
+            let a = &ctx.bodies[i];
+            let c = self.scale(ctx, a, j.map(|j| &ctx.bodies[j]));
+            if c <= 0.0 {
+                return;
+            }
+            let m = j.map_or(a.mass, |j| a.mass.min(ctx.bodies[j].mass));
+            let k = 2.0 * c / (self.stiffness * rho);
+            let dt = self.dt_factor * (m / k).sqrt();
+            best = Some(best.map_or(dt, |b: Real| b.min(dt)));
+        });
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use multifield_core::boundary::Boundaries;
+    use multifield_core::grid::Grid;
+
+    #[test]
+    fn force_follows_the_quadratic_law_and_is_equal_and_opposite() {
+        let grid = Grid::new(10, 10, 0.1, Vector::zeros());
+        let bc = Boundaries::default();
+        let body = |x: Real, y: Real| BodyState { mass: 2.0, radius: 0.1, position: Vector::new(x, y), ..Default::default() };
+        let rep = Repulsion { range_cells: 2.0, stiffness: 0.5, force_scale: 0.0, walls: false, dt_factor: 0.1 };
+        // ρ = 0.2, R_i + R_j = 0.2, d = 0.3: overlap (0.2 + 0.2 − 0.3)/0.2 = 0.5
+        let bodies = [body(0.3, 0.5), body(0.6, 0.5)];
+        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: Vector::new(0.0, -10.0), bodies: &bodies };
+        let mut out = vec![(Vector::zeros(), 0.0); 2];
+        rep.forces(&ctx, &mut out);
+        let expected = 2.0 * 10.0 / 0.5 * 0.25;
+        assert!((out[0].0.x + expected).abs() < 1e-12, "{:?}", out[0]);
+        assert!((out[0].0 + out[1].0).norm() < 1e-12);
+        // beyond the range: nothing
+        let far = [body(0.2, 0.5), body(0.7, 0.5)];
+        let ctx = ContactContext { bodies: &far, ..ctx };
+        rep.forces(&ctx, &mut out);
+        assert_eq!(out[0].0.norm(), 0.0);
+    }
+
+    #[test]
+    fn wall_pushes_a_body_away_and_sets_a_step_limit() {
+        let grid = Grid::new(10, 10, 0.1, Vector::zeros());
+        let bc = Boundaries::default();
+        let b = [BodyState { mass: 1.0, radius: 0.1, position: Vector::new(0.5, 0.15), ..Default::default() }];
+        let rep = Repulsion { range_cells: 2.0, stiffness: 1e-2, force_scale: 0.0, walls: true, dt_factor: 0.1 };
+        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: Vector::new(0.0, -10.0), bodies: &b };
+        let mut out = vec![(Vector::zeros(), 0.0)];
+        rep.forces(&ctx, &mut out);
+        // image at y = −0.15: d = 0.3, reach 0.2, ρ 0.2 → overlap 0.5
+        assert!((out[0].0.y - 10.0 / 1e-2 * 0.25).abs() < 1e-9 && out[0].0.x == 0.0);
+        let dt = rep.stable_dt(&ctx).unwrap();
+        let k: Real = 2.0 * 10.0 / (1e-2 * 0.2);
+        assert!((dt - 0.1 * (1.0 / k).sqrt()).abs() < 1e-15);
+    }
+}
