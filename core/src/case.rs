@@ -73,6 +73,10 @@ pub struct TimeControl {
     pub max_steps: Option<u64>,
 }
 
+fn one() -> Real {
+    1.0
+}
+
 fn default_cfl() -> Real {
     0.4
 }
@@ -277,6 +281,10 @@ pub struct FieldSpec {
     pub frame: PluginSpec,
     /// Where the field is at the start.
     pub region: Region,
+    /// Fraction of its region's volume the field fills at the start (Eulerian fields;
+    /// e.g. 0.5 for two interpenetrating fields in one box). Default 1.
+    #[serde(default = "one")]
+    pub volume_fraction: Real,
     /// Initial velocity.
     #[serde(default)]
     pub velocity: InitialVelocity,
@@ -552,6 +560,9 @@ impl Case {
             }
             if !(f.density > 0.0 && f.density.is_finite()) {
                 return bad(&p("density"), format!("{}: the material density must be positive", f.density));
+            }
+            if !(f.volume_fraction > 0.0 && f.volume_fraction <= 1.0) {
+                return bad(&p("volume_fraction"), format!("{}: must lie in (0, 1]", f.volume_fraction));
             }
             match &f.region {
                 Region::Rest => rest += 1,

@@ -230,8 +230,17 @@ impl Simulation {
                 continue;
             }
             let spec = &case.fields[k];
-            for (o, t) in occupied.iter_mut().zip(region_fraction(&spec.region, &grid)) {
+            let theta: Vec<Real> =
+                region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect();
+            for (o, t) in occupied.iter_mut().zip(&theta) {
                 *o += t;
+            }
+            if spec.volume_fraction != 1.0 && f.frame.is_lagrangian() {
+                return Err(Error::invalid(
+                    format!("fields.{}.volume_fraction", f.name),
+                    "a Lagrangian field fills its region (its points carry the volume); \
+                     use an Eulerian field for a partial volume fraction",
+                ));
             }
             f.frame
                 .initialize(&InitContext {
@@ -241,7 +250,7 @@ impl Simulation {
                     density: f.density,
                     region: &spec.region,
                     velocity: &spec.velocity,
-                    theta: None,
+                    theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }
