@@ -292,7 +292,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         }
         let (dt, limit) = sim.choose_dt();
         let last_step = dt >= (time.end - sim.time) * (1.0 - 1e-9);
-        if !(dt >= time.min_dt) && !last_step {
+        if (dt < time.min_dt || dt.is_nan()) && !last_step {
             status = Status::Unstable(format!(
                 "Δt = {dt:e} (limited by {limit}) fell below time.min_dt = {:e} at step {}, t = {}",
                 time.min_dt,
