@@ -439,7 +439,11 @@ impl Simulation {
                 }
             }
             f.state.update_face_fractions(&self.grid, px, py);
-            if !f.frame.is_lagrangian() {
+            // Bulk density on faces from the face volume fraction, for every frame: the
+            // fields' face densities then sum to Σθρ⁰ with the same θ the pressure sees, so a
+            // uniform mixture is exactly hydrostatic (no spurious currents from kernel-mass
+            // noise of a Lagrangian field).
+            {
                 let s = &mut f.state;
                 for (m, t) in s.mass_u.iter_mut().zip(&s.theta_u) {
                     *m = t * f.density * area;

@@ -387,20 +387,38 @@ impl Frame for Lagrangian {
         let n = self.points_per_cell;
         let dv = g.cell_area() / (n * n) as Real;
         let origin = [g.origin.x, g.origin.y];
-        for j in 0..g.ny {
-            for i in 0..g.nx {
-                for b in 0..n {
-                    for a in 0..n {
-                        let x = g.origin.x + (i as Real + (a as Real + 0.5) / n as Real) * g.h;
-                        let y = g.origin.y + (j as Real + (b as Real + 0.5) / n as Real) * g.h;
-                        if ctx.region.contains(x, y) {
-                            let body = ctx.region.body_at(x, y);
-                            let v = match ctx.region {
-                                Region::Bodies(b) if body > 0 => b[body as usize - 1].velocity_at(x, y),
-                                _ => ctx.velocity.at(x, y, origin),
-                            };
+        if let Region::Bodies(specs) = ctx.region {
+            // each body on its own lattice, symmetric about the body's centre, so that the
+            // points' centroid is the body's centre and small offsets between bodies survive
+            let a = g.h / n as Real;
+            for (k, spec) in specs.iter().enumerate() {
+                let (lo, hi) = spec.shape.bounds();
+                let c = Vector::new(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
+                let kx = ((hi[0] - lo[0]) / (2.0 * a)).ceil() as i64 + 1;
+                let ky = ((hi[1] - lo[1]) / (2.0 * a)).ceil() as i64 + 1;
+                for j in -ky..ky {
+                    for i in -kx..kx {
+                        let x = c.x + (i as Real + 0.5) * a;
+                        let y = c.y + (j as Real + 0.5) * a;
+                        if spec.shape.contains(x, y) && g.contains(Vector::new(x, y)) {
+                            let v = spec.velocity_at(x, y);
                             self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
-                            *self.points.body.last_mut().expect("just pushed") = body;
+                            *self.points.body.last_mut().expect("just pushed") = k as u32 + 1;
+                        }
+                    }
+                }
+            }
+        } else {
+            for j in 0..g.ny {
+                for i in 0..g.nx {
+                    for b in 0..n {
+                        for a in 0..n {
+                            let x = g.origin.x + (i as Real + (a as Real + 0.5) / n as Real) * g.h;
+                            let y = g.origin.y + (j as Real + (b as Real + 0.5) / n as Real) * g.h;
+                            if ctx.region.contains(x, y) {
+                                let v = ctx.velocity.at(x, y, origin);
+                                self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
+                            }
                         }
                     }
                 }
