@@ -204,8 +204,8 @@ fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
         .unwrap_or_else(|| "panic".into())
 }
 
-fn progress_bar(quiet: bool, end: Real) -> ProgressBar {
-    if quiet || !std::io::stdout().is_terminal() {
+fn progress_bar(show: bool, end: Real) -> ProgressBar {
+    if !show {
         return ProgressBar::hidden();
     }
     // position: simulated time in thousandths of time.end; drawn only once the run is long
@@ -276,7 +276,8 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     let time = sim.case.time.clone();
     let interval = sim.case.output.interval;
     let mut next_output = interval;
-    let bar = progress_bar(options.quiet, time.end);
+    let show_bar = !options.quiet && std::io::stdout().is_terminal();
+    let bar = progress_bar(show_bar, time.end);
     let start = Instant::now();
     let mut last_draw = start;
     let mut status = Status::Completed;
@@ -357,7 +358,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         }
         let now = Instant::now();
         if now.duration_since(last_draw) > Duration::from_millis(200) {
-            if bar.is_hidden() && now.duration_since(start) > Duration::from_millis(500) && !options.quiet {
+            if show_bar && bar.is_hidden() && now.duration_since(start) > Duration::from_millis(500) {
                 bar.set_draw_target(ProgressDrawTarget::stdout());
             }
             let rate = sim.steps as f64 / now.duration_since(start).as_secs_f64();

@@ -45,7 +45,7 @@ fn every_example_runs_five_steps_with_finite_energy() {
 }
 
 #[test]
-fn the_default_case_is_the_lid_driven_cavity_example() {
+fn the_built_in_default_case_is_the_example_file_it_names() {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join(multifield::DEFAULT_CASE_FILE);
     assert_eq!(std::fs::read_to_string(file).unwrap(), multifield::DEFAULT_CASE);
 }
