@@ -499,7 +499,7 @@ impl Case {
     pub fn validate(&self) -> Result<()> {
         let bad = |path: &str, message: String| Err(Error::invalid(path, message));
         let d = &self.domain;
-        if !(d.size[0] > 0.0 && d.size[1] > 0.0) || !d.size.iter().all(|s| s.is_finite()) {
+        if !(d.size[0] > 0.0 && d.size[1] > 0.0 && d.size.iter().all(|s| s.is_finite())) {
             return bad("domain.size", format!("{:?}: both sides must be positive lengths", d.size));
         }
         if d.cells[0] < 2 || d.cells[1] < 2 {
@@ -605,8 +605,10 @@ impl Case {
                             ));
                         }
                         for other in &bodies[..b] {
-                            if let (BodyShape::Disk { center: c1, radius: r1 }, BodyShape::Disk { center: c2, radius: r2 }) =
-                                (&body.shape, &other.shape)
+                            if let (
+                                BodyShape::Disk { center: c1, radius: r1 },
+                                BodyShape::Disk { center: c2, radius: r2 },
+                            ) = (&body.shape, &other.shape)
                             {
                                 let d = ((c1[0] - c2[0]).powi(2) + (c1[1] - c2[1]).powi(2)).sqrt();
                                 if d < r1 + r2 {

@@ -137,8 +137,9 @@ fn solve_dense(
         for row in (col + 1)..m {
             let f = a[row][col] / d;
             if f != 0.0 {
-                for c in col..m {
-                    a[row][c] -= f * a[col][c];
+                let pivot_row = a[col];
+                for (x, p) in a[row][col..m].iter_mut().zip(&pivot_row[col..m]) {
+                    *x -= f * p;
                 }
                 x[row] -= f * x[col];
                 y[row] -= f * y[col];

@@ -5,6 +5,8 @@
 //! (see `shared/design/METHOD.md` §3). It depends on neither the frames nor the physics:
 //! they register themselves.
 #![warn(missing_docs)]
+// `!(x > 0.0)` is deliberate throughout validation: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod boundary;
 pub mod case;

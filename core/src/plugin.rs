@@ -97,6 +97,7 @@ pub trait Frame: Send + Sync {
         Ok(())
     }
     /// Step 7: take the corrected grid velocity back (grid to particles, point stresses).
+    #[allow(clippy::wrong_self_convention)]
     fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String>;
     /// Step 9: transport of the field's volume with the corrected velocity.
     fn advect(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {

@@ -1,8 +1,8 @@
 //! The time loop: one step is a readable sequence of named phases (METHOD.md §3).
 //!
-//! 1. particles to grid, 2. volume fractions, 3. predictor, 4. exchange, 5. pressure,
-//! 6. corrector, 7. grid to particles, 8. bodies, 9. advection. Plugins attach to phases
-//! through their traits; nothing depends on registration order.
+//! Phases: (1) particles to grid, (2) volume fractions, (3) predictor, (4) exchange,
+//! (5) pressure, (6) corrector, (7) grid to particles, (8) bodies, (9) advection. Plugins
+//! attach to phases through their traits; nothing depends on registration order.
 
 use crate::boundary::Boundaries;
 use crate::case::{Case, Integration, Region, MAX_FIELDS};
@@ -12,8 +12,8 @@ use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
-    BodyState, ContactContext, ContactModel, ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext, InitContext, PressureSolver, StressModel,
-    TimeStepContext,
+    BodyState, ContactContext, ContactModel, ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext,
+    InitContext, PressureSolver, StressModel, TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -341,7 +341,12 @@ impl Simulation {
         }
         if let Some(c) = &self.contact {
             let bodies: Vec<BodyState> = self.fields.iter().flat_map(|f| f.frame.bodies()).collect();
-            let ctx = ContactContext { grid: &self.grid, boundaries: &self.boundaries, gravity: self.gravity, bodies: &bodies };
+            let ctx = ContactContext {
+                grid: &self.grid,
+                boundaries: &self.boundaries,
+                gravity: self.gravity,
+                bodies: &bodies,
+            };
             if let Some(dt) = c.stable_dt(&ctx) {
                 if dt < best.0 {
                     best = (dt, format!("contact({})", c.model()));
@@ -650,13 +655,13 @@ impl Simulation {
         }
         for f in &mut self.fields {
             let s = &mut f.state;
-            for k in 0..gx.len() {
-                let a = -s.specific_volume.u[k] * gx[k];
+            for (k, g) in gx.iter().enumerate() {
+                let a = -s.specific_volume.u[k] * g;
                 s.pressure_acceleration.u[k] = a;
                 s.velocity.u[k] += dt * a;
             }
-            for k in 0..gy.len() {
-                let a = -s.specific_volume.v[k] * gy[k];
+            for (k, g) in gy.iter().enumerate() {
+                let a = -s.specific_volume.v[k] * g;
                 s.pressure_acceleration.v[k] = a;
                 s.velocity.v[k] += dt * a;
             }
@@ -684,7 +689,8 @@ impl Simulation {
             return;
         }
         let mut out = vec![(Vector::zeros(), 0.0); all.len()];
-        let ctx = ContactContext { grid: &self.grid, boundaries: &self.boundaries, gravity: self.gravity, bodies: &all };
+        let ctx =
+            ContactContext { grid: &self.grid, boundaries: &self.boundaries, gravity: self.gravity, bodies: &all };
         c.forces(&ctx, &mut out);
         let mut k = 0;
         for (f, bodies) in per_field.iter().enumerate() {

@@ -746,6 +746,7 @@ mod tests {
                 density: 2.0,
                 state: &mut state,
                 stress: &[],
+                body_forces: &[],
             };
             e.to_grid(&mut ctx).unwrap();
             e.predict(&mut ctx).unwrap();

@@ -179,6 +179,7 @@ impl Lagrangian {
     }
 
     /// Mass, centroid, momentum and volume of each body (index 0 = points of no body).
+    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
     fn body_sums(&self) -> Vec<Sums> {
         let mut s = vec![Sums::default(); self.bodies.len() + 1];
         let p = &self.points;
@@ -193,6 +194,7 @@ impl Lagrangian {
     }
 
     /// Angular momentum about `centres` and moment of inertia, per body, of points at `x`.
+    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
     fn body_angular(&self, x: &[Vector], centres: &[Vector]) -> (Vec<Real>, Vec<Real>) {
         let n = self.bodies.len() + 1;
         let (mut l, mut i) = (vec![0.0; n], vec![0.0; n]);
@@ -208,6 +210,7 @@ impl Lagrangian {
     }
 
     /// Mass-weighted centroid of each body for points at `x`.
+    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
     fn centres(&self, x: &[Vector]) -> Vec<Vector> {
         let n = self.bodies.len() + 1;
         let (mut c, mut m) = (vec![Vector::zeros(); n], vec![0.0; n]);
@@ -244,6 +247,7 @@ impl Lagrangian {
     /// V = P/M, ω = L/I, and move rigidly. Records the hydrodynamic force and torque
     /// (momentum change from the grid less the weight). A deformable body only receives
     /// the contact impulse on all its points.
+    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
     fn rigid_projection(&mut self, dt: Real, gravity: Vector, forces: &[(Vector, Real)], rigid: bool, apic: bool) {
         let before: Vec<(Vector, Real)> =
             self.bodies.iter().map(|b| (b.state.velocity, b.state.angular_velocity)).collect();
