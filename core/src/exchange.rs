@@ -3,6 +3,9 @@
 //! Solves `(D + Δt L) ū = D u*` with `D = diag(ρ_k)` (bulk densities) and `L` the graph
 //! Laplacian with weights `θ_k θ_n K_kn`, and `(D + Δt L) w = θ` for the effective specific
 //! volumes. No-slip pairs (K = ∞) are merged first into one mass-weighted velocity, exactly.
+//! The velocities are weighted with the masses the frames put on the grid (momentum is
+//! conserved exactly); `w` uses the bulk densities θρ⁰ of the same θ the pressure equation
+//! sees, so that a uniform mixture is exactly hydrostatic whatever the kernel masses.
 //! The solve conserves momentum Σ ρ_k u_k to round-off and is stable for any Δt.
 
 use crate::case::MAX_FIELDS;
@@ -16,8 +19,10 @@ pub const STIFFNESS_CLAMP: Real = 1e8;
 pub struct Local {
     /// Number of fields.
     pub n: usize,
-    /// Bulk density θρ⁰ of each field (0 where absent).
+    /// Grid mass per volume of each field (0 where absent): weights of the velocities.
     pub rho: [Real; MAX_FIELDS],
+    /// Bulk density θρ⁰ of each field: the diagonal of the solve for w.
+    pub rho_w: [Real; MAX_FIELDS],
     /// Volume fraction of each field.
     pub theta: [Real; MAX_FIELDS],
     /// Material density of each field (for w where a field is absent).
@@ -73,9 +78,11 @@ pub fn solve(loc: &mut Local, k: &Coefficients, dt: Real) {
     let mut big_r = [0.0; MAX_FIELDS];
     let mut big_t = [0.0; MAX_FIELDS];
     let mut big_p = [0.0; MAX_FIELDS];
+    let mut big_rw = [0.0; MAX_FIELDS];
     for i in 0..n {
         if present[i] {
             let c = cluster[i];
+            big_rw[c] += loc.rho_w[i];
             big_r[c] += loc.rho[i];
             big_t[c] += loc.theta[i];
             big_p[c] += loc.rho[i] * loc.u[i];
@@ -104,9 +111,15 @@ pub fn solve(loc: &mut Local, k: &Coefficients, dt: Real) {
         }
     }
     let (ubar, wbar) = if m == 1 {
-        ([big_p[0] / big_r[0]; MAX_FIELDS], [big_t[0] / big_r[0]; MAX_FIELDS])
+        let rw = if big_rw[0] > 0.0 { big_rw[0] } else { big_r[0] };
+        ([big_p[0] / big_r[0]; MAX_FIELDS], [big_t[0] / rw; MAX_FIELDS])
     } else {
-        solve_dense(&a, &big_p, &big_t, m)
+        let ubar = solve_dense(&a, &big_p, m);
+        for c in 0..m {
+            let rw = if big_rw[c] > 0.0 { big_rw[c] } else { big_r[c] };
+            a[c][c] += rw - big_r[c];
+        }
+        (ubar, solve_dense(&a, &big_t, m))
     };
     let _ = rep;
     for i in 0..n {
@@ -119,42 +132,33 @@ pub fn solve(loc: &mut Local, k: &Coefficients, dt: Real) {
     }
 }
 
-/// Solves A x = b1 and A y = b2 (m ≤ 8) by Gaussian elimination with partial pivoting.
-fn solve_dense(
-    a: &[[Real; MAX_FIELDS]; MAX_FIELDS],
-    b1: &[Real; MAX_FIELDS],
-    b2: &[Real; MAX_FIELDS],
-    m: usize,
-) -> ([Real; MAX_FIELDS], [Real; MAX_FIELDS]) {
+/// Solves A x = b (m ≤ 8) by Gaussian elimination with partial pivoting.
+fn solve_dense(a: &[[Real; MAX_FIELDS]; MAX_FIELDS], b: &[Real; MAX_FIELDS], m: usize) -> [Real; MAX_FIELDS] {
     let mut a = *a;
-    let (mut x, mut y) = (*b1, *b2);
+    let mut x = *b;
     for col in 0..m {
         let piv = (col..m).max_by(|&p, &q| a[p][col].abs().total_cmp(&a[q][col].abs())).unwrap_or(col);
         a.swap(col, piv);
         x.swap(col, piv);
-        y.swap(col, piv);
         let d = a[col][col];
         for row in (col + 1)..m {
             let f = a[row][col] / d;
             if f != 0.0 {
                 let pivot_row = a[col];
-                for (x, p) in a[row][col..m].iter_mut().zip(&pivot_row[col..m]) {
-                    *x -= f * p;
+                for (v, p) in a[row][col..m].iter_mut().zip(&pivot_row[col..m]) {
+                    *v -= f * p;
                 }
                 x[row] -= f * x[col];
-                y[row] -= f * y[col];
             }
         }
     }
     for row in (0..m).rev() {
         for c in (row + 1)..m {
             x[row] -= a[row][c] * x[c];
-            y[row] -= a[row][c] * y[c];
         }
         x[row] /= a[row][row];
-        y[row] /= a[row][row];
     }
-    (x, y)
+    x
 }
 
 /// Forward-Euler exchange from the provisional velocities (for stability studies):
@@ -184,6 +188,7 @@ mod tests {
         let mut l = Local {
             n: rho.len(),
             rho: [0.0; MAX_FIELDS],
+            rho_w: [0.0; MAX_FIELDS],
             theta: [0.0; MAX_FIELDS],
             material_density: [1.0; MAX_FIELDS],
             u: [0.0; MAX_FIELDS],
@@ -191,6 +196,7 @@ mod tests {
         };
         for i in 0..rho.len() {
             l.rho[i] = rho[i];
+            l.rho_w[i] = rho[i];
             l.theta[i] = theta[i];
             l.u[i] = u[i];
             l.material_density[i] = rho[i] / theta[i];

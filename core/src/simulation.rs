@@ -444,11 +444,9 @@ impl Simulation {
                 }
             }
             f.state.update_face_fractions(&self.grid, px, py);
-            // Bulk density on faces from the face volume fraction, for every frame: the
-            // fields' face densities then sum to Σθρ⁰ with the same θ the pressure sees, so a
-            // uniform mixture is exactly hydrostatic (no spurious currents from kernel-mass
-            // noise of a Lagrangian field).
-            {
+            // An Eulerian field's face mass follows from θ; a Lagrangian field keeps the
+            // mass its points put there, so that momentum is conserved between frames.
+            if !f.frame.is_lagrangian() {
                 let s = &mut f.state;
                 for (m, t) in s.mass_u.iter_mut().zip(&s.theta_u) {
                     *m = t * f.density * area;
@@ -518,6 +516,7 @@ impl Simulation {
                 let mut loc = Local {
                     n,
                     rho: [0.0; MAX_FIELDS],
+                    rho_w: [0.0; MAX_FIELDS],
                     theta: [0.0; MAX_FIELDS],
                     material_density: [1.0; MAX_FIELDS],
                     u: [0.0; MAX_FIELDS],
@@ -531,6 +530,7 @@ impl Simulation {
                         (s.mass_v[face], s.theta_v[face], s.velocity.v[face])
                     };
                     loc.rho[k] = m / area;
+                    loc.rho_w[k] = t * densities[k];
                     loc.theta[k] = t;
                     loc.u[k] = u;
                     loc.material_density[k] = densities[k];
