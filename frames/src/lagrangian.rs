@@ -15,7 +15,7 @@ use crate::scatter::{self, point_weights, PointsIn, Scatter};
 use crate::shape::Shape;
 use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
-use multifield_core::grid::Grid;
+use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext, PointStressContext, StressModel};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -325,6 +325,66 @@ impl Lagrangian {
             })
             .sum()
     }
+
+    /// Velocity gradient and deformation gradient of MPM solids by the modified update-stress-last
+    /// scheme (MUSL; Sulsky, Zhou & Schreyer, Comput. Phys. Commun. 87, 1995): the points' new
+    /// velocities are projected back to the grid, `u_i = Σ m_p S_ip v_p / Σ m_p S_ip`, and
+    /// `∇v_p = Σ u_i ∇S_ip`, `F ← (I + Δt ∇v) F` at the positions of the step's start. The plain
+    /// grid velocity `(mu + Δt f)/m` is unbounded on a face that a point barely reaches
+    /// (m ∝ S, f ∝ ∇S), which blows F up when a point crosses into an empty cell.
+    fn update_deformation_musl(&mut self, g: &Grid, bc: &Boundaries, dt: Real, x_start: &[Vector]) {
+        let (shape, h) = (self.shape, g.h);
+        let ns = shape.support();
+        let pts = &mut self.points;
+        let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
+        scatter.run(
+            g,
+            bc,
+            shape,
+            &PointsIn {
+                x: x_start,
+                v: &pts.v,
+                m: &pts.m,
+                vol: &self.vol,
+                affine: (self.transfer == Transfer::Apic).then_some((&pts.c_u[..], &pts.c_v[..])),
+                stress: None,
+            },
+        );
+        let tiny = 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max);
+        let mut vel = FaceVelocity::zeros(g);
+        for j in 0..g.ny {
+            for i in 0..=g.nx {
+                let (ii, jj) = (i as isize, j as isize);
+                let m = scatter.at(scatter::MASS_U, ii, jj);
+                vel.u[g.xface(i, j)] = if m > tiny { scatter.at(scatter::MOM_U, ii, jj) / m } else { 0.0 };
+            }
+        }
+        for j in 0..=g.ny {
+            for i in 0..g.nx {
+                let (ii, jj) = (i as isize, j as isize);
+                let m = scatter.at(scatter::MASS_V, ii, jj);
+                vel.v[g.yface(i, j)] = if m > tiny { scatter.at(scatter::MOM_V, ii, jj) / m } else { 0.0 };
+            }
+        }
+        bc.enforce(g, &mut vel);
+        pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()).zip(x_start.par_iter()).for_each(|((f, gv), x)| {
+            let w = point_weights(shape, g, *x);
+            let (mut gu, mut gvv) = (Vector::zeros(), Vector::zeros());
+            for b in 0..ns {
+                for a in 0..ns {
+                    let (i, j) = (w.xf.base + a as isize, w.yc.base + b as isize);
+                    let un = sample(g, bc, &vel.u, true, i, j);
+                    gu += un * Vector::new(w.xf.dw[a] * w.yc.w[b], w.xf.w[a] * w.yc.dw[b]) / h;
+                    let (i, j) = (w.xc.base + a as isize, w.yf.base + b as isize);
+                    let vn = sample(g, bc, &vel.v, false, i, j);
+                    gvv += vn * Vector::new(w.xc.dw[a] * w.yf.w[b], w.xc.w[a] * w.yf.dw[b]) / h;
+                }
+            }
+            let l = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
+            *gv = l;
+            *f = (Matrix::identity() + dt * l) * *f;
+        });
+    }
 }
 
 multifield_core::register!(
@@ -563,6 +623,7 @@ impl Frame for Lagrangian {
         if !self.bodies.is_empty() {
             self.x_old.clone_from(&self.points.x);
         }
+        let x_start = track_f.then(|| self.points.x.clone());
         let pts = &mut self.points;
         let lo = g.origin;
         let hi = g.origin + g.size();
@@ -572,7 +633,7 @@ impl Frame for Lagrangian {
             .zip(pts.v.par_iter_mut())
             .zip(pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()))
             .zip(pts.c_u.par_iter_mut().zip(pts.c_v.par_iter_mut()))
-            .for_each(|(((x, v), (f, gv)), (cu, cv))| {
+            .for_each(|(((x, v), (_f, gv)), (cu, cv))| {
                 let w = point_weights(shape, g, *x);
                 let (mut upic, mut du) = (Vector::zeros(), Vector::zeros());
                 let (mut gu, mut gvv) = (Vector::zeros(), Vector::zeros());
@@ -625,10 +686,9 @@ impl Frame for Lagrangian {
                         }
                     }
                 }
-                let l = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
-                *gv = l;
-                if track_f {
-                    *f = (Matrix::identity() + dt * l) * *f;
+                // with point stresses, ∇v and F come from the re-projected velocities (MUSL, below)
+                if !track_f {
+                    *gv = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
                 }
                 *x += dt * upic;
                 // keep points in the domain: wrap periodic sides, stop at walls
@@ -647,6 +707,9 @@ impl Frame for Lagrangian {
                     }
                 }
             });
+        if let Some(x_start) = x_start {
+            self.update_deformation_musl(g, bc, dt, &x_start);
+        }
         if !self.bodies.is_empty() {
             let apic = self.transfer == Transfer::Apic;
             self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic);
