@@ -233,9 +233,8 @@ impl SparseLlt {
         }
         let par = self.parallelism();
         let symbolic = self.symbolic.as_ref().expect("factored");
-        let stack = self
-            .solve_stack
-            .get_or_insert_with(|| MemBuffer::new(symbolic.solve_in_place_scratch::<Real>(1, par)));
+        let stack =
+            self.solve_stack.get_or_insert_with(|| MemBuffer::new(symbolic.solve_in_place_scratch::<Real>(1, par)));
         LltRef::new(symbolic, &self.l_values).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(x, n, 1),
@@ -326,7 +325,8 @@ impl PressureSolver for Cholesky {
         params_value(self)
     }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
-        let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
+        let stats =
+            |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
         let b = &problem.rhs;
         let bnorm = dot(b, b).sqrt();
         if bnorm == 0.0 {

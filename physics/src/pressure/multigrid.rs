@@ -52,17 +52,17 @@ fn parents(n: usize, periodic: bool) -> Vec<[usize; 2]> {
         .collect()
 }
 
-/// The fine indices with coarse index c among their parents (padded with `usize::MAX`).
-fn children(par: &[[usize; 2]]) -> Vec<[usize; 4]> {
-    let mut out = vec![[usize::MAX; 4]; par.len() / 2];
+/// For each coarse index c, the four (fine index, parent slot) with `parents[i][slot] == c`.
+fn children(par: &[[usize; 2]]) -> Vec<[(usize, usize); 4]> {
+    let mut out = vec![[(0, 0); 4]; par.len() / 2];
+    let mut count = vec![0; out.len()];
     for (i, pair) in par.iter().enumerate() {
-        for &c in pair {
-            if !out[c].contains(&i) {
-                let slot = out[c].iter().position(|&v| v == usize::MAX).expect("at most 4 children");
-                out[c][slot] = i;
-            }
+        for (slot, &c) in pair.iter().enumerate() {
+            out[c][count[c]] = (i, slot);
+            count[c] += 1;
         }
     }
+    debug_assert!(count.iter().all(|&n| n == 4));
     out
 }
 
@@ -106,19 +106,32 @@ unsafe impl Sync for Shared {}
 /// `x` points to `op.len()` values; no other thread writes a cell this row reads.
 unsafe fn relax_row(op: &Stencil, b: &[Real], x: Shared, colour: usize, j: usize) {
     let nx = op.nx;
-    let get = |m: usize| unsafe { *x.0.add(m) };
-    let update = |i: usize| {
-        let k = i + j * nx;
-        let v = (b[k] + op.offdiag(i, j, get)) * op.inv_diag[k];
-        unsafe { *x.0.add(k) = v };
-    };
-    ((colour + j) % 2..nx).step_by(2).for_each(update);
+    let row = j * nx;
+    let aw = &op.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
+    let (a_s, a_n) = (&op.ay[row..row + nx], &op.ay[row + nx..row + 2 * nx]);
+    let (inv, b) = (&op.inv_diag[row..row + nx], &b[row..row + nx]);
+    let (xc, xs, xn) = unsafe { (x.0.add(row), x.0.add(op.south(j) * nx), x.0.add(op.north(j) * nx)) };
+    let (west, east) = (op.west(0), op.east(nx - 1));
+    let mut i = (colour + j) % 2;
+    while i < nx {
+        let wi = if i == 0 { west } else { i - 1 };
+        let ei = if i + 1 == nx { east } else { i + 1 };
+        // SAFETY: i, wi, ei < nx; the rows are rows of x (see `relax`).
+        unsafe {
+            let s = aw.get_unchecked(i) * *xc.add(wi)
+                + aw.get_unchecked(i + 1) * *xc.add(ei)
+                + a_s.get_unchecked(i) * *xs.add(i)
+                + a_n.get_unchecked(i) * *xn.add(i);
+            *xc.add(i) = (b.get_unchecked(i) + s) * inv.get_unchecked(i);
+        }
+        i += 2;
+    }
 }
 
 /// One colour pass over the level, rows in parallel. Smoothed levels have even sizes (see
 /// [`Hierarchy`]), so the red-black colouring holds across periodic wraps too.
 fn relax(op: &Stencil, b: &[Real], x: &mut [Real], colour: usize) {
-    assert!(x.len() == op.len() && op.nx % 2 == 0 && op.ny % 2 == 0);
+    assert!(x.len() == op.len() && op.nx & 1 == 0 && op.ny & 1 == 0);
     let ptr = Shared(x.as_mut_ptr());
     // SAFETY: a row updates only its own cells of `colour`; their neighbours have the other
     // colour, which nobody writes during this pass.
@@ -130,10 +143,15 @@ fn relax(op: &Stencil, b: &[Real], x: &mut [Real], colour: usize) {
     }
 }
 
+/// A row of x-weights and a row of y-weights.
+type WeightRows<'a> = (&'a mut [[Real; 2]], &'a mut [[Real; 2]]);
+
 /// One level of the hierarchy with its scratch and the transfers to the next coarser one.
 #[derive(Clone, Debug, Default)]
 struct Level {
-    op: Stencil,
+    /// Cells of the fine level.
+    nx: usize,
+    ny: usize,
     r: Vec<Real>,
     /// Right-hand side and solution of the next coarser level.
     bc: Vec<Real>,
@@ -142,20 +160,21 @@ struct Level {
     px: Vec<[usize; 2]>,
     py: Vec<[usize; 2]>,
     /// Fine children of each coarse column and row.
-    kx: Vec<[usize; 4]>,
-    ky: Vec<[usize; 4]>,
+    kx: Vec<[(usize, usize); 4]>,
+    ky: Vec<[(usize, usize); 4]>,
     /// Interpolation weights per fine cell along x and y: (own, other) parent.
     wx: Vec<[Real; 2]>,
     wy: Vec<[Real; 2]>,
+    /// Residual restricted along x, weighted for the own and the other y-parent: (nx/2) × ny.
+    u: [Vec<Real>; 2],
 }
 
 impl Level {
     /// Recomputes the operator-dependent interpolation weights from `op`.
-    fn update_weights(&mut self) {
-        let op = &self.op;
+    fn update_weights(&mut self, op: &Stencil) {
         let (nx, ny) = (op.nx, op.ny);
         let d = op.dirichlet;
-        let body = |(j, (wx, wy)): (usize, (&mut [[Real; 2]], &mut [[Real; 2]]))| {
+        let body = |(j, (wx, wy)): (usize, WeightRows)| {
             let row = &op.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
             for i in 0..nx {
                 wx[i] = weights(|f| row[f], nx, i, op.periodic[0], [d[0], d[1]]);
@@ -166,35 +185,48 @@ impl Level {
         rows.enumerate().for_each(body);
     }
 
-    /// b_c = Pᵀ r.
+    /// b_c = Pᵀ r, along x (into `u`, one array per y-parent slot), then along y.
     fn restrict(&mut self) {
-        let (nx, ncx) = (self.op.nx, self.op.nx / 2);
-        let (r, px, py, kx, ky, wx, wy) = (&self.r, &self.px, &self.py, &self.kx, &self.ky, &self.wx, &self.wy);
-        let share = |pair: [usize; 2], w: [Real; 2], c: usize| {
-            (if pair[0] == c { w[0] } else { 0.0 }) + (if pair[1] == c { w[1] } else { 0.0 })
-        };
-        let body = |(jc, row): (usize, &mut [Real])| {
-            for (ic, out) in row.iter_mut().enumerate() {
-                let mut s = 0.0;
-                for &j in ky[jc].iter().filter(|&&j| j != usize::MAX) {
-                    for &i in kx[ic].iter().filter(|&&i| i != usize::MAX) {
-                        let k = i + j * nx;
-                        s += share(px[i], wx[k], ic) * share(py[j], wy[k], jc) * r[k];
-                    }
+        let (nx, ncx) = (self.nx, self.nx / 2);
+        let big = self.nx * self.ny >= PARALLEL_CELLS;
+        let (r, kx, ky, wx, wy) = (&self.r, &self.kx, &self.ky, &self.wx, &self.wy);
+        let along_x = |(j, (u0, u1)): (usize, (&mut [Real], &mut [Real]))| {
+            for ((u0, u1), kxi) in u0.iter_mut().zip(u1.iter_mut()).zip(kx) {
+                let (mut s0, mut s1) = (0.0, 0.0);
+                for &(i, sx) in kxi {
+                    let k = i + j * nx;
+                    let v = wx[k][sx] * r[k];
+                    s0 += v * wy[k][0];
+                    s1 += v * wy[k][1];
                 }
-                *out = s;
+                *u0 = s0;
+                *u1 = s1;
             }
         };
-        if self.op.len() >= PARALLEL_CELLS {
-            self.bc.par_chunks_mut(ncx).enumerate().for_each(body);
+        let [u0, u1] = &mut self.u;
+        if big {
+            u0.par_chunks_mut(ncx).zip(u1.par_chunks_mut(ncx)).enumerate().for_each(along_x);
         } else {
-            self.bc.chunks_mut(ncx).enumerate().for_each(body);
+            u0.chunks_mut(ncx).zip(u1.chunks_mut(ncx)).enumerate().for_each(along_x);
+        }
+        let u = &self.u;
+        let along_y = |(jc, row): (usize, &mut [Real])| {
+            let [(j0, s0), (j1, s1), (j2, s2), (j3, s3)] = ky[jc];
+            let rows = [&u[s0][j0 * ncx..], &u[s1][j1 * ncx..], &u[s2][j2 * ncx..], &u[s3][j3 * ncx..]];
+            for (ic, out) in row.iter_mut().enumerate() {
+                *out = (rows[0][ic] + rows[1][ic]) + (rows[2][ic] + rows[3][ic]);
+            }
+        };
+        if big {
+            self.bc.par_chunks_mut(ncx).enumerate().for_each(along_y);
+        } else {
+            self.bc.chunks_mut(ncx).enumerate().for_each(along_y);
         }
     }
 
     /// x += P x_c.
     fn prolong_add(&self, x: &mut [Real]) {
-        let (nx, ncx) = (self.op.nx, self.op.nx / 2);
+        let (nx, ncx) = (self.nx, self.nx / 2);
         let (xc, px, py, wx, wy) = (&self.xc, &self.px, &self.py, &self.wx, &self.wy);
         let body = |(j, row): (usize, &mut [Real])| {
             let [js, jo] = py[j];
@@ -204,7 +236,7 @@ impl Level {
                 *v += vs * (ws * rs[is] + wo * rs[io]) + vo * (ws * ro[is] + wo * ro[io]);
             }
         };
-        if self.op.len() >= PARALLEL_CELLS {
+        if self.nx * self.ny >= PARALLEL_CELLS {
             x.par_chunks_mut(nx).enumerate().for_each(body);
         } else {
             x.chunks_mut(nx).enumerate().for_each(body);
@@ -217,58 +249,81 @@ impl Level {
 #[derive(Debug, Default)]
 pub struct Hierarchy {
     key: Option<(usize, usize, [bool; 2], [bool; 4])>,
+    /// Operators, finest first.
+    ops: Vec<Stencil>,
+    cycle: Cycle,
+}
+
+/// What a V-cycle writes: transfers and scratch of every level but the coarsest, and the
+/// coarsest level's factorization.
+#[derive(Debug, Default)]
+struct Cycle {
     levels: Vec<Level>,
     coarse: SparseLlt,
-    /// Level 0 has cells with no coupling (set to 0 in the output).
+    /// The finest level has cells with no coupling (set to 0 in the output).
     has_dead: bool,
-    /// Red-black sweeps before and after the coarse correction.
-    pub sweeps: usize,
+    sweeps: usize,
 }
 
 impl Clone for Hierarchy {
     /// The hierarchy is a cache: a clone starts empty.
     fn clone(&self) -> Self {
-        Self::new(self.sweeps)
+        Self::new(self.cycle.sweeps)
     }
 }
 
 impl Hierarchy {
     /// An empty hierarchy with `sweeps` smoothing sweeps.
     pub fn new(sweeps: usize) -> Self {
-        Self { sweeps, coarse: SparseLlt::sequential(), ..Self::default() }
+        Self { cycle: Cycle { sweeps, coarse: SparseLlt::sequential(), ..Cycle::default() }, ..Self::default() }
+    }
+
+    /// Red-black sweeps before and after each coarse correction.
+    pub fn set_sweeps(&mut self, sweeps: usize) {
+        self.cycle.sweeps = sweeps;
     }
 
     /// Sizes (nx, ny) of the levels, finest first.
     pub fn level_sizes(&self) -> Vec<(usize, usize)> {
-        self.levels.iter().map(|l| (l.op.nx, l.op.ny)).collect()
+        self.ops.iter().map(|op| (op.nx, op.ny)).collect()
+    }
+
+    /// The finest operator (valid after [`Hierarchy::setup`]).
+    pub fn operator(&self) -> &Stencil {
+        &self.ops[0]
     }
 
     fn build(&mut self, nx: usize, ny: usize, periodic: [bool; 2], dirichlet: [bool; 4]) {
-        self.levels.clear();
+        self.ops.clear();
+        self.cycle.levels.clear();
         let (mut nx, mut ny) = (nx, ny);
         loop {
-            let mut level = Level::default();
-            level.op.resize(nx, ny, periodic, dirichlet);
-            let coarsen = nx % 2 == 0 && ny % 2 == 0 && nx >= 4 && ny >= 4;
-            if coarsen {
-                level.r = vec![0.0; nx * ny];
-                level.bc = vec![0.0; nx * ny / 4];
-                level.xc = vec![0.0; nx * ny / 4];
-                level.px = parents(nx, periodic[0]);
-                level.py = parents(ny, periodic[1]);
-                level.kx = children(&level.px);
-                level.ky = children(&level.py);
-                level.wx = vec![[1.0, 0.0]; nx * ny];
-                level.wy = vec![[1.0, 0.0]; nx * ny];
-            }
-            self.levels.push(level);
-            if !coarsen {
+            let mut op = Stencil::default();
+            op.resize(nx, ny, periodic, dirichlet);
+            self.ops.push(op);
+            if !(nx % 2 == 0 && ny % 2 == 0 && nx >= 4 && ny >= 4) {
                 break;
             }
+            let px = parents(nx, periodic[0]);
+            let py = parents(ny, periodic[1]);
+            self.cycle.levels.push(Level {
+                nx,
+                ny,
+                r: vec![0.0; nx * ny],
+                bc: vec![0.0; nx * ny / 4],
+                xc: vec![0.0; nx * ny / 4],
+                kx: children(&px),
+                ky: children(&py),
+                px,
+                py,
+                wx: vec![[1.0, 0.0]; nx * ny],
+                wy: vec![[1.0, 0.0]; nx * ny],
+                u: [vec![0.0; nx / 2 * ny], vec![0.0; nx / 2 * ny]],
+            });
             nx /= 2;
             ny /= 2;
         }
-        self.key = Some((self.levels[0].op.nx, self.levels[0].op.ny, periodic, dirichlet));
+        self.key = Some((self.ops[0].nx, self.ops[0].ny, periodic, dirichlet));
     }
 
     /// Fills the level operators for `problem` and factors the coarsest one.
@@ -278,23 +333,33 @@ impl Hierarchy {
         if self.key != Some(key) {
             self.build(key.0, key.1, key.2, key.3);
         }
-        self.levels[0].op.assign(problem);
-        self.has_dead = self.levels[0].op.diag.iter().any(|&d| d <= 0.0);
-        for l in 1..self.levels.len() {
-            let (fine, coarse) = self.levels.split_at_mut(l);
-            fine[l - 1].update_weights();
-            coarse[0].op.coarsen_from(&fine[l - 1].op);
+        self.ops[0].assign(problem);
+        self.cycle.has_dead = self.ops[0].diag.iter().any(|&d| d <= 0.0);
+        for l in 1..self.ops.len() {
+            let (fine, coarse) = self.ops.split_at_mut(l);
+            self.cycle.levels[l - 1].update_weights(&fine[l - 1]);
+            coarse[0].coarsen_from(&fine[l - 1]);
         }
-        let last = &self.levels.last().expect("at least one level").op;
-        self.coarse.factor(last)
+        self.cycle.coarse.factor(self.ops.last().expect("at least one level"))
     }
 
     /// z = M r: one V-cycle from z = 0 (a symmetric positive definite approximation of A⁻¹).
     pub fn precondition(&mut self, r: &[Real], z: &mut [Real]) {
-        cycle(&mut self.levels, &mut self.coarse, self.sweeps, r, z);
+        self.cycle.run(&self.ops, r, z);
+    }
+
+    /// The finest operator and the preconditioner, to use side by side.
+    pub fn split(&mut self) -> (&Stencil, impl FnMut(&[Real], &mut [Real]) + '_) {
+        let (ops, cycle) = (&self.ops, &mut self.cycle);
+        (&ops[0], move |r: &[Real], z: &mut [Real]| cycle.run(ops, r, z))
+    }
+}
+
+impl Cycle {
+    fn run(&mut self, ops: &[Stencil], r: &[Real], z: &mut [Real]) {
+        cycle(ops, &mut self.levels, &mut self.coarse, self.sweeps, r, z);
         if self.has_dead {
-            let inv = &self.levels[0].op.inv_diag;
-            z.par_iter_mut().zip(inv.par_iter()).for_each(|(z, &d)| {
+            z.par_iter_mut().zip(ops[0].inv_diag.par_iter()).for_each(|(z, &d)| {
                 if d == 0.0 {
                     *z = 0.0
                 }
@@ -303,30 +368,43 @@ impl Hierarchy {
     }
 }
 
-/// The V-cycle on `levels` (finest first) for A x = b, from x = 0.
-fn cycle(levels: &mut [Level], coarse: &mut SparseLlt, sweeps: usize, b: &[Real], x: &mut [Real]) {
-    let (level, rest) = levels.split_first_mut().expect("a level");
-    if rest.is_empty() {
+/// The V-cycle on `ops` (finest first) for A x = b, from x = 0.
+fn cycle(ops: &[Stencil], levels: &mut [Level], coarse: &mut SparseLlt, sweeps: usize, b: &[Real], x: &mut [Real]) {
+    let Some((level, rest)) = levels.split_first_mut() else {
         x.copy_from_slice(b);
         coarse.solve(x);
         return;
+    };
+    let op = &ops[0];
+    // first red pass from x = 0: the neighbours are zero
+    let nx = op.nx;
+    let first = |(j, row): (usize, &mut [Real])| {
+        let (b, inv) = (&b[j * nx..(j + 1) * nx], &op.inv_diag[j * nx..(j + 1) * nx]);
+        for (i, ((x, b), d)) in row.iter_mut().zip(b).zip(inv).enumerate() {
+            *x = if (i + j) % 2 == 0 { b * d } else { 0.0 };
+        }
+    };
+    if op.len() >= PARALLEL_CELLS {
+        x.par_chunks_mut(nx).enumerate().for_each(first);
+    } else {
+        x.chunks_mut(nx).enumerate().for_each(first);
     }
-    x.fill(0.0);
-    for _ in 0..sweeps {
-        relax(&level.op, b, x, 0);
-        relax(&level.op, b, x, 1);
+    relax(op, b, x, 1);
+    for _ in 1..sweeps {
+        relax(op, b, x, 0);
+        relax(op, b, x, 1);
     }
-    level.op.residual(x, b, &mut level.r);
+    op.residual(x, b, &mut level.r);
     level.restrict();
-    if level.op.is_singular() {
+    if op.is_singular() {
         let mean = sum(&level.bc) / level.bc.len() as Real;
         level.bc.iter_mut().for_each(|v| *v -= mean);
     }
-    cycle(rest, coarse, sweeps, &level.bc, &mut level.xc);
+    cycle(&ops[1..], rest, coarse, sweeps, &level.bc, &mut level.xc);
     level.prolong_add(x);
     for _ in 0..sweeps {
-        relax(&level.op, b, x, 1);
-        relax(&level.op, b, x, 0);
+        relax(op, b, x, 1);
+        relax(op, b, x, 0);
     }
 }
 
@@ -410,20 +488,21 @@ impl PressureSolver for Multigrid {
         params_value(self)
     }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
-        let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
+        let stats =
+            |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
         let b = &problem.rhs;
         let bnorm = dot(b, b).sqrt();
         if bnorm == 0.0 {
             x.fill(0.0);
             return Ok(stats(0, 0.0));
         }
-        self.hierarchy.sweeps = self.smoothing_sweeps;
+        self.hierarchy.set_sweeps(self.smoothing_sweeps);
         self.hierarchy.setup(problem).map_err(Error::Model)?;
         let n = x.len();
         let (mut r, mut z) = (vec![0.0; n], vec![0.0; n]);
         let mut history = vec![];
         for it in 0..=self.max_iterations {
-            self.hierarchy.levels[0].op.residual(x, b, &mut r);
+            self.hierarchy.operator().residual(x, b, &mut r);
             if problem.is_singular() {
                 let mean = sum(&r) / n as Real;
                 r.par_iter_mut().for_each(|v| *v -= mean);

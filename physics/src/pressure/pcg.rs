@@ -4,10 +4,11 @@
 //! is bit-identical for any number of threads. Not converging is an error that carries
 //! the residual history.
 
+use super::multigrid::{default_sweeps, Hierarchy};
+use super::stencil::Stencil;
 use multifield_core::math::Real;
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
-use super::multigrid::{default_sweeps, Hierarchy};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::{Error, Result};
 use rayon::prelude::*;
@@ -41,6 +42,9 @@ pub struct Pcg {
     /// Multigrid hierarchy, kept across solves.
     #[serde(skip)]
     multigrid: Hierarchy,
+    /// The operator (without multigrid), kept across solves.
+    #[serde(skip)]
+    stencil: Stencil,
 }
 
 fn default_pre() -> PreconditionerKind {
@@ -56,7 +60,13 @@ fn default_iters() -> usize {
 impl Pcg {
     /// A solver with the given preconditioner, tolerance and iteration cap.
     pub fn new(preconditioner: PreconditionerKind, tolerance: Real, max_iterations: usize) -> Self {
-        Self { preconditioner, tolerance, max_iterations, multigrid: Hierarchy::new(default_sweeps()) }
+        Self {
+            preconditioner,
+            tolerance,
+            max_iterations,
+            multigrid: Hierarchy::new(default_sweeps()),
+            stencil: Stencil::default(),
+        }
     }
 
     /// Sizes of the multigrid levels of the last solve, finest first (empty without multigrid).
@@ -83,7 +93,12 @@ multifield_core::register!(
     Pcg,
     "preconditioned conjugate gradients on the 5-point operator (warm start, deterministic)",
     &[
-        ParamDoc { name: "preconditioner", unit: "-", default: "\"jacobi\"", doc: "\"multigrid\" (V-cycle), \"jacobi\" or \"none\"" },
+        ParamDoc {
+            name: "preconditioner",
+            unit: "-",
+            default: "\"jacobi\"",
+            doc: "\"multigrid\" (V-cycle), \"jacobi\" or \"none\""
+        },
         ParamDoc { name: "tolerance", unit: "-", default: "1e-9", doc: "relative residual |b − Ap|/|b| to reach" },
         ParamDoc {
             name: "max_iterations",
@@ -94,13 +109,15 @@ multifield_core::register!(
     ]
 );
 
-/// Runs PCG on `problem` from the initial guess in `x`, with `precondition(r, z)`.
+/// Runs PCG on `problem` from the initial guess in `x`, with the operator `apply(x, y)`
+/// (y = A x, e.g. [`PoissonProblem::apply`]) and the preconditioner `precondition(r, z)`.
 pub fn pcg(
     name: &str,
     problem: &PoissonProblem,
     x: &mut [Real],
     tolerance: Real,
     max_iterations: usize,
+    apply: impl Fn(&[Real], &mut [Real]),
     mut precondition: impl FnMut(&[Real], &mut [Real]),
 ) -> Result<SolveStats> {
     let n = x.len();
@@ -112,7 +129,7 @@ pub fn pcg(
         return Ok(stats(0, 0.0));
     }
     let mut r = vec![0.0; n];
-    problem.apply(x, &mut r);
+    apply(x, &mut r);
     r.par_iter_mut().zip(b.par_iter()).for_each(|(r, b)| *r = b - *r);
     if problem.is_singular() {
         // keep the residual in the range of A (round-off drift of the constant)
@@ -130,9 +147,9 @@ pub fn pcg(
     let mut q = vec![0.0; n];
     let mut rz = dot(&r, &z);
     for it in 1..=max_iterations {
-        problem.apply(&p, &mut q);
+        apply(&p, &mut q);
         let pq = dot(&p, &q);
-        if !(pq > 0.0) {
+        if pq.is_nan() || pq <= 0.0 {
             break;
         }
         let alpha = rz / pq;
@@ -167,22 +184,22 @@ impl PressureSolver for Pcg {
         params_value(self)
     }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
+        let (tol, cap) = (self.tolerance, self.max_iterations);
+        if self.preconditioner == PreconditionerKind::Multigrid {
+            self.multigrid.setup(problem).map_err(Error::Model)?;
+            let (op, mg) = self.multigrid.split();
+            return pcg("pcg", problem, x, tol, cap, |x, y| op.apply(x, y), mg);
+        }
+        self.stencil.assign(problem);
+        let op = &self.stencil;
+        let apply = |x: &[Real], y: &mut [Real]| op.apply(x, y);
         match self.preconditioner {
-            PreconditionerKind::None => {
-                pcg("pcg", problem, x, self.tolerance, self.max_iterations, |r, z| z.copy_from_slice(r))
-            }
-            PreconditionerKind::Jacobi => {
-                let inv: Vec<Real> =
-                    problem.diagonal().into_iter().map(|d| if d > 0.0 { 1.0 / d } else { 1.0 }).collect();
-                pcg("pcg", problem, x, self.tolerance, self.max_iterations, |r, z| {
-                    z.par_iter_mut().zip(r.par_iter().zip(inv.par_iter())).for_each(|(z, (r, d))| *z = r * d)
+            PreconditionerKind::Jacobi => pcg("pcg", problem, x, tol, cap, apply, |r, z| {
+                z.par_iter_mut().zip(r.par_iter().zip(op.inv_diag.par_iter())).for_each(|(z, (r, d))| {
+                    *z = if *d > 0.0 { r * d } else { *r };
                 })
-            }
-            PreconditionerKind::Multigrid => {
-                self.multigrid.setup(problem).map_err(Error::Model)?;
-                let mg = &mut self.multigrid;
-                pcg("pcg", problem, x, self.tolerance, self.max_iterations, |r, z| mg.precondition(r, z))
-            }
+            }),
+            _ => pcg("pcg", problem, x, tol, cap, apply, |r, z| z.copy_from_slice(r)),
         }
     }
 }

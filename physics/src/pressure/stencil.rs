@@ -197,25 +197,37 @@ impl Stencil {
         }
     }
 
-    /// Σ a_f x_neighbour for cell (i, j), reading `x` through `get`.
-    #[inline(always)]
-    pub fn offdiag(&self, i: usize, j: usize, get: impl Fn(usize) -> Real) -> Real {
+    /// out\[i\] = Σ_faces a_f x_neighbour for the cells of row `j`.
+    #[inline]
+    pub fn offdiag_row(&self, j: usize, x: &[Real], out: &mut [Real]) {
         let nx = self.nx;
-        let (s, n) = (self.south(j), self.north(j));
-        let xr = j * (nx + 1);
-        self.ax[xr + i] * get(self.west(i) + j * nx)
-            + self.ax[xr + i + 1] * get(self.east(i) + j * nx)
-            + self.ay[i + j * nx] * get(i + s * nx)
-            + self.ay[i + (j + 1) * nx] * get(i + n * nx)
+        let row = j * nx;
+        let (s, n) = (self.south(j) * nx, self.north(j) * nx);
+        let aw = &self.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
+        let (a_s, a_n) = (&self.ay[row..row + nx], &self.ay[row + nx..row + 2 * nx]);
+        let (xc, xs, xn) = (&x[row..row + nx], &x[s..s + nx], &x[n..n + nx]);
+        let out = &mut out[..nx];
+        for (o, (((a_s, a_n), xs), xn)) in out.iter_mut().zip(a_s.iter().zip(a_n).zip(xs).zip(xn)) {
+            *o = a_s * xs + a_n * xn;
+        }
+        for (o, (a, x)) in out[1..].iter_mut().zip(aw[1..nx].iter().zip(&xc[..nx - 1])) {
+            *o += a * x;
+        }
+        for (o, (a, x)) in out[..nx - 1].iter_mut().zip(aw[1..nx].iter().zip(&xc[1..])) {
+            *o += a * x;
+        }
+        out[0] += aw[0] * xc[self.west(0)];
+        out[nx - 1] += aw[nx] * xc[self.east(nx - 1)];
     }
 
     /// r = b − A x.
     pub fn residual(&self, x: &[Real], b: &[Real], r: &mut [Real]) {
         let nx = self.nx;
         let body = |(j, row): (usize, &mut [Real])| {
-            for (i, out) in row.iter_mut().enumerate() {
-                let k = i + j * nx;
-                *out = b[k] - (self.diag[k] * x[k] - self.offdiag(i, j, |m| x[m]));
+            self.offdiag_row(j, x, row);
+            let k = j * nx;
+            for (((r, b), d), x) in row.iter_mut().zip(&b[k..k + nx]).zip(&self.diag[k..k + nx]).zip(&x[k..k + nx]) {
+                *r += b - d * x;
             }
         };
         if self.len() >= PARALLEL_CELLS {
@@ -228,11 +240,18 @@ impl Stencil {
     /// y = A x.
     pub fn apply(&self, x: &[Real], y: &mut [Real]) {
         let nx = self.nx;
-        y.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
-            for (i, out) in row.iter_mut().enumerate() {
-                *out = self.diag[i + j * nx] * x[i + j * nx] - self.offdiag(i, j, |m| x[m]);
+        let body = |(j, row): (usize, &mut [Real])| {
+            self.offdiag_row(j, x, row);
+            let k = j * nx;
+            for ((y, d), x) in row.iter_mut().zip(&self.diag[k..k + nx]).zip(&x[k..k + nx]) {
+                *y = d * x - *y;
             }
-        });
+        };
+        if self.len() >= PARALLEL_CELLS {
+            y.par_chunks_mut(nx).enumerate().for_each(body);
+        } else {
+            y.chunks_mut(nx).enumerate().for_each(body);
+        }
     }
 }
 
