@@ -178,6 +178,47 @@ impl Diagnostics {
     }
 }
 
+/// Header of `bodies.csv` (one row per body per output time).
+pub const BODIES_HEADER: &str = "step,time,body,x,y,vx,vy,omega,fx,fy,torque";
+
+/// Writer of `bodies.csv`: centroid, velocity, angular velocity, hydrodynamic force and
+/// torque of every body, flushed row by row.
+struct BodiesCsv {
+    file: BufWriter<File>,
+    path: PathBuf,
+}
+
+impl BodiesCsv {
+    fn create(path: PathBuf) -> Result<Self, Error> {
+        let io = |source| Error::Io { path: path.clone(), source };
+        let mut file = BufWriter::new(File::create(&path).map_err(io)?);
+        writeln!(file, "{BODIES_HEADER}").and_then(|_| file.flush()).map_err(io)?;
+        Ok(Self { file, path })
+    }
+    fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
+        let x = number;
+        for (_, b) in sim.bodies() {
+            let name = b.name.replace([',', '"', '\n'], ";");
+            writeln!(
+                self.file,
+                "{},{},{name},{},{},{},{},{},{},{},{}",
+                sim.steps,
+                x(sim.time),
+                x(b.position.x),
+                x(b.position.y),
+                x(b.velocity.x),
+                x(b.velocity.y),
+                x(b.angular_velocity),
+                x(b.force.x),
+                x(b.force.y),
+                x(b.torque)
+            )
+            .map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        }
+        self.file.flush().map_err(|source| Error::Io { path: self.path.clone(), source })
+    }
+}
+
 /// A number as it round-trips, in plain notation for moderate magnitudes and in
 /// scientific notation otherwise (`1.5e-16`, not 0.000000000000000150…).
 pub fn number(x: Real) -> String {
@@ -268,6 +309,10 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     };
     write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
     let mut csv = Diagnostics::create(dir.join("diagnostics.csv"))?;
+    let mut bodies = if sim.bodies().is_empty() { None } else { Some(BodiesCsv::create(dir.join("bodies.csv"))?) };
+    if let Some(b) = bodies.as_mut() {
+        b.write(&sim)?;
+    }
     let bound = ENERGY_GROWTH * reference_energy(&sim);
     summary.initial_kinetic_energy = sim.initial_energy;
     summary.final_kinetic_energy = sim.initial_energy;
@@ -345,6 +390,9 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         let due = interval <= 0.0 || d.time >= next_output * (1.0 - 1e-9) || unstable.is_some() || done(d.time);
         if due {
             csv.write(&d)?;
+            if let Some(b) = bodies.as_mut() {
+                b.write(&sim)?;
+            }
             if interval > 0.0 {
                 while next_output <= d.time * (1.0 + 1e-9) {
                     next_output += interval;
@@ -371,6 +419,9 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     if !last_row_written && sim.steps > 0 {
         // the last step is always in the file, whatever the interval or why the run stopped
         csv.write(&sim.last)?;
+        if let Some(b) = bodies.as_mut() {
+            b.write(&sim)?;
+        }
     }
     summary.wall_seconds = start.elapsed().as_secs_f64();
     summary.diagnostics_rows = csv.rows;

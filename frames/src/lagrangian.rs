@@ -619,7 +619,6 @@ impl Frame for Lagrangian {
         let dinv = shape.apic_d_inverse(h);
         let track_f = self.has_point_stress;
         let rigid = ctx.stress.iter().any(|m| m.is_rigid()) && !self.bodies.is_empty();
-        let transfer = if rigid { Transfer::Pic } else { transfer };
         if !self.bodies.is_empty() {
             self.x_old.clone_from(&self.points.x);
         }
