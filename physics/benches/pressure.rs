@@ -4,8 +4,11 @@
 //! symbolic Cholesky factorization are reused across solves, as in a run; the numeric
 //! set-up (coarse operators, numeric factorization) is part of every solve.
 //!
-//! `cargo bench -p multifield-physics --bench pressure`; iteration counts are printed to
-//! stderr (`iterations <solver> <rho> <n> <count>`).
+//! `cargo bench -p multifield-physics --bench pressure`. Before criterion measures a case,
+//! a line `solve <solver> rho <ρ> n <n> threads <t> iterations <k> cpu_ms <c> wall_ms <w>`
+//! goes to stderr: the median over a few solves of the process CPU time (all threads) and of
+//! the wall time. On a shared machine the CPU time is the robust figure: it does not count
+//! the time other processes hold the cores. `PRESSURE_SIZES=64,128` limits the sizes.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use multifield_core::boundary::Boundaries;
@@ -55,6 +58,20 @@ pub fn dkt(n: usize, rho_disk: Real) -> PoissonProblem {
 
 type Make = fn() -> Box<dyn PressureSolver>;
 
+/// CPU time of this process, all threads (ns), from /proc (0 where unavailable).
+fn process_cpu_ns() -> u64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
+    tasks
+        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
 fn solvers() -> Vec<(&'static str, Make, usize)> {
     vec![
         ("mg_pcg", || Box::new(Pcg::new(PreconditionerKind::Multigrid, 1e-8, 1000)), 1024),
@@ -83,7 +100,20 @@ fn bench(c: &mut Criterion) {
                     let mut solver = make();
                     let mut p = vec![0.0; n * n];
                     let stats = pool.install(|| solver.solve(&problem, &mut p)).expect("solve");
-                    eprintln!("iterations {name} {rho} {n} {}", stats.iterations);
+                    let (mut cpu, mut wall) = (vec![], vec![]);
+                    for _ in 0..((1 << 22) / (n * n)).clamp(3, 15) {
+                        p.fill(0.0);
+                        let (c0, t0) = (process_cpu_ns(), std::time::Instant::now());
+                        pool.install(|| solver.solve(&problem, &mut p)).expect("solve");
+                        wall.push(t0.elapsed().as_secs_f64() * 1e3);
+                        cpu.push((process_cpu_ns() - c0) as f64 * 1e-6);
+                    }
+                    eprintln!(
+                        "solve {name} rho {rho} n {n} threads {threads} iterations {} cpu_ms {:.3} wall_ms {:.3}",
+                        stats.iterations,
+                        median(cpu),
+                        median(wall)
+                    );
                     group.bench_function(BenchmarkId::new(name, n), |b| {
                         b.iter(|| {
                             p.fill(0.0);
