@@ -61,6 +61,16 @@ enum Command {
     },
     /// List every registered plugin by role, with its parameters, units and defaults.
     Plugins,
+    /// Drafting–kissing–tumbling analysis of a finished two-disk run: kiss and tumble
+    /// times, RMS distance to Uhlmann (2005), and trajectory plots (PNG and SVG) against
+    /// the published curves, written into the run directory.
+    Dkt {
+        /// The run's output directory (with case.ron and bodies.csv).
+        run: PathBuf,
+        /// Folder of the reference curves [default: ../shared/reference/dkt-uhlmann2005 if present].
+        #[arg(long)]
+        reference: Option<PathBuf>,
+    },
 }
 
 /// Why the command stopped.
@@ -103,6 +113,7 @@ pub fn main() -> ExitCode {
             plugins();
             Ok(())
         }
+        Some(Command::Dkt { run, reference }) => dkt(&run, reference),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -253,4 +264,28 @@ fn plugins() {
         }
         println!();
     }
+}
+
+/// `multifield dkt RUN_DIR`: analysis and plots of a drafting–kissing–tumbling run.
+fn dkt(run: &Path, reference: Option<PathBuf>) -> Result<(), Failure> {
+    let reference = reference.or_else(|| {
+        let d = PathBuf::from("../shared/reference/dkt-uhlmann2005");
+        d.is_dir().then_some(d)
+    });
+    let (report, tracks, case) = crate::dkt::analyse(run, reference.as_deref())?;
+    let pictures = crate::dkt::plot(run, &report, &tracks, &case, reference.as_deref())?;
+    let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.4}"));
+    println!("trailing disk: {}, leading disk: {}, d = {}", report.trailing, report.leading, report.diameter);
+    println!("kiss time (gap along gravity first <= d): {}", show(report.kiss_time));
+    println!("tumble time (trailing passes leading):     {}", show(report.tumble_time));
+    println!("smallest gap along gravity: {:.3} d", report.min_gap_over_d);
+    if let Some(e) = report.rms_position_error_over_d {
+        println!("RMS distance to Uhlmann 2005 positions over [0, 0.28]: {e:.3} d");
+    }
+    let json = serde_json::to_string_pretty(&report).map_err(|e| Failure::Run(e.to_string()))?;
+    std::fs::write(run.join("dkt.json"), json + "\n").map_err(|e| Failure::Run(format!("{}: {e}", run.display())))?;
+    for p in pictures {
+        println!("wrote {} (and .svg)", p.display());
+    }
+    Ok(())
 }

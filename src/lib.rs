@@ -23,6 +23,8 @@ pub use multifield_frames as frames;
 pub use multifield_physics as physics;
 
 pub mod cli;
+pub mod dkt;
+pub mod plot;
 pub mod run;
 
 /// Keeps the registrations of the frames and physics crates in the final binary

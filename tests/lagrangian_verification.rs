@@ -149,7 +149,8 @@ fn lagrangian_run_is_bit_identical_with_one_and_two_threads() {
     };
     let (a, b) = (run_with(1), run_with(2));
     assert!(!a.0.is_empty());
-    let bits = |v: &[multifield_core::math::Vector]| v.iter().flat_map(|p| [p.x.to_bits(), p.y.to_bits()]).collect::<Vec<_>>();
+    let bits =
+        |v: &[multifield_core::math::Vector]| v.iter().flat_map(|p| [p.x.to_bits(), p.y.to_bits()]).collect::<Vec<_>>();
     assert_eq!(bits(&a.0), bits(&b.0), "positions differ between 1 and 2 threads");
     assert_eq!(bits(&a.1), bits(&b.1), "velocities differ between 1 and 2 threads");
     let pb = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

@@ -225,6 +225,9 @@ pub struct ContactContext<'a> {
     pub boundaries: &'a Boundaries,
     /// Gravity.
     pub gravity: Vector,
+    /// Material density of the ambient fluid (the field that fills the rest of the
+    /// domain; 0 when there is none), for buoyant weights (m − ρ_f V) |g|.
+    pub fluid_density: Real,
     /// Every body of every field.
     pub bodies: &'a [BodyState],
 }

@@ -297,6 +297,12 @@ impl Simulation {
         self.fields.iter().position(|f| f.name == name)
     }
 
+    /// Material density of the field that fills what the others leave (the ambient
+    /// fluid of bodies), 0 when no field does.
+    pub fn fluid_density(&self) -> Real {
+        self.fields.iter().find(|f| f.fills_rest).map_or(0.0, |f| f.density)
+    }
+
     /// Largest speed of any field.
     pub fn max_speed(&self) -> Real {
         self.fields.iter().map(|f| f.frame.max_speed()).fold(0.0, Real::max)
@@ -345,6 +351,7 @@ impl Simulation {
                 grid: &self.grid,
                 boundaries: &self.boundaries,
                 gravity: self.gravity,
+                fluid_density: self.fluid_density(),
                 bodies: &bodies,
             };
             if let Some(dt) = c.stable_dt(&ctx) {
@@ -689,8 +696,13 @@ impl Simulation {
             return;
         }
         let mut out = vec![(Vector::zeros(), 0.0); all.len()];
-        let ctx =
-            ContactContext { grid: &self.grid, boundaries: &self.boundaries, gravity: self.gravity, bodies: &all };
+        let ctx = ContactContext {
+            grid: &self.grid,
+            boundaries: &self.boundaries,
+            gravity: self.gravity,
+            fluid_density: self.fluid_density(),
+            bodies: &all,
+        };
         c.forces(&ctx, &mut out);
         let mut k = 0;
         for (f, bodies) in per_field.iter().enumerate() {

@@ -5,8 +5,9 @@
 //!
 //!   F_ij = (c_ij / ε) ((R_i + R_j + ρ − d_ij)/ρ)² (X_i − X_j)/d_ij   for d_ij ≤ R_i + R_j + ρ,
 //!
-//! zero beyond; c_ij = ½ (M_i + M_j) |g| (the weight; `force_scale` when there is no
-//! gravity), ρ = `range_cells` · h, ε = `stiffness`. A wall acts through the mirror image
+//! zero beyond; c_ij = ½ (W_i + W_j), W = (M − ρ_f V) |g| the buoyant weight (METHOD.md §4;
+//! the full weight when there is no ambient fluid, `force_scale` when there is no gravity
+//! or the bodies are neutrally buoyant), ρ = `range_cells` · h, ε = `stiffness`. A wall acts through the mirror image
 //! of the body. Its stiffness k = 2c/(ερ) limits the step while bodies are in range:
 //! Δt ≤ `dt_factor` · sqrt(M/k) (METHOD.md §5).
 
@@ -23,10 +24,11 @@ pub struct Repulsion {
     /// Range ρ of the force, in cells.
     #[serde(default = "default_range")]
     pub range_cells: Real,
-    /// ε: the force at full range overlap is the weight divided by ε (dimensionless).
+    /// ε: the force at full range overlap is the buoyant weight divided by ε (dimensionless).
     #[serde(default = "default_stiffness")]
     pub stiffness: Real,
-    /// Force scale c when there is no gravity (force per unit depth).
+    /// Force scale c when the buoyant weight is zero (no gravity, or neutrally buoyant
+    /// bodies), force per unit depth.
     #[serde(default)]
     pub force_scale: Real,
     /// Whether walls repel bodies.
@@ -68,13 +70,20 @@ impl Repulsion {
         Ok(())
     }
 
+    /// c_ij: the mean buoyant weight of the pair (of the body alone against a wall).
     fn scale(&self, ctx: &ContactContext, a: &BodyState, b: Option<&BodyState>) -> Real {
-        let m = b.map_or(a.mass, |b| 0.5 * (a.mass + b.mass));
-        let g = ctx.gravity.norm();
-        if g > 0.0 {
-            m * g
+        let buoyant = |s: &BodyState| (s.mass - ctx.fluid_density * s.volume).abs();
+        let m = b.map_or(buoyant(a), |b| 0.5 * (buoyant(a) + buoyant(b)));
+        let w = m * ctx.gravity.norm();
+        if w > 0.0 || self.force_scale > 0.0 {
+            if w > 0.0 {
+                w
+            } else {
+                self.force_scale
+            }
         } else {
-            self.force_scale
+            // neutrally buoyant under gravity and no scale given: the full weight
+            b.map_or(a.mass, |b| 0.5 * (a.mass + b.mass)) * ctx.gravity.norm()
         }
     }
 
@@ -124,8 +133,10 @@ multifield_core::register!(
     "Glowinski/Wan–Turek short-range repulsion (c/ε)((Ri+Rj+ρ−d)/ρ)² between bodies and walls",
     &[
         ParamDoc { name: "range_cells", unit: "cells", default: "2.0", doc: "range ρ of the force" },
-        ParamDoc { name: "stiffness", unit: "-", default: "1e-2", doc: "ε: force at full overlap = weight/ε" },
-        ParamDoc { name: "force_scale", unit: "force/length", default: "0", doc: "c when gravity is zero" },
+        ParamDoc {
+            name: "stiffness", unit: "-", default: "1e-2", doc: "ε: force at full overlap = buoyant weight/ε"
+        },
+        ParamDoc { name: "force_scale", unit: "force/length", default: "0", doc: "c when the buoyant weight is zero" },
         ParamDoc { name: "walls", unit: "-", default: "true", doc: "whether walls repel bodies" },
         ParamDoc { name: "dt_factor", unit: "-", default: "0.1", doc: "Δt ≤ dt_factor·sqrt(M/k) while in range" },
     ]
@@ -183,11 +194,18 @@ mod tests {
     fn force_follows_the_quadratic_law_and_is_equal_and_opposite() {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
-        let body = |x: Real, y: Real| BodyState { mass: 2.0, radius: 0.1, position: Vector::new(x, y), ..Default::default() };
+        let body =
+            |x: Real, y: Real| BodyState { mass: 2.0, radius: 0.1, position: Vector::new(x, y), ..Default::default() };
         let rep = Repulsion { range_cells: 2.0, stiffness: 0.5, force_scale: 0.0, walls: false, dt_factor: 0.1 };
         // ρ = 0.2, R_i + R_j = 0.2, d = 0.3: overlap (0.2 + 0.2 − 0.3)/0.2 = 0.5
         let bodies = [body(0.3, 0.5), body(0.6, 0.5)];
-        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: Vector::new(0.0, -10.0), bodies: &bodies };
+        let ctx = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: Vector::new(0.0, -10.0),
+            fluid_density: 0.0,
+            bodies: &bodies,
+        };
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         rep.forces(&ctx, &mut out);
         let expected = 2.0 * 10.0 / 0.5 * 0.25;
@@ -201,12 +219,47 @@ mod tests {
     }
 
     #[test]
+    fn the_force_scales_with_the_buoyant_weight() {
+        let grid = Grid::new(10, 10, 0.1, Vector::zeros());
+        let bc = Boundaries::default();
+        // m = 1.5 ρ_f V: buoyant weight (1.5 − 1) V |g| = m|g|/3
+        let body = |x: Real| BodyState {
+            mass: 1.5 * 0.04,
+            volume: 0.04,
+            radius: 0.1,
+            position: Vector::new(x, 0.5),
+            ..Default::default()
+        };
+        let rep = Repulsion { range_cells: 2.0, stiffness: 0.5, force_scale: 7.0, walls: false, dt_factor: 0.1 };
+        let bodies = [body(0.3), body(0.6)];
+        let g = Vector::new(0.0, -10.0);
+        let mut out = vec![(Vector::zeros(), 0.0); 2];
+        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: g, fluid_density: 1.0, bodies: &bodies };
+        rep.forces(&ctx, &mut out);
+        let expected = 0.5 * 0.04 * 10.0 / 0.5 * 0.25;
+        assert!((out[0].0.x + expected).abs() < 1e-12, "{:?} against {expected}", out[0]);
+        let dry = rep.stable_dt(&ContactContext { fluid_density: 0.0, ..ctx }).unwrap();
+        let wet = rep.stable_dt(&ctx).unwrap();
+        assert!((wet / dry - 3.0_f64.sqrt()).abs() < 1e-12, "step ratio {}", wet / dry);
+        // neutrally buoyant: the given force scale
+        let ctx = ContactContext { fluid_density: 1.5, ..ctx };
+        rep.forces(&ctx, &mut out);
+        assert!((out[0].0.x + 7.0 / 0.5 * 0.25).abs() < 1e-12, "{:?}", out[0]);
+    }
+
+    #[test]
     fn wall_pushes_a_body_away_and_sets_a_step_limit() {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let b = [BodyState { mass: 1.0, radius: 0.1, position: Vector::new(0.5, 0.15), ..Default::default() }];
         let rep = Repulsion { range_cells: 2.0, stiffness: 1e-2, force_scale: 0.0, walls: true, dt_factor: 0.1 };
-        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: Vector::new(0.0, -10.0), bodies: &b };
+        let ctx = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: Vector::new(0.0, -10.0),
+            fluid_density: 0.0,
+            bodies: &b,
+        };
         let mut out = vec![(Vector::zeros(), 0.0)];
         rep.forces(&ctx, &mut out);
         // image at y = −0.15: d = 0.3, reach 0.2, ρ 0.2 → overlap 0.5

@@ -1,0 +1,283 @@
+//! Drafting–kissing–tumbling analysis of a run: reads `bodies.csv` and `case.ron`, finds
+//! the kiss time (the gap along gravity between the two centres first ≤ d) and the tumble
+//! time (the trailing disk passes the leading one along gravity), measures the RMS distance
+//! to Uhlmann (2005) along-gravity positions, and plots the trajectories against the
+//! published curves of `shared/reference/dkt-uhlmann2005` (PNG and SVG).
+
+use crate::core::case::Case;
+use crate::core::error::Error;
+use crate::core::math::Real;
+use crate::plot::{write_chart, Chart, Series};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The time history of one body.
+#[derive(Clone, Debug, Default)]
+pub struct Track {
+    /// Times.
+    pub t: Vec<Real>,
+    /// Centroid x.
+    pub x: Vec<Real>,
+    /// Centroid y.
+    pub y: Vec<Real>,
+    /// Velocity x.
+    pub vx: Vec<Real>,
+    /// Velocity y.
+    pub vy: Vec<Real>,
+    /// Angular velocity.
+    pub omega: Vec<Real>,
+}
+
+/// Reads `bodies.csv` into one track per body name.
+pub fn read_bodies(path: &Path) -> Result<BTreeMap<String, Track>, Error> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let mut out: BTreeMap<String, Track> = BTreeMap::new();
+    for (n, line) in text.lines().enumerate().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() < 8 {
+            continue;
+        }
+        let num = |k: usize| {
+            f[k].parse::<Real>().map_err(|_| {
+                Error::Model(format!("{}:{}: column {} is not a number: `{}`", path.display(), n + 1, k + 1, f[k]))
+            })
+        };
+        let time = num(1)?;
+        let tr = out.entry(f[2].to_string()).or_default();
+        if tr.t.last().is_some_and(|&t| t >= time) {
+            continue;
+        }
+        tr.t.push(time);
+        tr.x.push(num(3)?);
+        tr.y.push(num(4)?);
+        tr.vx.push(num(5)?);
+        tr.vy.push(num(6)?);
+        tr.omega.push(num(7)?);
+    }
+    Ok(out)
+}
+
+/// Linear interpolation of (t, v) at `t`, `None` outside the range.
+pub fn interpolate(ts: &[Real], vs: &[Real], t: Real) -> Option<Real> {
+    if ts.is_empty() || t < ts[0] || t > *ts.last()? {
+        return None;
+    }
+    let k = ts.partition_point(|&x| x < t);
+    if k == 0 {
+        return Some(vs[0]);
+    }
+    let (t0, t1, v0, v1) = (ts[k - 1], ts[k], vs[k - 1], vs[k]);
+    Some(if t1 > t0 { v0 + (v1 - v0) * (t - t0) / (t1 - t0) } else { v1 })
+}
+
+/// Reads a two-column reference file.
+pub fn read_reference(path: &Path) -> Result<(Vec<Real>, Vec<Real>), Error> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let mut t = vec![];
+    let mut v = vec![];
+    for line in text.lines() {
+        let mut it = line.split_whitespace().filter_map(|s| s.parse::<Real>().ok());
+        if let (Some(a), Some(b)) = (it.next(), it.next()) {
+            t.push(a);
+            v.push(b);
+        }
+    }
+    Ok((t, v))
+}
+
+/// What the analysis found.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Report {
+    /// Disk diameter d (from the bodies' radius in case.ron).
+    pub diameter: Real,
+    /// Name of the trailing (upstream) disk.
+    pub trailing: String,
+    /// Name of the leading (downstream) disk.
+    pub leading: String,
+    /// First time the gap along gravity between the centres is ≤ d.
+    pub kiss_time: Option<Real>,
+    /// First time the trailing disk passes the leading one along gravity.
+    pub tumble_time: Option<Real>,
+    /// Smallest gap along gravity, in units of d.
+    pub min_gap_over_d: Real,
+    /// RMS distance to Uhlmann's along-gravity positions of both disks over [0, 0.28] s, in d.
+    pub rms_position_error_over_d: Option<Real>,
+    /// Largest speed of either disk along gravity.
+    pub max_settling_speed: Real,
+}
+
+/// Along-gravity coordinate measured from the upstream wall, for gravity along ±x or ±y.
+struct Frame {
+    axis: usize,
+    sign: Real,
+    wall: Real,
+    center: Real,
+}
+
+impl Frame {
+    fn new(case: &Case) -> Self {
+        let g = case.gravity;
+        let axis = if g[1].abs() >= g[0].abs() { 1 } else { 0 };
+        let sign = if g[axis] < 0.0 { -1.0 } else { 1.0 };
+        let (lo, size) = (case.domain.origin[axis], case.domain.size[axis]);
+        let wall = if sign < 0.0 { lo + size } else { lo };
+        let other = 1 - axis;
+        let center = case.domain.origin[other] + 0.5 * case.domain.size[other];
+        Self { axis, sign, wall, center }
+    }
+    /// Distance from the upstream wall along gravity.
+    fn along(&self, x: Real, y: Real) -> Real {
+        let p = if self.axis == 1 { y } else { x };
+        self.sign * (p - self.wall)
+    }
+    fn lateral(&self, x: Real, y: Real) -> Real {
+        (if self.axis == 1 { x } else { y }) - self.center
+    }
+}
+
+/// Analyses the run in `dir`; with `reference`, measures against Uhlmann's curves.
+pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap<String, Track>, Case), Error> {
+    let case_text = std::fs::read_to_string(dir.join("case.ron"))
+        .map_err(|source| Error::Io { path: dir.join("case.ron"), source })?;
+    let case = Case::from_ron(&case_text, &dir.join("case.ron"))?;
+    let tracks = read_bodies(&dir.join("bodies.csv"))?;
+    if tracks.len() != 2 {
+        return Err(Error::Model(format!(
+            "{}: DKT analysis needs exactly two bodies, found {}",
+            dir.join("bodies.csv").display(),
+            tracks.len()
+        )));
+    }
+    let mut diameter = 0.0;
+    for f in &case.fields {
+        if let crate::core::case::Region::Bodies(b) = &f.region {
+            for body in b {
+                if let crate::core::case::BodyShape::Disk { radius, .. } = body.shape {
+                    diameter = 2.0 * radius;
+                }
+            }
+        }
+    }
+    let fr = Frame::new(&case);
+    let names: Vec<&String> = tracks.keys().collect();
+    let s0 = |n: &String| fr.along(tracks[n].x[0], tracks[n].y[0]);
+    let (trailing, leading) = if s0(names[0]) < s0(names[1]) { (names[0], names[1]) } else { (names[1], names[0]) };
+    let (a, b) = (&tracks[trailing], &tracks[leading]);
+    let mut report = Report {
+        diameter,
+        trailing: trailing.clone(),
+        leading: leading.clone(),
+        min_gap_over_d: Real::INFINITY,
+        ..Report::default()
+    };
+    let n = a.t.len().min(b.t.len());
+    for k in 0..n {
+        let gap = fr.along(b.x[k], b.y[k]) - fr.along(a.x[k], a.y[k]);
+        report.min_gap_over_d = report.min_gap_over_d.min(gap / diameter);
+        if report.kiss_time.is_none() && gap <= diameter {
+            report.kiss_time = Some(a.t[k]);
+        }
+        if report.tumble_time.is_none() && gap < 0.0 {
+            report.tumble_time = Some(a.t[k]);
+        }
+        let speed = |tr: &Track| (if fr.axis == 1 { tr.vy[k] } else { tr.vx[k] }).abs();
+        report.max_settling_speed = report.max_settling_speed.max(speed(a)).max(speed(b));
+    }
+    if let Some(dir) = reference {
+        let mut sum = 0.0;
+        let mut count = 0.0;
+        for (track, which) in [(a, "trailing"), (b, "leading")] {
+            let (rt, rs) = read_reference(&dir.join(format!("Uhlmann2005-fig6a-{which}-particle.csv")))?;
+            let s: Vec<Real> = (0..track.t.len()).map(|k| fr.along(track.x[k], track.y[k])).collect();
+            for (t, r) in rt.iter().zip(&rs) {
+                if *t <= 0.28 {
+                    if let Some(v) = interpolate(&track.t, &s, *t) {
+                        sum += (v - r).powi(2);
+                        count += 1.0;
+                    }
+                }
+            }
+        }
+        if count > 0.0 {
+            report.rms_position_error_over_d = Some((sum / count).sqrt() / diameter);
+        }
+    }
+    Ok((report, tracks, case))
+}
+
+/// Writes `dkt_position.{png,svg}` (along gravity) and `dkt_lateral.{png,svg}` into `out`,
+/// with the published curves when `reference` is given.
+pub fn plot(
+    out: &Path,
+    report: &Report,
+    tracks: &BTreeMap<String, Track>,
+    case: &Case,
+    reference: Option<&Path>,
+) -> Result<Vec<PathBuf>, Error> {
+    let fr = Frame::new(case);
+    let mut along = vec![];
+    let mut lateral = vec![];
+    for (k, (name, which)) in [(&report.trailing, "trailing"), (&report.leading, "leading")].into_iter().enumerate() {
+        let tr = &tracks[name];
+        let idx = 0..tr.t.len();
+        along.push(Series {
+            label: format!("{} ({which}), this run", name),
+            points: idx.clone().map(|i| (tr.t[i], fr.along(tr.x[i], tr.y[i]))).collect(),
+            color: k,
+            markers: false,
+        });
+        lateral.push(Series {
+            label: format!("{} ({which}), this run", name),
+            points: idx.map(|i| (tr.t[i], fr.lateral(tr.x[i], tr.y[i]))).collect(),
+            color: k,
+            markers: false,
+        });
+        if let Some(dir) = reference {
+            let (t, s) = read_reference(&dir.join(format!("Uhlmann2005-fig6a-{which}-particle.csv")))?;
+            along.push(Series {
+                label: format!("Uhlmann 2005, {which}"),
+                points: t.into_iter().zip(s).collect(),
+                color: k + 2,
+                markers: true,
+            });
+            let (t, s) = read_reference(&dir.join(format!("Uhlmann2005-fig7a-{which}-particle.csv")))?;
+            lateral.push(Series {
+                label: format!("Uhlmann 2005, {which}"),
+                points: t.into_iter().zip(s).collect(),
+                color: k + 2,
+                markers: true,
+            });
+            let (t, s) = read_reference(&dir.join(format!("Koblitz2017-fig10c-{which}-particle.csv")))?;
+            let (tref, d) = (report.diameter / 13.88, report.diameter);
+            along.push(Series {
+                label: format!("Koblitz 2017, {which}"),
+                points: t.into_iter().zip(s).map(|(t, s)| (t * tref, -s * d)).collect(),
+                color: k + 4,
+                markers: true,
+            });
+        }
+    }
+    let stem_a = out.join("dkt_position");
+    write_chart(
+        &stem_a,
+        &Chart {
+            title: format!("{}: position along gravity (from the upstream wall)", case.name),
+            x_label: "time".into(),
+            y_label: "position along gravity".into(),
+            series: along,
+            log: (false, false),
+        },
+    )?;
+    let stem_l = out.join("dkt_lateral");
+    write_chart(
+        &stem_l,
+        &Chart {
+            title: format!("{}: lateral position (from the channel axis)", case.name),
+            x_label: "time".into(),
+            y_label: "lateral position".into(),
+            series: lateral,
+            log: (false, false),
+        },
+    )?;
+    Ok(vec![stem_a.with_extension("png"), stem_l.with_extension("png")])
+}
