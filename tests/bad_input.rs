@@ -148,7 +148,7 @@ fn an_override_of_an_unknown_entry_lists_the_entries() {
         &["`ned` is not an entry of `time`", "cfl, end, fixed_dt, max_dt, max_steps, min_dt", "did you mean `end`?"],
     );
     let m = error_of("override3.ron", GOOD, &["fields.air.density=1.0"]);
-    assert_contains(&m, &["`fields` has 1 entries", "an entry's name, not `air`"]);
+    assert_contains(&m, &["`fields` has 1 entries", "an entry's name (water), not `air`"]);
     let m = error_of("override4.ron", GOOD, &["time.cfl=-1"]);
     assert_contains(&m, &["time.cfl", "the CFL number must lie in (0, 1]"]);
 }
@@ -208,4 +208,51 @@ fn the_binary_exits_with_code_2_and_the_message_on_bad_input() {
     let (code, _, stderr) = multifield(&["check", plugin.to_str().unwrap()]);
     assert_eq!(code, 2);
     assert!(stderr.contains("unknown pressure model `pgc`") && stderr.contains("did you mean `pcg`?"), "{stderr}");
+}
+
+#[test]
+fn an_unknown_key_inside_a_choice_lists_the_valid_ones() {
+    // before `deny_unknown_fields` on the enums, `presure` was silently ignored (pressure 0)
+    let text = GOOD.replace(
+        "time:",
+        "boundaries: (left: NoSlip, right: Outflow(presure: 1.0), bottom: NoSlip, top: NoSlip),\n    time:",
+    );
+    let m = error_of("variant_key.ron", &text, &[]);
+    assert_contains(&m, &["variant_key.ron:", "unknown key `presure`", "pressure", "did you mean `pressure`?"]);
+    let text = GOOD.replace("region: All", "region: Disk(centre: (0.5, 0.5), radius: 0.2)");
+    let m = error_of("region_key.ron", &text, &[]);
+    assert_contains(&m, &["unknown key `centre`", "center", "radius"]);
+}
+
+#[test]
+fn an_unknown_choice_lists_the_valid_ones() {
+    let text =
+        GOOD.replace("time:", "boundaries: (left: Wall, right: NoSlip, bottom: NoSlip, top: NoSlip),\n    time:");
+    let m = error_of("variant.ron", &text, &[]);
+    assert_contains(&m, &["variant.ron:", "unknown choice `Wall`", "NoSlip", "FreeSlip", "Periodic", "Outflow"]);
+    let text = GOOD.replace("region: All", "region: Circle(center: (0.5, 0.5), radius: 0.2)");
+    let m = error_of("region.ron", &text, &[]);
+    assert_contains(&m, &["unknown choice `Circle`", "Rectangle", "Disk", "Rest"]);
+}
+
+#[test]
+fn overrides_choose_enum_variants_and_name_the_valid_entries() {
+    multifield::link_all();
+    let path = case_file("set_variant.ron", GOOD);
+    let set = |s: &[&str]| Case::load(&path, &s.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+    let case = set(&[
+        "boundaries.left=FreeSlip",
+        "boundaries.top=Velocity(velocity: (1.0, 0.0), profile: Parabolic)",
+        "fields.water.region=Disk(center: (0.5, 0.5), radius: 0.25)",
+    ])
+    .unwrap();
+    use multifield::core::boundary::{Boundary, Profile};
+    use multifield::core::case::Region;
+    assert_eq!(case.boundaries.left, Boundary::FreeSlip);
+    assert_eq!(case.boundaries.top, Boundary::Velocity { velocity: [1.0, 0.0], profile: Profile::Parabolic });
+    assert_eq!(case.fields[0].region, Region::Disk { center: [0.5, 0.5], radius: 0.25 });
+    let m = set(&["fields.air.density=2.0"]).unwrap_err().to_string();
+    assert_contains(&m, &["`fields` has 1 entries", "(water)", "not `air`"]);
+    let m = set(&["boundaries.left=Wall"]).unwrap_err().to_string();
+    assert_contains(&m, &["boundaries.left=Wall", "not a valid case", "Wall"]);
 }

@@ -57,6 +57,7 @@ pub enum Profile {
 
 /// The condition on one side.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Boundary {
     /// Wall at rest; fluid sticks to it.
     NoSlip,

@@ -86,6 +86,7 @@ fn default_min_dt() -> Real {
 
 /// Where a field is present at the start.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Region {
     /// The whole domain.
     All,
@@ -112,6 +113,7 @@ pub enum Region {
 
 /// The shape of a body.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum BodyShape {
     /// A disk.
     Disk {
@@ -150,6 +152,7 @@ impl BodyShape {
 
 /// How a body moves.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Motion {
     /// Moves under the forces on it.
     #[default]
@@ -221,6 +224,7 @@ impl Region {
 
 /// Initial velocity of a field.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum InitialVelocity {
     /// The same velocity everywhere.
     Uniform([Real; 2]),
@@ -429,8 +433,9 @@ impl Case {
 
     /// Applies `path=value` overrides, e.g. `time.end=0.1`, `fields.water.density=1.5`,
     /// `fields.0.stress.0.params.viscosity=0.02`. Lists are indexed by position or, for
-    /// lists of named entries, by name. The value is RON; anything that is not valid RON
-    /// is taken as a string.
+    /// lists of named entries, by name. The value is RON, enum variants included
+    /// (`boundaries.left=FreeSlip`, `fields.0.region=Disk(center: (1, 1), radius: 0.2)`);
+    /// anything that is not valid RON is taken as a string.
     pub fn with_overrides(&self, overrides: &[String]) -> Result<Case> {
         if overrides.is_empty() {
             return Ok(self.clone());
@@ -440,8 +445,7 @@ impl Case {
             let err = |message: String| Error::Override { assignment: assignment.clone(), message };
             let (path, value) =
                 assignment.split_once('=').ok_or_else(|| err("expected path=value, e.g. time.end=0.1".into()))?;
-            let value: serde_json::Value = ron_options()
-                .from_str::<serde_json::Value>(value.trim())
+            let value: serde_json::Value = crate::ron_value::parse(value.trim())
                 .unwrap_or_else(|_| serde_json::Value::String(value.trim().to_string()));
             let mut node = &mut tree;
             let keys: Vec<&str> = path.trim().split('.').collect();
@@ -472,12 +476,25 @@ impl Case {
                             .ok()
                             .or_else(|| list.iter().position(|e| e.get("name").and_then(|n| n.as_str()) == Some(key)));
                         let n = list.len();
+                        let names: Vec<String> = list
+                            .iter()
+                            .filter_map(|e| e.get("name").and_then(|n| n.as_str()).map(str::to_string))
+                            .collect();
                         match index.and_then(|i| list.get_mut(i)) {
                             Some(e) => e,
                             None => {
+                                let named = if names.is_empty() {
+                                    String::new()
+                                } else {
+                                    format!(
+                                        " ({}){}",
+                                        names.join(", "),
+                                        crate::error::did_you_mean(key, names.iter().map(String::as_str))
+                                    )
+                                };
                                 return Err(err(format!(
-                                    "`{here}` has {n} entries: use an index 0..{n} or an entry's name, not `{key}`"
-                                )))
+                                    "`{here}` has {n} entries: use an index 0..{n} or an entry's name{named}, not `{key}`"
+                                )));
                             }
                         }
                     }

@@ -18,6 +18,7 @@ pub mod math;
 pub mod plugin;
 pub mod poisson;
 pub mod registry;
+pub mod ron_value;
 pub mod simulation;
 
 pub use error::{Error, Result};
