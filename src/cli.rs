@@ -24,7 +24,7 @@ use std::process::ExitCode;
 
 /// Multifield (multiphase) flow: every field picks an Eulerian or Lagrangian frame;
 /// stress, exchange and pressure are plugins. With no command, runs the built-in
-/// lid-driven cavity (examples/lid_driven_cavity.ron) into out/lid_driven_cavity/.
+/// drafting–kissing–tumbling of two disks (examples/dkt_seed.ron) into out/dkt_seed/.
 #[derive(Parser)]
 #[command(name = "multifield", version, about, long_about = None)]
 struct Cli {
@@ -100,7 +100,9 @@ pub fn main() -> ExitCode {
                 .map_err(Failure::from)
                 .and_then(|case| {
                     println!("running the built-in case {} ({})", case.name, file.display());
-                    run_case(&case, None, &RunOptions::default())
+                    run_case(&case, None, &RunOptions::default())?;
+                    let dir = Path::new("out").join(run::directory_name(&case.name));
+                    dkt(&dir, None)
                 })
         }
         Some(Command::Run { case, out, threads, overrides, quiet }) => Case::load(&case, &overrides)
@@ -150,7 +152,8 @@ fn run_case(case: &Case, out: Option<PathBuf>, options: &RunOptions) -> Result<(
     if !s.reason.is_empty() {
         println!("  {}", s.reason);
     }
-    println!("output: {}/ (case.ron, diagnostics.csv, summary.json)", dir.display());
+    let bodies = if dir.join("bodies.csv").exists() { ", bodies.csv" } else { "" };
+    println!("output: {}/ (case.ron, diagnostics.csv, summary.json{bodies})", dir.display());
     match outcome.status {
         Status::Completed => Ok(()),
         Status::Unstable(r) => Err(Failure::Run(format!("the run became unstable: {r}"))),
@@ -279,8 +282,12 @@ fn dkt(run: &Path, reference: Option<PathBuf>) -> Result<(), Failure> {
     println!("kiss time (gap along gravity first <= d): {}", show(report.kiss_time));
     println!("tumble time (trailing passes leading):     {}", show(report.tumble_time));
     println!("smallest gap along gravity: {:.3} d", report.min_gap_over_d);
-    if let Some(e) = report.rms_position_error_over_d {
-        println!("RMS distance to Uhlmann 2005 positions over [0, 0.28]: {e:.3} d");
+    match report.rms_position_error_over_d {
+        Some(e) => println!("RMS distance to Uhlmann 2005 positions over [0, 0.28]: {e:.3} d"),
+        None if !crate::dkt::is_reference_scene(&case) => {
+            println!("(not the scene of the reference curves, d = 0.25 in 2 × 6: no comparison)")
+        }
+        None => println!("(no reference curves found: pass --reference DIR)"),
     }
     let json = serde_json::to_string_pretty(&report).map_err(|e| Failure::Run(e.to_string()))?;
     std::fs::write(run.join("dkt.json"), json + "\n").map_err(|e| Failure::Run(format!("{}: {e}", run.display())))?;

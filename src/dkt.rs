@@ -135,7 +135,23 @@ impl Frame {
     }
 }
 
-/// Analyses the run in `dir`; with `reference`, measures against Uhlmann's curves.
+/// Whether `case` is the scene of the reference curves (Uhlmann 2005: d = 0.25 cm disks in
+/// a 2 cm × 6 cm channel): the curves are drawn and measured against only then.
+pub fn is_reference_scene(case: &Case) -> bool {
+    let close = |a: Real, b: Real| (a - b).abs() < 1e-9 * b.abs().max(1.0);
+    let size = case.domain.size;
+    let boxed = (close(size[0], 2.0) && close(size[1], 6.0)) || (close(size[0], 6.0) && close(size[1], 2.0));
+    boxed
+        && case.fields.iter().any(|f| match &f.region {
+            crate::core::case::Region::Bodies(b) => b.iter().all(|body| {
+                matches!(body.shape, crate::core::case::BodyShape::Disk { radius, .. } if close(radius, 0.125))
+            }),
+            _ => false,
+        })
+}
+
+/// Analyses the run in `dir`; with `reference` and the reference scene
+/// ([`is_reference_scene`]), measures against Uhlmann's curves.
 pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap<String, Track>, Case), Error> {
     let case_text = std::fs::read_to_string(dir.join("case.ron"))
         .map_err(|source| Error::Io { path: dir.join("case.ron"), source })?;
@@ -158,6 +174,7 @@ pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap
             }
         }
     }
+    let reference = reference.filter(|_| is_reference_scene(&case));
     let fr = Frame::new(&case);
     let names: Vec<&String> = tracks.keys().collect();
     let s0 = |n: &String| fr.along(tracks[n].x[0], tracks[n].y[0]);
@@ -206,7 +223,7 @@ pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap
 }
 
 /// Writes `dkt_position.{png,svg}` (along gravity) and `dkt_lateral.{png,svg}` into `out`,
-/// with the published curves when `reference` is given.
+/// with the published curves when `reference` is given and the case is their scene.
 pub fn plot(
     out: &Path,
     report: &Report,
@@ -214,6 +231,7 @@ pub fn plot(
     case: &Case,
     reference: Option<&Path>,
 ) -> Result<Vec<PathBuf>, Error> {
+    let reference = reference.filter(|_| is_reference_scene(case));
     let fr = Frame::new(case);
     let mut along = vec![];
     let mut lateral = vec![];

@@ -34,8 +34,9 @@ pub fn link_all() {
     multifield_physics::link();
 }
 
-/// The case run by `multifield` with no arguments (`examples/lid_driven_cavity.ron`).
-pub const DEFAULT_CASE: &str = include_str!("../examples/lid_driven_cavity.ron");
+/// The case run by `multifield` with no arguments (`examples/dkt_seed.ron`: the seed's
+/// drafting–kissing–tumbling of two disks, 8 cells per diameter).
+pub const DEFAULT_CASE: &str = include_str!("../examples/dkt_seed.ron");
 
 /// File name under which [`DEFAULT_CASE`] is reported in messages.
-pub const DEFAULT_CASE_FILE: &str = "examples/lid_driven_cavity.ron";
+pub const DEFAULT_CASE_FILE: &str = "examples/dkt_seed.ron";

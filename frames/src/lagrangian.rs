@@ -13,7 +13,7 @@
 
 use crate::scatter::{self, point_weights, PointsIn, Scatter};
 use crate::shape::Shape;
-use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
@@ -400,6 +400,57 @@ multifield_core::register!(
     ]
 );
 
+/// Refuses open sides. The frame neither creates points where material enters nor removes
+/// them where it leaves: at an inflow the points next to the side would be carried away and
+/// leave the grid there empty, at an outflow the points that reach the side would be stopped
+/// and pile up against it. A field whose bodies are all `Fixed` never moves (a cylinder in a
+/// channel flow of an Eulerian fluid), so it may face open sides. A moving wall (a `Velocity`
+/// side with a tangential component only) is a wall.
+fn check_open_sides(bc: &Boundaries, region: &Region) -> Result<(), String> {
+    let bodies = match region {
+        Region::Bodies(bodies) => Some(bodies),
+        _ => None,
+    };
+    if bodies.is_some_and(|b| b.iter().all(|b| b.motion == Motion::Fixed)) {
+        return Ok(());
+    }
+    for side in Side::ALL {
+        let what = match bc.side(side) {
+            Boundary::Outflow { .. } => "an outflow (Outflow)",
+            Boundary::Velocity { velocity, .. } => {
+                // the normal component, positive into the domain
+                let inward = match side {
+                    Side::Left => velocity[0],
+                    Side::Right => -velocity[0],
+                    Side::Bottom => velocity[1],
+                    Side::Top => -velocity[1],
+                };
+                if inward > 0.0 {
+                    "an inflow (Velocity with a normal component)"
+                } else if inward < 0.0 {
+                    "an outlet (Velocity with an outward normal component)"
+                } else {
+                    continue;
+                }
+            }
+            Boundary::NoSlip | Boundary::FreeSlip | Boundary::Periodic => continue,
+        };
+        let fix = if bodies.is_some() {
+            "make the side a wall (NoSlip, FreeSlip, or Velocity with a tangential component only), \
+             or make every body of this field `motion: Fixed`"
+        } else {
+            "give this field an Eulerian frame (`frame: (model: \"eulerian\")`), or make the side a wall \
+             (NoSlip, FreeSlip, or Velocity with a tangential component only)"
+        };
+        return Err(format!(
+            "side `{}` is {what}: a Lagrangian field cannot create points at an inflow or remove them at an \
+             outflow yet; {fix}",
+            side.name()
+        ));
+    }
+    Ok(())
+}
+
 /// Reads a lattice value with ghost nodes from the boundary conditions.
 #[inline]
 fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j: isize) -> Real {
@@ -447,6 +498,7 @@ impl Frame for Lagrangian {
     }
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
+        check_open_sides(ctx.boundaries, ctx.region)?;
         let g = ctx.grid;
         let n = self.points_per_cell;
         let dv = g.cell_area() / (n * n) as Real;
@@ -751,5 +803,91 @@ impl Frame for Lagrangian {
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use multifield_core::boundary::Profile;
+    use multifield_core::case::{BodySpec, InitialVelocity};
+
+    /// Initializes a 4 × 4 Lagrangian field of `region` within `bc`.
+    fn init(bc: Boundaries, region: Region) -> Result<Lagrangian, String> {
+        let grid = Grid::new(4, 4, 0.25, Vector::zeros());
+        let mut frame = Lagrangian::new(2, Shape::Linear, Transfer::Flip, 0.97);
+        let velocity = InitialVelocity::default();
+        let ctx = InitContext {
+            grid: &grid,
+            boundaries: &bc,
+            name: "test",
+            density: 1.0,
+            region: &region,
+            velocity: &velocity,
+            theta: None,
+        };
+        frame.initialize(&ctx).map(|_| frame)
+    }
+
+    fn velocity(u: Real, v: Real, profile: Profile) -> Boundary {
+        Boundary::Velocity { velocity: [u, v], profile }
+    }
+
+    fn disk(motion: Motion) -> Region {
+        Region::Bodies(vec![BodySpec {
+            name: "disk".into(),
+            shape: BodyShape::Disk { center: [0.5, 0.5], radius: 0.2 },
+            motion,
+            velocity: [0.0, 0.0],
+            angular_velocity: 0.0,
+        }])
+    }
+
+    #[test]
+    fn open_sides_are_refused_with_the_fix() {
+        let inflow = Boundaries { left: velocity(1.0, 0.0, Profile::Parabolic), ..Boundaries::default() };
+        let e = init(inflow, Region::All).err().expect("an inflow is refused");
+        assert_eq!(
+            e,
+            "side `left` is an inflow (Velocity with a normal component): a Lagrangian field cannot create \
+             points at an inflow or remove them at an outflow yet; give this field an Eulerian frame \
+             (`frame: (model: \"eulerian\")`), or make the side a wall (NoSlip, FreeSlip, or Velocity with a \
+             tangential component only)"
+        );
+        // an inflow through the top points down
+        let top = Boundaries { top: velocity(0.3, -1.0, Profile::Uniform), ..Boundaries::default() };
+        let e = init(top, Region::All).err().expect("an inflow is refused");
+        assert!(e.starts_with("side `top` is an inflow (Velocity with a normal component): "), "{e}");
+        let suction = Boundaries { bottom: velocity(0.0, -1.0, Profile::Uniform), ..Boundaries::default() };
+        let e = init(suction, Region::All).err().expect("an outlet is refused");
+        assert!(e.starts_with("side `bottom` is an outlet (Velocity with an outward normal component): "), "{e}");
+        let outflow = Boundaries { right: Boundary::Outflow { pressure: 1.0 }, ..Boundaries::default() };
+        let e = init(outflow, Region::All).err().expect("an outflow is refused");
+        assert!(e.starts_with("side `right` is an outflow (Outflow): a Lagrangian field cannot create points"), "{e}");
+        assert!(e.contains("give this field an Eulerian frame"), "{e}");
+        // bodies that can move would stop against an open side: the fix is a wall or fixed bodies
+        let e = init(outflow, disk(Motion::Free)).err().expect("a free body is refused");
+        assert!(e.starts_with("side `right` is an outflow (Outflow): "), "{e}");
+        assert!(e.ends_with("or make every body of this field `motion: Fixed`"), "{e}");
+    }
+
+    #[test]
+    fn walls_moving_walls_and_fixed_bodies_are_accepted() {
+        let lid = Boundaries { top: velocity(1.0, 0.0, Profile::Uniform), ..Boundaries::default() };
+        init(lid, Region::All).expect("a moving lid is a wall");
+        let sides = Boundaries {
+            left: velocity(0.0, 2.0, Profile::Parabolic),
+            right: velocity(0.0, -1.0, Profile::Uniform),
+            bottom: Boundary::FreeSlip,
+            top: Boundary::NoSlip,
+        };
+        init(sides, Region::All).expect("walls moving along themselves are walls");
+        let channel = Boundaries {
+            left: velocity(1.0, 0.0, Profile::Parabolic),
+            right: Boundary::Outflow { pressure: 0.0 },
+            ..Boundaries::default()
+        };
+        let frame = init(channel, disk(Motion::Fixed)).expect("a fixed body in a channel flow");
+        assert!(!frame.points.is_empty());
     }
 }
