@@ -143,9 +143,9 @@ pub fn is_reference_scene(case: &Case) -> bool {
     let boxed = (close(size[0], 2.0) && close(size[1], 6.0)) || (close(size[0], 6.0) && close(size[1], 2.0));
     boxed
         && case.fields.iter().any(|f| match &f.region {
-            crate::core::case::Region::Bodies(b) => b.iter().all(|body| {
-                matches!(body.shape, crate::core::case::BodyShape::Disk { radius, .. } if close(radius, 0.125))
-            }),
+            crate::core::case::Region::Bodies(b) => b.iter().all(
+                |body| matches!(body.shape, crate::core::case::BodyShape::Disk { radius, .. } if close(radius, 0.125)),
+            ),
             _ => false,
         })
 }
