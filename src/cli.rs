@@ -61,15 +61,20 @@ enum Command {
     },
     /// List every registered plugin by role, with its parameters, units and defaults.
     Plugins,
-    /// Drafting–kissing–tumbling analysis of a finished two-disk run: kiss and tumble
+    /// Drafting–kissing–tumbling analysis of finished two-disk runs: kiss and tumble
     /// times, RMS distance to Uhlmann (2005), and trajectory plots (PNG and SVG) against
-    /// the published curves, written into the run directory.
+    /// the published curves. One run: written into its directory. Several runs of one
+    /// scene (a resolution study, resolved against point bodies): one table and one chart.
     Dkt {
-        /// The run's output directory (with case.ron and bodies.csv).
-        run: PathBuf,
+        /// The runs' output directories (with case.ron and bodies.csv).
+        #[arg(required = true)]
+        runs: Vec<PathBuf>,
         /// Folder of the reference curves [default: ../shared/reference/dkt-uhlmann2005 if present].
         #[arg(long)]
         reference: Option<PathBuf>,
+        /// Where the charts of several runs go [default: out/dkt_compare].
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
 }
 
@@ -102,7 +107,7 @@ pub fn main() -> ExitCode {
                     println!("running the built-in case {} ({})", case.name, file.display());
                     run_case(&case, None, &RunOptions::default())?;
                     let dir = Path::new("out").join(run::directory_name(&case.name));
-                    dkt(&dir, None)
+                    dkt(&[dir], None, None)
                 })
         }
         Some(Command::Run { case, out, threads, overrides, quiet }) => Case::load(&case, &overrides)
@@ -115,7 +120,7 @@ pub fn main() -> ExitCode {
             plugins();
             Ok(())
         }
-        Some(Command::Dkt { run, reference }) => dkt(&run, reference),
+        Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -269,29 +274,74 @@ fn plugins() {
     }
 }
 
-/// `multifield dkt RUN_DIR`: analysis and plots of a drafting–kissing–tumbling run.
-fn dkt(run: &Path, reference: Option<PathBuf>) -> Result<(), Failure> {
+/// `multifield dkt RUN_DIR...`: analysis and plots of drafting–kissing–tumbling runs.
+fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Result<(), Failure> {
     let reference = reference.or_else(|| {
         let d = PathBuf::from("../shared/reference/dkt-uhlmann2005");
         d.is_dir().then_some(d)
     });
-    let (report, tracks, case) = crate::dkt::analyse(run, reference.as_deref())?;
-    let pictures = crate::dkt::plot(run, &report, &tracks, &case, reference.as_deref())?;
     let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.4}"));
-    println!("trailing disk: {}, leading disk: {}, d = {}", report.trailing, report.leading, report.diameter);
-    println!("kiss time (gap along gravity first <= d): {}", show(report.kiss_time));
-    println!("tumble time (trailing passes leading):     {}", show(report.tumble_time));
-    println!("smallest gap along gravity: {:.3} d", report.min_gap_over_d);
-    match report.rms_position_error_over_d {
-        Some(e) => println!("RMS distance to Uhlmann 2005 positions over [0, 0.28]: {e:.3} d"),
-        None if !crate::dkt::is_reference_scene(&case) => {
-            println!("(not the scene of the reference curves, d = 0.25 in 2 × 6: no comparison)")
-        }
-        None => println!("(no reference curves found: pass --reference DIR)"),
+    let mut analysed = Vec::new();
+    for run in runs {
+        let (report, tracks, case) = crate::dkt::analyse(run, reference.as_deref())?;
+        let json = serde_json::to_string_pretty(&report).map_err(|e| Failure::Run(e.to_string()))?;
+        std::fs::write(run.join("dkt.json"), json + "\n")
+            .map_err(|e| Failure::Run(format!("{}: {e}", run.display())))?;
+        analysed.push((run, report, tracks, case));
     }
-    let json = serde_json::to_string_pretty(&report).map_err(|e| Failure::Run(e.to_string()))?;
-    std::fs::write(run.join("dkt.json"), json + "\n").map_err(|e| Failure::Run(format!("{}: {e}", run.display())))?;
-    for p in pictures {
+    if let [(run, report, tracks, case)] = &analysed[..] {
+        println!("trailing disk: {}, leading disk: {}, d = {}", report.trailing, report.leading, report.diameter);
+        println!("kiss time (gap along gravity first <= d): {}", show(report.kiss_time));
+        println!("tumble time (trailing passes leading):     {}", show(report.tumble_time));
+        println!("smallest gap along gravity: {:.3} d", report.min_gap_over_d);
+        match report.rms_position_error_over_d {
+            Some(e) => println!("RMS distance to Uhlmann 2005 positions over [0, 0.28]: {e:.3} d"),
+            None if !crate::dkt::is_reference_scene(case) => {
+                println!("(not the scene of the reference curves, d = 0.25 in 2 × 6: no comparison)")
+            }
+            None => println!("(no reference curves found: pass --reference DIR)"),
+        }
+        let dir = out.unwrap_or_else(|| run.to_path_buf());
+        std::fs::create_dir_all(&dir).map_err(|e| Failure::Run(format!("{}: {e}", dir.display())))?;
+        for p in crate::dkt::plot(&dir, report, tracks, case, reference.as_deref())? {
+            println!("wrote {} (and .svg)", p.display());
+        }
+        return Ok(());
+    }
+    println!(
+        "{:<28} {:>9} {:>10} {:>10} {:>9} {:>11} {:>8} {:>10}",
+        "run", "cells/d", "kiss", "tumble", "min gap", "RMS to U05", "steps", "wall (s)"
+    );
+    for (run, report, _, case) in &analysed {
+        let h = case.domain.size[0] / case.domain.cells[0] as f64;
+        let summary: serde_json::Value = std::fs::read_to_string(run.join("summary.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or_default();
+        println!(
+            "{:<28} {:>9.1} {:>10} {:>10} {:>8.3}d {:>11} {:>8} {:>10}",
+            run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned()),
+            report.diameter / h,
+            show(report.kiss_time),
+            show(report.tumble_time),
+            report.min_gap_over_d,
+            report.rms_position_error_over_d.map_or("-".into(), |e| format!("{e:.3}d")),
+            summary["steps"].as_u64().map_or("-".into(), |s| s.to_string()),
+            summary["wall_seconds"].as_f64().map_or("-".into(), |s| format!("{s:.1}")),
+        );
+    }
+    let dir = out.unwrap_or_else(|| PathBuf::from("out/dkt_compare"));
+    std::fs::create_dir_all(&dir).map_err(|e| Failure::Run(format!("{}: {e}", dir.display())))?;
+    let list: Vec<crate::dkt::Run> = analysed
+        .iter()
+        .map(|(run, report, tracks, case)| crate::dkt::Run {
+            label: run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned()),
+            report,
+            tracks,
+            case,
+        })
+        .collect();
+    for p in crate::dkt::plot_runs(&dir, &list, reference.as_deref())? {
         println!("wrote {} (and .svg)", p.display());
     }
     Ok(())

@@ -222,6 +222,18 @@ pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap
     Ok((report, tracks, case))
 }
 
+/// One analysed run, for charts that overlay several.
+pub struct Run<'a> {
+    /// Legend text (the run directory's name, or the case name for a single run).
+    pub label: String,
+    /// What the analysis found.
+    pub report: &'a Report,
+    /// The bodies' tracks.
+    pub tracks: &'a BTreeMap<String, Track>,
+    /// The case as run.
+    pub case: &'a Case,
+}
+
 /// Writes `dkt_position.{png,svg}` (along gravity) and `dkt_lateral.{png,svg}` into `out`,
 /// with the published curves when `reference` is given and the case is their scene.
 pub fn plot(
@@ -231,46 +243,71 @@ pub fn plot(
     case: &Case,
     reference: Option<&Path>,
 ) -> Result<Vec<PathBuf>, Error> {
+    plot_runs(out, &[Run { label: "this run".into(), report, tracks, case }], reference)
+}
+
+/// Like [`plot`], for several runs of the same scene on one chart (a resolution study,
+/// or resolved against point bodies): each run in its own colour, both bodies solid.
+pub fn plot_runs(out: &Path, runs: &[Run], reference: Option<&Path>) -> Result<Vec<PathBuf>, Error> {
+    let Some(first) = runs.first() else {
+        return Ok(vec![]);
+    };
+    let case = first.case;
     let reference = reference.filter(|_| is_reference_scene(case));
     let fr = Frame::new(case);
     let mut along = vec![];
     let mut lateral = vec![];
-    for (k, (name, which)) in [(&report.trailing, "trailing"), (&report.leading, "leading")].into_iter().enumerate() {
-        let tr = &tracks[name];
-        let idx = 0..tr.t.len();
-        along.push(Series {
-            label: format!("{} ({which}), this run", name),
-            points: idx.clone().map(|i| (tr.t[i], fr.along(tr.x[i], tr.y[i]))).collect(),
-            color: k,
-            markers: false,
-        });
-        lateral.push(Series {
-            label: format!("{} ({which}), this run", name),
-            points: idx.map(|i| (tr.t[i], fr.lateral(tr.x[i], tr.y[i]))).collect(),
-            color: k,
-            markers: false,
-        });
-        if let Some(dir) = reference {
+    let single = runs.len() == 1;
+    let n_ref_colors = if reference.is_some() { 2 } else { 0 };
+    for (r, run) in runs.iter().enumerate() {
+        for (k, (name, which)) in
+            [(&run.report.trailing, "trailing"), (&run.report.leading, "leading")].into_iter().enumerate()
+        {
+            let tr = &run.tracks[name];
+            let idx = 0..tr.t.len();
+            let (label, color) = if single {
+                (format!("{name} ({which}), {}", run.label), k)
+            } else {
+                (format!("{}, {which}", run.label), n_ref_colors + r)
+            };
+            along.push(Series {
+                label: label.clone(),
+                points: idx.clone().map(|i| (tr.t[i], fr.along(tr.x[i], tr.y[i]))).collect(),
+                color,
+                markers: false,
+            });
+            lateral.push(Series {
+                label,
+                points: idx.map(|i| (tr.t[i], fr.lateral(tr.x[i], tr.y[i]))).collect(),
+                color,
+                markers: false,
+            });
+        }
+    }
+    if let Some(dir) = reference {
+        let d = first.report.diameter;
+        for (k, which) in ["trailing", "leading"].into_iter().enumerate() {
+            let (c_u, c_k) = if single { (k + 2, k + 4) } else { (0, 1) };
             let (t, s) = read_reference(&dir.join(format!("Uhlmann2005-fig6a-{which}-particle.csv")))?;
             along.push(Series {
                 label: format!("Uhlmann 2005, {which}"),
                 points: t.into_iter().zip(s).collect(),
-                color: k + 2,
+                color: c_u,
                 markers: true,
             });
             let (t, s) = read_reference(&dir.join(format!("Uhlmann2005-fig7a-{which}-particle.csv")))?;
             lateral.push(Series {
                 label: format!("Uhlmann 2005, {which}"),
                 points: t.into_iter().zip(s).collect(),
-                color: k + 2,
+                color: c_u,
                 markers: true,
             });
             let (t, s) = read_reference(&dir.join(format!("Koblitz2017-fig10c-{which}-particle.csv")))?;
-            let (tref, d) = (report.diameter / 13.88, report.diameter);
+            let tref = d / 13.88;
             along.push(Series {
                 label: format!("Koblitz 2017, {which}"),
                 points: t.into_iter().zip(s).map(|(t, s)| (t * tref, -s * d)).collect(),
-                color: k + 4,
+                color: c_k,
                 markers: true,
             });
         }
