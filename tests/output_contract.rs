@@ -211,3 +211,24 @@ fn the_binary_runs_a_case_and_reports_where_the_output_went() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.starts_with("error: the run became unstable: Δt = "), "{stderr}");
 }
+
+/// A fixed Δt says in `dt_limit` when it exceeds a model's stable limit (and which), and
+/// says plain `fixed` when it does not.
+#[test]
+fn a_fixed_step_beyond_a_stable_limit_is_reported() {
+    multifield::link_all();
+    // h = 2π/16 ≈ 0.393: viscous limit 0.9 h²/(4ν) = 0.9 · 0.1542 / (4 · 0.5) ≈ 0.0694 at ν = 0.5
+    let case = Case::from_ron(CASE, Path::new("contract.ron"))
+        .unwrap()
+        .with_overrides(&["fields.fluid.stress.0.params.viscosity=0.5".into()])
+        .unwrap();
+    let sim = Simulation::new(&case).unwrap();
+    assert_eq!(sim.choose_dt(), (0.01, "fixed".to_string()));
+    let case = case.with_overrides(&["time.fixed_dt=0.08".into(), "time.max_dt=0.08".into()]).unwrap();
+    let sim = Simulation::new(&case).unwrap();
+    let (dt, label) = sim.choose_dt();
+    assert_eq!(dt, 0.08);
+    let h = std::f64::consts::TAU / 16.0;
+    let limit = 0.9 * h * h / (4.0 * 0.5);
+    assert_eq!(label, format!("fixed (exceeds the newtonian(fluid) limit {limit:.3e})"));
+}

@@ -53,3 +53,30 @@ fn every_registered_plugin_documents_itself() {
         }
     }
 }
+
+/// `multifield plugins` lists every registered plugin under its role with each parameter,
+/// its unit and its default.
+#[test]
+fn the_plugins_command_lists_every_plugin_and_parameter() {
+    multifield::link_all();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_multifield")).arg("plugins").output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    for role in Role::ALL {
+        let n = entries(role).len();
+        assert!(text.contains(&format!("{} models ({n}):", role.name())), "no `{}` heading:\n{text}", role.name());
+        for e in entries(role) {
+            assert!(text.contains(&format!("  {:<14} {}", e.name, e.summary)), "`{}` missing:\n{text}", e.name);
+            for p in e.params {
+                let line = format!("      {:<18} [{}] default {}: {}", p.name, p.unit, p.default, p.doc);
+                assert!(text.contains(&line), "parameter line missing: {line}");
+            }
+        }
+    }
+    // the binary links the same plugins as the library: the shipped physics are there
+    for (_, names) in multifield::physics::SHIPPED {
+        for name in *names {
+            assert!(text.contains(&format!("  {name:<14} ")), "`{name}` not listed");
+        }
+    }
+}

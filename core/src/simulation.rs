@@ -319,8 +319,25 @@ impl Simulation {
         let t = &self.case.time;
         let remaining = t.end - self.time;
         if let Some(dt) = t.fixed_dt {
-            return (dt.min(remaining.max(0.0)).max(0.0), "fixed".into());
+            // the adaptive choice says whether the fixed step exceeds a stable limit
+            let mut adaptive = self.case.time.clone();
+            adaptive.fixed_dt = None;
+            adaptive.max_dt = Real::INFINITY;
+            let (limit, by) = self.adaptive_dt(&adaptive, Real::INFINITY);
+            let dt = dt.min(remaining.max(0.0)).max(0.0);
+            let label = if dt > limit * (1.0 + 1e-9) {
+                format!("fixed (exceeds the {by} limit {limit:.3e})")
+            } else {
+                "fixed".to_string()
+            };
+            return (dt, label);
         }
+        self.adaptive_dt(t, remaining)
+    }
+
+    /// The adaptive Δt under `t` (CFL, `max_dt`, every model's limit) and what limits it,
+    /// cut to `remaining`.
+    fn adaptive_dt(&self, t: &crate::case::TimeControl, remaining: Real) -> (Real, String) {
         let h = self.grid.h;
         let umax = self.max_speed();
         let g = self.gravity.norm();
