@@ -41,6 +41,19 @@ pub fn solve(loc: &mut Local, k: &Coefficients, dt: Real) {
     let n = loc.n;
     // absent fields take no part: keep u*, w = 1/ρ⁰
     let present: [bool; MAX_FIELDS] = std::array::from_fn(|i| i < n && loc.rho[i] > 1e-10 * loc.material_density[i]);
+    // one field alone (most of a domain with bodies): nothing to exchange
+    if present.iter().filter(|&&p| p).count() == 1 {
+        for i in 0..n {
+            loc.w[i] = if present[i] && loc.rho_w[i] > 0.0 {
+                loc.theta[i] / loc.rho_w[i]
+            } else if present[i] {
+                loc.theta[i] / loc.rho[i]
+            } else {
+                1.0 / loc.material_density[i]
+            };
+        }
+        return;
+    }
     // clusters of no-slip pairs (union–find on at most 8 entries)
     let mut parent: [usize; MAX_FIELDS] = std::array::from_fn(|i| i);
     fn root(p: &mut [usize; MAX_FIELDS], mut i: usize) -> usize {
