@@ -43,13 +43,14 @@ pub fn solve(loc: &mut Local, k: &Coefficients, dt: Real) {
     let present: [bool; MAX_FIELDS] = std::array::from_fn(|i| i < n && loc.rho[i] > 1e-10 * loc.material_density[i]);
     // one field alone (most of a domain with bodies): nothing to exchange
     if present.iter().filter(|&&p| p).count() == 1 {
-        for i in 0..n {
-            loc.w[i] = if present[i] && loc.rho_w[i] > 0.0 {
-                loc.theta[i] / loc.rho_w[i]
+        let l = &mut *loc;
+        for (i, w) in l.w.iter_mut().enumerate().take(n) {
+            *w = if present[i] && l.rho_w[i] > 0.0 {
+                l.theta[i] / l.rho_w[i]
             } else if present[i] {
-                loc.theta[i] / loc.rho[i]
+                l.theta[i] / l.rho[i]
             } else {
-                1.0 / loc.material_density[i]
+                1.0 / l.material_density[i]
             };
         }
         return;
