@@ -4,6 +4,7 @@ pub mod linear_elastic;
 pub mod neo_hookean;
 pub mod newtonian;
 pub mod rigid;
+pub mod weakly_compressible;
 
 use multifield_core::math::Real;
 

@@ -1,0 +1,189 @@
+#!/usr/bin/env python3
+"""examples/mpm88.ron against Taichi's mpm88 on this machine: speed and physics.
+
+Needs a release build and Taichi 1.7 (this script installs nothing):
+
+    cargo build --release
+    pip install "taichi==1.7.*"
+    python3 benches/taichi/compare.py                      # 1 and 2 threads, one run each
+    python3 benches/taichi/compare.py --repeat 3 --threads 1 2
+
+Speed: particle-steps per second (8,192 points × steps / seconds) of
+- ours: `multifield run examples/mpm88.ron --threads N --quiet --set output.interval=0`,
+  2,000 steps; seconds = `wall_seconds` of summary.json (the time loop: every step with its
+  diagnostics, and the CSV rows; not the set-up). `output.interval=0` writes a row every
+  step (the mean height below needs them); that costs well under 1 % of the run.
+- Taichi: `benches/taichi/mpm88.py --threads N` (mpm88 itself, 128² nodes, f32 as shipped),
+  the 1,990 steps after a 10-step warm-up that includes the JIT compilation.
+With `--repeat R` each is run R times and the best rate is kept (the machine is shared);
+the load average before each run is printed.
+
+Physics: ours (1 thread) against `mpm88.py --walls-at-unit-square --threads 1`, the same
+kernel on 132² nodes with the points moved by 2 dx, so that mpm88's effective walls (its
+points stop 2 dx inside the clamped node layers) enclose the same box as our unit square.
+Compared every 50 steps: the kinetic energy, and the mean height of the points ȳ. Ours is
+not in the output; it is ȳ₀ + Σ Δt p_y/M over the steps (the points move by Δt v with
+the velocity whose momentum is reported; only points stopped at a wall make it drift, by
+less than 1e-5 in this run).
+"""
+
+import argparse
+import csv
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+POINTS = 8192
+DT = 2e-4
+DX = 1.0 / 128
+
+
+def load():
+    a, b, c = os.getloadavg()
+    return f"{a:.2f} {b:.2f} {c:.2f}"
+
+
+def run_ours(binary, case, out, threads):
+    cmd = [str(binary), "run", str(case), "--out", str(out), "--threads", str(threads), "--quiet"]
+    cmd += ["--set", "output.interval=0"]
+    before = load()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    summary = {}
+    if (out / "summary.json").exists():
+        summary = json.loads((out / "summary.json").read_text())
+    if p.returncode != 0 or summary.get("status") != "completed":
+        print(f"  ours, {threads} thread(s): {summary.get('status', 'failed')}: {summary.get('reason', p.stderr.strip())}")
+    steps, wall = summary.get("steps", 0), summary.get("wall_seconds", float("nan"))
+    rate = POINTS * steps / wall if steps else float("nan")
+    return dict(rate=rate, steps=steps, seconds=wall, load=before, status=summary.get("status"), cmd=" ".join(cmd))
+
+
+def run_taichi(script, threads, history=None, extra=()):
+    cmd = [sys.executable, str(script), "--threads", str(threads), *extra]
+    if history:
+        cmd += ["--history", str(history)]
+    before = load()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    m = re.search(r"timed_steps (\d+) .* seconds ([0-9.]+) particle_steps_per_s ([0-9.e+]+)", p.stdout)
+    if p.returncode != 0 or not m:
+        sys.exit(f"taichi run failed ({' '.join(cmd)}):\n{p.stdout}\n{p.stderr}")
+    return dict(rate=float(m.group(3)), steps=int(m.group(1)), seconds=float(m.group(2)), load=before, cmd=" ".join(cmd))
+
+
+def read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def physics(ours_csv, taichi_csv, every=50):
+    rows = read_csv(ours_csv)
+    ref = {int(r["step"]): r for r in read_csv(taichi_csv)}
+    mass = float(rows[0]["mass"])
+    y = float(ref[0]["mean_y"])
+    ours = {0: (float(ref[0]["kinetic_energy"]), y)}
+    for r in rows:
+        y += DT * float(r["momentum_y"]) / mass
+        s = int(r["step"])
+        if s % every == 0:
+            ours[s] = (float(r["kinetic_energy"]), y)
+    steps = sorted(s for s in ours if s in ref and s > 0)
+    table = []
+    for s in steps:
+        ke_t, y_t = float(ref[s]["kinetic_energy"]), float(ref[s]["mean_y"])
+        ke_o, y_o = ours[s]
+        table.append((s, ke_o, ke_t, (ke_o - ke_t) / ke_t, y_o, y_t, (y_o - y_t) / y_t))
+    return table
+
+
+def main():
+    ap = argparse.ArgumentParser(description="mpm88: multifield against Taichi (speed and physics)")
+    ap.add_argument("--bin", default=os.environ.get("MULTIFIELD_BIN", ROOT / "target/release/multifield"))
+    ap.add_argument("--case", default=ROOT / "examples/mpm88.ron")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--repeat", type=int, default=1, help="runs per configuration; the best rate is kept")
+    ap.add_argument("--out", default=None, help="directory for the runs (default: a temporary one)")
+    ap.add_argument("--impact", type=float, default=0.12, help="time that splits 'before impact' from 'after'")
+    args = ap.parse_args()
+
+    binary = Path(args.bin)
+    if not binary.exists():
+        sys.exit(f"{binary} not found: run `cargo build --release` first")
+    try:
+        import taichi  # noqa: F401
+    except ImportError:
+        sys.exit('taichi is not installed: pip install "taichi==1.7.*"')
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="mpm88_compare_"))
+    out.mkdir(parents=True, exist_ok=True)
+    script = ROOT / "benches/taichi/mpm88.py"
+    print(f"runs in {out}; {os.cpu_count()} cores; load average (1, 5, 15 min) now {load()}")
+
+    results = {}
+    for threads in args.threads:
+        best_o, best_t = None, None
+        for k in range(args.repeat):
+            o = run_ours(binary, args.case, out / f"ours_t{threads}_{k}", threads)
+            t = run_taichi(script, threads)
+            print(
+                f"  threads {threads} run {k + 1}: ours {o['rate']:.3e} p-steps/s ({o['steps']} steps, "
+                f"{o['seconds']:.2f} s, load {o['load']}); taichi {t['rate']:.3e} ({t['steps']} steps, "
+                f"{t['seconds']:.2f} s, load {t['load']})"
+            )
+            if best_o is None or o["rate"] > best_o["rate"]:
+                best_o = o
+            if best_t is None or t["rate"] > best_t["rate"]:
+                best_t = t
+        results[threads] = (best_o, best_t)
+
+    print()
+    print("| threads | ours (particle-steps/s) | Taichi 1.7 CPU, f32 (particle-steps/s) | Taichi / ours |")
+    print("|---:|---:|---:|---:|")
+    for threads, (o, t) in results.items():
+        print(f"| {threads} | {o['rate']:.3e} | {t['rate']:.3e} | {t['rate'] / o['rate']:.1f} |")
+    print()
+
+    # physics: ours at 1 thread (any thread count gives the same bits) against the walls-matched mpm88
+    threads = min(results)
+    ours_csv = out / f"ours_t{threads}_0" / "diagnostics.csv"
+    ref_csv = out / "taichi_walls_matched.csv"
+    run_taichi(script, 1, history=ref_csv, extra=["--walls-at-unit-square"])
+    table = physics(ours_csv, ref_csv)
+    if len(results) > 1:
+        a = [r["kinetic_energy"] for r in read_csv(ours_csv)]
+        for t in results:
+            b = [r["kinetic_energy"] for r in read_csv(out / f"ours_t{t}_0" / "diagnostics.csv")]
+            if a != b:
+                print(f"note: ours at {t} threads differs from {threads} thread(s)")
+    print("| step | t | KE ours | KE Taichi | ΔKE/KE | ȳ ours | ȳ Taichi | Δȳ/ȳ |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for s, ke_o, ke_t, dke, y_o, y_t, dy in table:
+        if s % 100 == 0:
+            print(f"| {s} | {s * DT:.2f} | {ke_o:.4f} | {ke_t:.4f} | {100 * dke:+.1f} % | {y_o:.4f} | {y_t:.4f} | {100 * dy:+.1f} % |")
+    before = [r for r in table if r[0] * DT <= args.impact + 1e-9]
+    after = [r for r in table if r[0] * DT > args.impact + 1e-9]
+
+    def stats(rows, k):
+        v = [abs(r[k]) for r in rows]
+        return max(v), sum(v) / len(v)
+
+    print()
+    for name, rows in (("before impact", before), ("after impact", after), ("whole run", table)):
+        if not rows:
+            continue
+        (mk, ak), (my, ay) = stats(rows, 3), stats(rows, 6)
+        print(
+            f"{name} (t {rows[0][0] * DT:.2f}–{rows[-1][0] * DT:.2f}, {len(rows)} samples): kinetic energy max "
+            f"|Δ|/KE {100 * mk:.2f} %, mean {100 * ak:.2f} %; mean height max |Δ|/ȳ {100 * my:.2f} %, mean {100 * ay:.2f} %"
+        )
+    ke_o = sum(r[1] for r in after) / max(len(after), 1)
+    ke_t = sum(r[2] for r in after) / max(len(after), 1)
+    print(f"kinetic energy averaged after impact: ours {ke_o:.4f}, Taichi {ke_t:.4f} ({100 * (ke_o / ke_t - 1):+.1f} %)")
+    print(f"final: KE ours {table[-1][1]:.4f} Taichi {table[-1][2]:.4f}; ȳ ours {table[-1][4]:.4f} Taichi {table[-1][5]:.4f}")
+
+
+if __name__ == "__main__":
+    main()
