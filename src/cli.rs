@@ -50,6 +50,11 @@ enum Command {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Continue from a checkpoint (DIR/checkpoints/checkpoint_<step>.bin, written when the
+        /// case has `output.checkpoints`) instead of starting at t = 0; the case may differ
+        /// from the checkpoint's only in time.*, output.* and description.
+        #[arg(long, value_name = "FILE")]
+        restart: Option<PathBuf>,
     },
     /// Parse, validate and build every plugin of a case without stepping; describe it.
     Check {
@@ -110,9 +115,9 @@ pub fn main() -> ExitCode {
                     dkt(&[dir], None, None)
                 })
         }
-        Some(Command::Run { case, out, threads, overrides, quiet }) => Case::load(&case, &overrides)
+        Some(Command::Run { case, out, threads, overrides, quiet, restart }) => Case::load(&case, &overrides)
             .map_err(Failure::from)
-            .and_then(|c| run_case(&c, out, &RunOptions { threads, quiet })),
+            .and_then(|c| run_case(&c, out, &RunOptions { threads, quiet, restart })),
         Some(Command::Check { case, overrides }) => {
             Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| check(&c, &case))
         }
@@ -154,8 +159,14 @@ fn run_case(case: &Case, out: Option<PathBuf>, options: &RunOptions) -> Result<(
         s.final_kinetic_energy,
         s.max_divergence
     );
+    if let Some(from) = &s.restarted_from {
+        println!("  continued from the checkpoint {from}");
+    }
     if !s.reason.is_empty() {
         println!("  {}", s.reason);
+    }
+    if let Some(c) = &s.last_checkpoint {
+        println!("  last checkpoint: {c} (continue with --restart {c})");
     }
     let bodies = if dir.join("bodies.csv").exists() { ", bodies.csv" } else { "" };
     println!("output: {}/ (case.ron, diagnostics.csv, summary.json{bodies})", dir.display());

@@ -22,10 +22,15 @@ pub use multifield_core as core;
 pub use multifield_frames as frames;
 pub use multifield_physics as physics;
 
+pub mod charts;
+pub mod checkpoint;
 pub mod cli;
 pub mod dkt;
+pub mod output;
+pub mod picture;
 pub mod plot;
 pub mod run;
+pub mod snapshot;
 
 /// Keeps the registrations of the frames and physics crates in the final binary
 /// (inventory drops a crate nothing references). Call it once before building a case.

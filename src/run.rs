@@ -7,7 +7,13 @@
 //!   it is 0) and always the last step, flushed row by row so a killed run leaves a
 //!   readable file; columns [`CSV_HEADER`];
 //! - `summary.json`: how the run ended ([`Summary`]), written whatever happens once the
-//!   directory exists.
+//!   directory exists;
+//! - with `output.checkpoints`, `checkpoints/checkpoint_<step>.bin` ([`crate::checkpoint`]),
+//!   from which [`RunOptions::restart`] continues the run bit for bit, keeping the rows of
+//!   `diagnostics.csv` and `bodies.csv` up to the checkpoint's step and appending after them.
+//!
+//! `case.ron`, `summary.json` and the checkpoints are written under a temporary name and
+//! renamed, so a killed run never leaves a half-written one.
 //!
 //! Every run watches for instability after each step and stops as `"unstable"` when
 //! - the kinetic energy or the largest speed is not finite;
@@ -49,12 +55,14 @@ pub struct RunOptions {
     pub threads: usize,
     /// No progress bar.
     pub quiet: bool,
+    /// Continue from this checkpoint ([`crate::checkpoint`]) instead of starting at t = 0.
+    pub restart: Option<PathBuf>,
 }
 
 impl RunOptions {
     /// Default threads, no progress bar (for tests and scripts).
     pub fn quiet() -> Self {
-        Self { threads: 0, quiet: true }
+        Self { threads: 0, quiet: true, restart: None }
     }
 }
 
@@ -73,7 +81,7 @@ pub struct Summary {
     pub simulated_time: Real,
     /// `time.end` of the case.
     pub end_time: Real,
-    /// Wall-clock time of the time loop (seconds).
+    /// Wall-clock time of the time loop (seconds; of a restarted run, since the restart).
     pub wall_seconds: f64,
     /// Worker threads used.
     pub threads: usize,
@@ -95,6 +103,10 @@ pub struct Summary {
     pub last_dt_limit: String,
     /// Rows written to `diagnostics.csv`.
     pub diagnostics_rows: u64,
+    /// The checkpoint the run continued from (`null` when it started at t = 0).
+    pub restarted_from: Option<String>,
+    /// The last checkpoint written (`null` when none).
+    pub last_checkpoint: Option<String>,
 }
 
 /// The result of [`run`]: the summary as written, and the output directory.
@@ -152,6 +164,10 @@ impl Diagnostics {
         writeln!(file, "{CSV_HEADER}").and_then(|_| file.flush()).map_err(io)?;
         Ok(Self { file, path, rows: 0 })
     }
+    fn resume(path: PathBuf, source: Option<&Path>, keep: impl Fn(u64) -> bool) -> Result<Self, Error> {
+        let (file, rows) = resume_csv(&path, source, CSV_HEADER, keep)?;
+        Ok(Self { file, path, rows })
+    }
     fn write(&mut self, d: &StepDiagnostics) -> Result<(), Error> {
         let limit = d.dt_limit.replace([',', '"', '\n'], ";");
         let x = number;
@@ -195,6 +211,10 @@ impl BodiesCsv {
         writeln!(file, "{BODIES_HEADER}").and_then(|_| file.flush()).map_err(io)?;
         Ok(Self { file, path })
     }
+    fn resume(path: PathBuf, source: Option<&Path>, keep: impl Fn(u64) -> bool) -> Result<Self, Error> {
+        let (file, _) = resume_csv(&path, source, BODIES_HEADER, keep)?;
+        Ok(Self { file, path })
+    }
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
         let x = number;
         for (_, b) in sim.bodies() {
@@ -219,6 +239,40 @@ impl BodiesCsv {
     }
 }
 
+/// Continues the CSV file `path` after a restart: the header and the complete rows whose
+/// step (first column) passes `keep`, taken from `source` (the same file in the
+/// checkpoint's run directory) if it exists, else from `path` itself, are written to
+/// `path` (atomically), which is then opened for appending. Returns it and the rows kept.
+fn resume_csv(
+    path: &Path,
+    source: Option<&Path>,
+    header: &str,
+    keep: impl Fn(u64) -> bool,
+) -> Result<(BufWriter<File>, u64), Error> {
+    let from = source.filter(|s| s.is_file()).unwrap_or(path);
+    let old = match std::fs::read_to_string(from) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        Err(source) => return Err(Error::Io { path: from.to_path_buf(), source }),
+    };
+    let mut text = format!("{header}\n");
+    let mut rows = 0;
+    // complete lines only: a run killed while writing a row leaves part of it
+    for line in old.split_inclusive('\n').skip(1).filter(|l| l.ends_with('\n')) {
+        let step = line.split(',').next().and_then(|s| s.parse::<u64>().ok());
+        if step.is_some_and(&keep) {
+            text.push_str(line);
+            rows += 1;
+        }
+    }
+    crate::output::write_atomically(path, text.as_bytes())?;
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    Ok((BufWriter::new(file), rows))
+}
+
 /// A number as it round-trips, in plain notation for moderate magnitudes and in
 /// scientific notation otherwise (`1.5e-16`, not 0.000000000000000150…).
 pub fn number(x: Real) -> String {
@@ -230,7 +284,7 @@ pub fn number(x: Real) -> String {
 }
 
 fn write_file(path: &Path, text: &str) -> Result<(), Error> {
-    std::fs::write(path, text).map_err(|source| Error::Io { path: path.to_path_buf(), source })
+    crate::output::write_atomically(path, text.as_bytes())
 }
 
 fn write_summary(dir: &Path, summary: &Summary) -> Result<(), Error> {
@@ -294,40 +348,123 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         min_dt: Real::INFINITY,
         last_dt_limit: String::new(),
         diagnostics_rows: 0,
+        restarted_from: None,
+        last_checkpoint: None,
     };
-    let mut sim = match Simulation::new(case) {
-        Ok(sim) => sim,
-        Err(e) => {
-            write_file(&dir.join("case.ron"), &case.to_ron())?;
-            let status = Status::Failed(e.to_string());
-            summary.status = status.label().into();
-            summary.reason = status.reason().into();
-            summary.min_dt = 0.0;
-            write_summary(dir, &summary)?;
-            return Err(e);
+    // a bad checkpoint is refused before anything in the output directory is touched
+    let (mut sim, resumed) = match &options.restart {
+        Some(path) => {
+            let (sim, checkpoint) = crate::checkpoint::restore(case, path)?;
+            (sim, Some(checkpoint))
+        }
+        None => match Simulation::new(case) {
+            Ok(sim) => (sim, None),
+            Err(e) => {
+                write_file(&dir.join("case.ron"), &case.to_ron())?;
+                let status = Status::Failed(e.to_string());
+                summary.status = status.label().into();
+                summary.reason = status.reason().into();
+                summary.min_dt = 0.0;
+                write_summary(dir, &summary)?;
+                return Err(e);
+            }
+        },
+    };
+    let interval = sim.case.output.interval;
+    let mut next_output = interval;
+    let mut last_row_written = true;
+    if let Some(c) = &resumed {
+        crate::checkpoint::discard_after(dir, c.step)?;
+    }
+    let mut checkpoints = None;
+    if let Some(schedule) = sim.case.output.checkpoints {
+        // a frame that cannot be checkpointed is refused now, not at the first checkpoint
+        sim.save_state().map_err(|e| Error::Model(format!("output.checkpoints: {e}; remove output.checkpoints")))?;
+        let next = match &resumed {
+            Some(c) if c.case.output.checkpoints == Some(schedule) => c.runner.next_checkpoint,
+            Some(_) => crate::checkpoint::next_after(sim.time, schedule.interval),
+            None => schedule.interval,
+        };
+        let last = resumed.as_ref().map(|c| c.step);
+        checkpoints = Some(crate::checkpoint::Checkpoints::create(dir, schedule, next, last)?);
+    }
+    write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
+    let has_bodies = !sim.bodies().is_empty();
+    let (mut csv, mut bodies) = match &resumed {
+        None => {
+            let csv = Diagnostics::create(dir.join("diagnostics.csv"))?;
+            let mut bodies = if has_bodies { Some(BodiesCsv::create(dir.join("bodies.csv"))?) } else { None };
+            if let Some(b) = bodies.as_mut() {
+                b.write(&sim)?;
+            }
+            (csv, bodies)
+        }
+        Some(c) => {
+            let r = &c.runner;
+            summary.restarted_from = Some(c.path.display().to_string());
+            summary.steps = sim.steps;
+            summary.simulated_time = sim.time;
+            summary.max_divergence = r.max_divergence;
+            summary.max_volume_fraction_error = r.max_volume_fraction_error;
+            summary.pressure_iterations_total = r.pressure_iterations_total;
+            summary.min_dt = r.min_dt;
+            summary.last_dt_limit = r.last_dt_limit.clone();
+            next_output = if c.case.output.interval == interval {
+                r.next_output
+            } else if interval > 0.0 {
+                crate::checkpoint::next_after(sim.time, interval)
+            } else {
+                0.0
+            };
+            last_row_written = r.last_row_written;
+            // the rows up to the checkpoint's step; its own row only when it was a regular one
+            let (step, with_last) = (c.step, r.last_row_written);
+            let keep = move |s: u64| s < step || (s == step && with_last);
+            // the rows come from the checkpoint's run directory (else from this one)
+            let source_dir = c
+                .path
+                .parent()
+                .filter(|p| p.file_name().is_some_and(|n| n == crate::checkpoint::FOLDER))
+                .and_then(Path::parent);
+            let source = |name: &str| source_dir.map(|d| d.join(name));
+            let csv = Diagnostics::resume(dir.join("diagnostics.csv"), source("diagnostics.csv").as_deref(), keep)?;
+            let bodies = if has_bodies {
+                Some(BodiesCsv::resume(dir.join("bodies.csv"), source("bodies.csv").as_deref(), keep)?)
+            } else {
+                None
+            };
+            (csv, bodies)
         }
     };
-    write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
-    let mut csv = Diagnostics::create(dir.join("diagnostics.csv"))?;
-    let mut bodies = if sim.bodies().is_empty() { None } else { Some(BodiesCsv::create(dir.join("bodies.csv"))?) };
-    if let Some(b) = bodies.as_mut() {
-        b.write(&sim)?;
+    let mut writers = crate::output::writers(&sim, dir)?;
+    for w in &mut writers {
+        w.start(&sim)?;
     }
     let bound = ENERGY_GROWTH * reference_energy(&sim);
     summary.initial_kinetic_energy = sim.initial_energy;
-    summary.final_kinetic_energy = sim.initial_energy;
+    summary.final_kinetic_energy = if sim.steps > 0 { sim.last.kinetic_energy } else { sim.initial_energy };
     summary.kinetic_energy_bound = bound;
 
     let time = sim.case.time.clone();
-    let interval = sim.case.output.interval;
-    let mut next_output = interval;
     let show_bar = !options.quiet && std::io::stdout().is_terminal();
     let bar = progress_bar(show_bar, time.end);
     let start = Instant::now();
     let mut last_draw = start;
     let mut status = Status::Completed;
-    let mut last_row_written = true;
     let done = |t: Real| t >= time.end * (1.0 - 1e-12);
+    let runner_state =
+        |summary: &Summary, next_output: Real, last_row_written: bool, rows: u64| crate::checkpoint::RunnerState {
+            next_output,
+            last_row_written,
+            diagnostics_rows: rows,
+            max_divergence: summary.max_divergence,
+            max_volume_fraction_error: summary.max_volume_fraction_error,
+            pressure_iterations_total: summary.pressure_iterations_total,
+            min_dt: summary.min_dt,
+            last_dt_limit: summary.last_dt_limit.clone(),
+            next_checkpoint: 0.0,
+        };
+    let steps_at_start = sim.steps;
     while !done(sim.time) {
         if let Some(max) = time.max_steps {
             if sim.steps >= max {
@@ -400,27 +537,45 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             }
         }
         last_row_written = due;
+        let last = unstable.is_some() || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+        for w in &mut writers {
+            w.after_step(&sim, last)?;
+        }
         if let Some(reason) = unstable {
             status = Status::Unstable(reason);
             break;
+        }
+        if let Some(c) = checkpoints.as_mut() {
+            if c.due(sim.time) {
+                let state = runner_state(&summary, next_output, last_row_written, csv.rows);
+                summary.last_checkpoint = Some(c.write(&sim, &state)?.display().to_string());
+            }
         }
         let now = Instant::now();
         if now.duration_since(last_draw) > Duration::from_millis(200) {
             if show_bar && bar.is_hidden() && now.duration_since(start) > Duration::from_millis(500) {
                 bar.set_draw_target(ProgressDrawTarget::stdout());
             }
-            let rate = sim.steps as f64 / now.duration_since(start).as_secs_f64();
+            let rate = (sim.steps - steps_at_start) as f64 / now.duration_since(start).as_secs_f64();
             bar.set_position((1000.0 * (sim.time / time.end)).clamp(0.0, 1000.0) as u64);
             bar.set_message(format!("t = {:.4e} / {} | {rate:.0} steps/s", sim.time, time.end));
             last_draw = now;
         }
     }
     bar.finish_and_clear();
+    let state = runner_state(&summary, next_output, last_row_written, csv.rows);
     if !last_row_written && sim.steps > 0 {
         // the last step is always in the file, whatever the interval or why the run stopped
         csv.write(&sim.last)?;
         if let Some(b) = bodies.as_mut() {
             b.write(&sim)?;
+        }
+    }
+    // a run that completed (or stopped at time.max_steps) ends with a checkpoint, to be
+    // extended with a later time.end; one that blew up keeps its last good one
+    if let Some(c) = checkpoints.as_mut() {
+        if status == Status::Completed && sim.steps > 0 && c.last_step() != Some(sim.steps) {
+            summary.last_checkpoint = Some(c.write(&sim, &state)?.display().to_string());
         }
     }
     summary.wall_seconds = start.elapsed().as_secs_f64();
@@ -433,5 +588,8 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         summary.reason = status.reason().into();
     }
     write_summary(dir, &summary)?;
+    if sim.case.output.charts {
+        crate::charts::write(dir)?;
+    }
     Ok(Outcome { status, summary, output_dir: dir.to_path_buf() })
 }

@@ -348,15 +348,71 @@ impl Default for Coupling {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
-    /// Simulated time between rows of `diagnostics.csv` (0: every step).
+    /// Simulated time between rows of `diagnostics.csv` and `bodies.csv` (0: every step).
     #[serde(default)]
     pub interval: Real,
+    /// HDF5 snapshots of every field (`snapshots/`, with an XDMF sidecar for ParaView).
+    #[serde(default)]
+    pub snapshots: Option<Schedule>,
+    /// PNG pictures of the flow (`frames/`).
+    #[serde(default)]
+    pub pictures: Option<PictureSpec>,
+    /// Checkpoints to continue the run from with `--restart` (`checkpoints/`).
+    #[serde(default)]
+    pub checkpoints: Option<Schedule>,
+    /// Charts of the diagnostics and body trajectories at the end of the run (`charts/`,
+    /// PNG and SVG).
+    #[serde(default = "yes")]
+    pub charts: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        Self { interval: 0.0 }
+        Self { interval: 0.0, snapshots: None, pictures: None, checkpoints: None, charts: true }
     }
+}
+
+/// A schedule in simulated time: the first write at t = 0 (snapshots, pictures) or at
+/// t = `interval` (checkpoints), then every `interval`, and always at the end of the run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Schedule {
+    /// Simulated time between writes (time).
+    pub interval: Real,
+}
+
+/// What a picture shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PictureQuantity {
+    /// Vorticity ∂v/∂x − ∂u/∂y of the mixture velocity (diverging colour map).
+    #[default]
+    Vorticity,
+    /// Speed |u| of the mixture velocity.
+    Speed,
+    /// Volume fraction of the field that fills the rest (or of the first field).
+    VolumeFraction,
+}
+
+/// PNG pictures of the flow.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PictureSpec {
+    /// Simulated time between pictures (time).
+    pub interval: Real,
+    /// What the colours show.
+    #[serde(default)]
+    pub quantity: PictureQuantity,
+    /// Width of the picture in pixels (the height follows the domain's aspect).
+    #[serde(default = "default_picture_width")]
+    pub width: u32,
+}
+
+fn default_picture_width() -> u32 {
+    640
 }
 
 /// A whole case.
@@ -681,6 +737,22 @@ impl Case {
         }
         if !(self.output.interval >= 0.0) {
             return bad("output.interval", format!("{}: must be zero (every step) or positive", self.output.interval));
+        }
+        for (path, interval) in [
+            ("output.snapshots.interval", self.output.snapshots.map(|s| s.interval)),
+            ("output.pictures.interval", self.output.pictures.map(|s| s.interval)),
+            ("output.checkpoints.interval", self.output.checkpoints.map(|s| s.interval)),
+        ] {
+            if let Some(interval) = interval {
+                if !(interval > 0.0 && interval.is_finite()) {
+                    return bad(path, format!("{interval}: must be a positive time (or leave the entry out)"));
+                }
+            }
+        }
+        if let Some(p) = self.output.pictures {
+            if !(16..=8192).contains(&p.width) {
+                return bad("output.pictures.width", format!("{}: must lie in 16..=8192 pixels", p.width));
+            }
         }
         Ok(())
     }

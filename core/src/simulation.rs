@@ -13,7 +13,7 @@ use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
     BodyState, ContactContext, ContactModel, ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext,
-    InitContext, PressureSolver, StressModel, TimeStepContext,
+    InitContext, PressureSolver, StateReader, StateWriter, StressModel, TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -291,6 +291,141 @@ impl Simulation {
             last: StepDiagnostics::default(),
             initial_energy,
         })
+    }
+
+    /// Everything the next steps depend on, for a checkpoint: time, steps, the pressure
+    /// (the initial guess of the next solve), the last step's figures, the initial energy,
+    /// the contact forces, every field's grid state and its frame's own state
+    /// ([`Frame::save_state`]). [`Simulation::load_state`] on a simulation built from the
+    /// same case continues bit for bit. The exchange coefficients are not in it (every step
+    /// recomputes them), nor the pressure solvers' caches (multigrid hierarchy, symbolic
+    /// and numeric factorizations), which every solve rebuilds from its problem: a solve
+    /// depends only on the problem and the initial guess.
+    pub fn save_state(&self) -> Result<Vec<u8>> {
+        let mut w = StateWriter::new();
+        w.f64(self.time);
+        w.u64(self.steps);
+        w.f64(self.initial_energy);
+        w.f64s(&self.pressure);
+        let d = &self.last;
+        w.u64(d.step);
+        w.f64(d.time);
+        w.f64(d.dt);
+        w.str(&d.dt_limit);
+        w.f64(d.kinetic_energy);
+        w.vector(d.momentum);
+        w.f64(d.mass);
+        w.f64(d.max_speed);
+        w.f64(d.max_divergence);
+        w.f64(d.volume_fraction_error);
+        w.u64(d.pressure_iterations as u64);
+        w.f64(d.pressure_residual);
+        w.u64(self.body_forces.len() as u64);
+        for forces in &self.body_forces {
+            w.u64(forces.len() as u64);
+            for (f, t) in forces {
+                w.vector(*f);
+                w.f64(*t);
+            }
+        }
+        w.u64(self.fields.len() as u64);
+        for f in &self.fields {
+            w.str(&f.name);
+            w.str(f.frame.model());
+            let s = &f.state;
+            for a in [&s.theta, &s.theta_u, &s.theta_v, &s.mass_u, &s.mass_v] {
+                w.f64s(a);
+            }
+            for v in [&s.velocity, &s.velocity_old, &s.pressure_acceleration, &s.specific_volume] {
+                w.f64s(&v.u);
+                w.f64s(&v.v);
+            }
+            let frame = f.frame.save_state().map_err(|m| Error::Model(format!("field `{}`: {m}", f.name)))?;
+            w.bytes(&frame);
+        }
+        Ok(w.into_bytes())
+    }
+
+    /// Restores what [`Simulation::save_state`] wrote, into a simulation built from the
+    /// same case (same grid and fields; the time control and output may differ). The
+    /// message of an error says which part does not fit.
+    pub fn load_state(&mut self, bytes: &[u8]) -> Result<()> {
+        self.load_state_inner(bytes).map_err(Error::Model)
+    }
+
+    fn load_state_inner(&mut self, bytes: &[u8]) -> std::result::Result<(), String> {
+        let mut r = StateReader::new(bytes);
+        let time = r.f64("time")?;
+        let steps = r.u64("steps")?;
+        let initial_energy = r.f64("initial energy")?;
+        let mut pressure = vec![0.0; self.grid.n_cells()];
+        r.f64s_into(&mut pressure, "pressure")?;
+        let last = StepDiagnostics {
+            step: r.u64("last step")?,
+            time: r.f64("last step")?,
+            dt: r.f64("last step")?,
+            dt_limit: r.str("last step")?,
+            kinetic_energy: r.f64("last step")?,
+            momentum: r.vector("last step")?,
+            mass: r.f64("last step")?,
+            max_speed: r.f64("last step")?,
+            max_divergence: r.f64("last step")?,
+            volume_fraction_error: r.f64("last step")?,
+            pressure_iterations: r.u64("last step")? as usize,
+            pressure_residual: r.f64("last step")?,
+        };
+        let n = r.u64("contact forces")? as usize;
+        if n != self.fields.len() {
+            return Err(format!("contact forces of {n} fields in the checkpoint, {} fields here", self.fields.len()));
+        }
+        let mut body_forces = Vec::with_capacity(n);
+        for _ in 0..n {
+            let m = r.u64("contact forces")? as usize;
+            let forces: std::result::Result<Vec<_>, String> =
+                (0..m).map(|_| Ok((r.vector("contact force")?, r.f64("contact torque")?))).collect();
+            body_forces.push(forces?);
+        }
+        let n = r.u64("fields")? as usize;
+        if n != self.fields.len() {
+            return Err(format!("{n} fields in the checkpoint, {} here", self.fields.len()));
+        }
+        for f in &mut self.fields {
+            let name = r.str("field name")?;
+            let model = r.str("frame model")?;
+            if name != f.name || model != f.frame.model() {
+                return Err(format!(
+                    "the checkpoint holds field `{name}` ({model} frame) where the case has `{}` ({} frame)",
+                    f.name,
+                    f.frame.model()
+                ));
+            }
+            let what = |q: &str| format!("field `{name}`: {q}");
+            let s = &mut f.state;
+            r.f64s_into(&mut s.theta, &what("volume fraction"))?;
+            r.f64s_into(&mut s.theta_u, &what("x-face volume fraction"))?;
+            r.f64s_into(&mut s.theta_v, &what("y-face volume fraction"))?;
+            r.f64s_into(&mut s.mass_u, &what("x-face mass"))?;
+            r.f64s_into(&mut s.mass_v, &what("y-face mass"))?;
+            for (v, q) in [
+                (&mut s.velocity, "velocity"),
+                (&mut s.velocity_old, "old velocity"),
+                (&mut s.pressure_acceleration, "pressure acceleration"),
+                (&mut s.specific_volume, "specific volume"),
+            ] {
+                r.f64s_into(&mut v.u, &what(&format!("{q} on x-faces")))?;
+                r.f64s_into(&mut v.v, &what(&format!("{q} on y-faces")))?;
+            }
+            let frame = r.bytes(&what("frame state"))?;
+            f.frame.load_state(frame).map_err(|m| format!("field `{name}`: {m}"))?;
+        }
+        r.finish("simulation state")?;
+        self.time = time;
+        self.steps = steps;
+        self.initial_energy = initial_energy;
+        self.pressure = pressure;
+        self.last = last;
+        self.body_forces = body_forces;
+        Ok(())
     }
 
     /// Index of the field named `name`.

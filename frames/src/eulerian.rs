@@ -43,7 +43,7 @@
 use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
 use multifield_core::math::{Real, Vector};
-use multifield_core::plugin::{Frame, FrameContext, GridStressContext, InitContext};
+use multifield_core::plugin::{Frame, FrameContext, GridStressContext, InitContext, StateReader, StateWriter};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::simulation::region_fraction;
 use rayon::prelude::*;
@@ -707,6 +707,30 @@ impl Frame for Eulerian {
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
+    }
+
+    /// Steps taken (the first step has no lagged pressure), θ and the face velocities; the
+    /// rest of the work space is scratch, rebuilt every step.
+    fn save_state(&self) -> Result<Vec<u8>, String> {
+        let w = &self.work;
+        let mut out = StateWriter::new();
+        out.u64(w.steps);
+        out.f64s(&w.theta);
+        out.f64s(&w.velocity.u);
+        out.f64s(&w.velocity.v);
+        Ok(out.into_bytes())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = StateReader::new(bytes);
+        let steps = r.u64("eulerian steps")?;
+        let w = &mut self.work;
+        r.f64s_into(&mut w.theta, "eulerian volume fraction")?;
+        r.f64s_into(&mut w.velocity.u, "eulerian velocity on x-faces")?;
+        r.f64s_into(&mut w.velocity.v, "eulerian velocity on y-faces")?;
+        r.finish("eulerian state")?;
+        w.steps = steps;
+        Ok(())
     }
 }
 

@@ -17,7 +17,9 @@ use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
-use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext, PointStressContext, StressModel};
+use multifield_core::plugin::{
+    BodyState, Frame, FrameContext, InitContext, PointStressContext, StateReader, StateWriter, StressModel,
+};
 use multifield_core::registry::{params_value, ParamDoc};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -112,6 +114,9 @@ pub struct Lagrangian {
     vol: Vec<Real>,
     #[serde(skip)]
     has_point_stress: bool,
+    /// Every point-stress model depends on F only through J: F is kept as diag(J, 1).
+    #[serde(skip)]
+    volumetric_only: bool,
     /// The field's bodies (empty when its region has none).
     #[serde(skip)]
     pub bodies: Vec<Body>,
@@ -173,6 +178,7 @@ impl Lagrangian {
             scatter: None,
             vol: Vec::new(),
             has_point_stress: false,
+            volumetric_only: false,
             bodies: Vec::new(),
             x_old: Vec::new(),
         }
@@ -335,6 +341,7 @@ impl Lagrangian {
     fn update_deformation_musl(&mut self, g: &Grid, bc: &Boundaries, dt: Real, x_start: &[Vector]) {
         let (shape, h) = (self.shape, g.h);
         let ns = shape.support();
+        let volumetric_only = self.volumetric_only;
         let pts = &mut self.points;
         let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
         scatter.run(
@@ -383,6 +390,11 @@ impl Lagrangian {
             let l = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
             *gv = l;
             *f = (Matrix::identity() + dt * l) * *f;
+            if volumetric_only {
+                // a fluid: only J = det F matters, and F itself would grow without bound;
+                // diag(J, 1) rather than √J I keeps a point whose J went negative finite
+                *f = Matrix::new(f.determinant(), 0.0, 0.0, 1.0);
+            }
         });
     }
 }
@@ -590,6 +602,8 @@ impl Frame for Lagrangian {
         let pts = &mut self.points;
         let n = pts.len();
         self.has_point_stress = ctx.stress.iter().any(|s| s.acts_on_points());
+        self.volumetric_only =
+            self.has_point_stress && ctx.stress.iter().filter(|s| s.acts_on_points()).all(|s| s.volumetric_only());
         if self.has_point_stress {
             pts.stress.par_iter_mut().for_each(|s| *s = Matrix::zeros());
             for model in ctx.stress.iter().filter(|s| s.acts_on_points()) {
@@ -803,6 +817,97 @@ impl Frame for Lagrangian {
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
+    }
+
+    /// Every point array (positions, velocities, masses, initial volumes, F, ∇v, stress,
+    /// the APIC matrices, body indices) and each body's state (its velocities before the
+    /// next rigid projection give the hydrodynamic force). The scatter buffers, current
+    /// volumes and start positions are scratch, rebuilt every step.
+    fn save_state(&self) -> Result<Vec<u8>, String> {
+        let p = &self.points;
+        let mut w = StateWriter::new();
+        w.vectors(&p.x);
+        w.vectors(&p.v);
+        w.f64s(&p.m);
+        w.f64s(&p.vol0);
+        w.matrices(&p.f);
+        w.matrices(&p.grad_v);
+        w.matrices(&p.stress);
+        w.vectors(&p.c_u);
+        w.vectors(&p.c_v);
+        w.u64s(p.body.iter().map(|&b| u64::from(b)));
+        w.u64(self.bodies.len() as u64);
+        for b in &self.bodies {
+            let s = &b.state;
+            w.str(&s.name);
+            for x in [s.mass, s.inertia, s.volume, s.radius] {
+                w.f64(x);
+            }
+            w.vector(s.position);
+            w.vector(s.velocity);
+            w.f64(s.angular_velocity);
+            w.vector(s.force);
+            w.f64(s.torque);
+        }
+        Ok(w.into_bytes())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = StateReader::new(bytes);
+        let body = |b: Vec<u64>| -> Result<Vec<u32>, String> {
+            b.into_iter().map(|b| u32::try_from(b).map_err(|_| format!("point body index {b}"))).collect()
+        };
+        let p = Points {
+            x: r.vectors("point positions")?,
+            v: r.vectors("point velocities")?,
+            m: r.f64s("point masses")?,
+            vol0: r.f64s("point initial volumes")?,
+            f: r.matrices("point deformation gradients")?,
+            grad_v: r.matrices("point velocity gradients")?,
+            stress: r.matrices("point stresses")?,
+            c_u: r.vectors("point affine velocities (x)")?,
+            c_v: r.vectors("point affine velocities (y)")?,
+            body: body(r.u64s("point body indices")?)?,
+        };
+        let n = p.len();
+        let lengths = [p.v.len(), p.m.len(), p.vol0.len(), p.f.len(), p.grad_v.len()];
+        let more = [p.stress.len(), p.c_u.len(), p.c_v.len(), p.body.len()];
+        if lengths.iter().chain(&more).any(|&l| l != n) {
+            return Err(format!("the point arrays have different lengths ({n} positions)"));
+        }
+        let nb = r.u64("bodies")? as usize;
+        if nb != self.bodies.len() {
+            return Err(format!("{nb} bodies in the checkpoint, {} in the case", self.bodies.len()));
+        }
+        if let Some(&b) = p.body.iter().find(|&&b| b as usize > nb) {
+            return Err(format!("a point of body {b} in a field of {nb} bodies"));
+        }
+        let mut states = Vec::with_capacity(nb);
+        for b in &self.bodies {
+            let name = r.str("body name")?;
+            if name != b.state.name {
+                return Err(format!("body `{name}` in the checkpoint where the case has `{}`", b.state.name));
+            }
+            let mut s = b.state.clone();
+            s.mass = r.f64("body mass")?;
+            s.inertia = r.f64("body inertia")?;
+            s.volume = r.f64("body volume")?;
+            s.radius = r.f64("body radius")?;
+            s.position = r.vector("body position")?;
+            s.velocity = r.vector("body velocity")?;
+            s.angular_velocity = r.f64("body angular velocity")?;
+            s.force = r.vector("body force")?;
+            s.torque = r.f64("body torque")?;
+            states.push(s);
+        }
+        r.finish("lagrangian state")?;
+        for (b, s) in self.bodies.iter_mut().zip(states) {
+            b.state = s;
+        }
+        self.points = p;
+        self.vol.clear();
+        self.x_old.clear();
+        Ok(())
     }
 }
 

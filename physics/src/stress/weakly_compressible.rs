@@ -112,6 +112,9 @@ impl StressModel for WeaklyCompressible {
     fn acts_on_points(&self) -> bool {
         true
     }
+    fn volumetric_only(&self) -> bool {
+        true
+    }
     fn point_stress(&self, ctx: &mut PointStressContext) {
         ctx.stress.par_iter_mut().zip(ctx.deformation_gradient.par_iter()).for_each(|(s, f)| {
             let p = self.pressure(f.determinant());

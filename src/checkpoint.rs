@@ -1,0 +1,451 @@
+//! Checkpoints: the whole state of a run, to continue it with `multifield run CASE
+//! --restart FILE` exactly as if it had not stopped (bit for bit).
+//!
+//! With `output.checkpoints: Some((interval: Δ))` a run writes
+//! `checkpoints/checkpoint_<step>.bin` at the first step at or after t = Δ, 2Δ, …, and
+//! after the run's last step when it completed (or stopped at `time.max_steps`), so that a
+//! finished run can be extended with `--set time.end=…` and `--restart`. No checkpoint is
+//! written after a step that went unstable. Each file is written under a temporary name
+//! and renamed ([`crate::output::write_atomically`]); once it is complete, the checkpoints
+//! of earlier steps are deleted but the newest of them, so the folder holds the last two
+//! and a run killed at any moment loses at most one interval. (The rename is atomic for a
+//! killed process; after a power cut a file the system had not yet flushed fails its
+//! length or checksum check and is refused, naming the other one.)
+//!
+//! A checkpoint holds, in a little-endian binary format:
+//!
+//! | part | contents |
+//! |---|---|
+//! | header | the signature [`MAGIC`], the format [`VERSION`] (u32), the payload's length and checksum (u64 each) |
+//! | position | step (u64), simulated time (f64) |
+//! | case | the case as run, RON text as in `case.ron` (every default filled in) |
+//! | runner | [`RunnerState`]: next diagnostics time, whether the last step has its row, rows written, the summary's running figures, next checkpoint time |
+//! | simulation | [`Simulation::save_state`]: time, steps, pressure (the warm start of the next solve), last step's figures, initial energy, contact forces, every field's grid state and its frame's own state (Eulerian: θ, face velocities, steps taken; Lagrangian: every point array including the APIC matrices, and each body's state) |
+//!
+//! The pressure solvers keep only caches that every solve rebuilds from its problem (the
+//! multigrid hierarchy, the Cholesky factorizations), so a solve depends only on the
+//! problem and the initial guess, which is the checkpointed pressure.
+//!
+//! A run continued from the checkpoint of step n into a directory deletes the checkpoints
+//! of later steps there ([`discard_after`]), as it drops the rows after step n.
+//!
+//! A restart refuses a checkpoint that is missing, truncated, corrupt, of another format
+//! version, or written by another case: the case may differ only in `time` (e.g. a later
+//! `time.end`), `output` and `description`. The rows of `diagnostics.csv` and
+//! `bodies.csv` up to the checkpoint's step are kept (from the checkpoint's run directory,
+//! else from the output directory) and the restarted run appends after them.
+
+use crate::core::case::{Case, Schedule};
+use crate::core::error::Error;
+use crate::core::math::Real;
+use crate::core::plugin::{StateReader, StateWriter};
+use crate::core::simulation::Simulation;
+use std::path::{Path, PathBuf};
+
+/// The first bytes of every checkpoint.
+pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
+/// Version of the format; a checkpoint of another version is refused.
+pub const VERSION: u32 = 1;
+/// Signature, version, payload length, checksum.
+const HEADER: usize = 8 + 4 + 8 + 8;
+/// Folder of the checkpoints in a run directory.
+pub const FOLDER: &str = "checkpoints";
+
+/// The runner's own state at a checkpoint: what `diagnostics.csv`, the summary and the
+/// checkpoint schedule need to continue.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunnerState {
+    /// Simulated time of the next `diagnostics.csv` row.
+    pub next_output: Real,
+    /// Whether the checkpoint's step has a regular row (not only the row every run
+    /// writes for its last step); a restart keeps the rows up to the step, that one
+    /// only if this is set.
+    pub last_row_written: bool,
+    /// Rows of `diagnostics.csv` so far.
+    pub diagnostics_rows: u64,
+    /// Largest constraint residual so far.
+    pub max_divergence: Real,
+    /// Largest |Σθ − 1| so far.
+    pub max_volume_fraction_error: Real,
+    /// Pressure iterations so far.
+    pub pressure_iterations_total: u64,
+    /// Smallest Δt so far.
+    pub min_dt: Real,
+    /// What limited the last step.
+    pub last_dt_limit: String,
+    /// Simulated time of the next checkpoint.
+    pub next_checkpoint: Real,
+}
+
+impl RunnerState {
+    fn write(&self, w: &mut StateWriter) {
+        w.f64(self.next_output);
+        w.bool(self.last_row_written);
+        w.u64(self.diagnostics_rows);
+        w.f64(self.max_divergence);
+        w.f64(self.max_volume_fraction_error);
+        w.u64(self.pressure_iterations_total);
+        w.f64(self.min_dt);
+        w.str(&self.last_dt_limit);
+        w.f64(self.next_checkpoint);
+    }
+    fn read(r: &mut StateReader) -> Result<Self, String> {
+        Ok(Self {
+            next_output: r.f64("runner: next output time")?,
+            last_row_written: r.bool("runner: last row written")?,
+            diagnostics_rows: r.u64("runner: diagnostics rows")?,
+            max_divergence: r.f64("runner: max divergence")?,
+            max_volume_fraction_error: r.f64("runner: max volume fraction error")?,
+            pressure_iterations_total: r.u64("runner: pressure iterations")?,
+            min_dt: r.f64("runner: min dt")?,
+            last_dt_limit: r.str("runner: last dt limit")?,
+            next_checkpoint: r.f64("runner: next checkpoint time")?,
+        })
+    }
+}
+
+/// A checkpoint read from a file (checked: complete, of this version, checksum right).
+pub struct Checkpoint {
+    /// The file.
+    pub path: PathBuf,
+    /// Steps taken.
+    pub step: u64,
+    /// Simulated time.
+    pub time: Real,
+    /// The case as run.
+    pub case: Case,
+    /// The runner's state.
+    pub runner: RunnerState,
+    /// [`Simulation::save_state`].
+    simulation: Vec<u8>,
+}
+
+impl std::fmt::Debug for Checkpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Checkpoint")
+            .field("path", &self.path)
+            .field("step", &self.step)
+            .field("time", &self.time)
+            .field("case", &self.case.name)
+            .field("runner", &self.runner)
+            .field("simulation_bytes", &self.simulation.len())
+            .finish()
+    }
+}
+
+/// Name of the checkpoint of `step`.
+pub fn file_name(step: u64) -> String {
+    format!("checkpoint_{step}.bin")
+}
+
+/// The step of a checkpoint's file name (`checkpoint_<step>.bin`).
+pub fn step_of(path: &Path) -> Option<u64> {
+    path.file_name()?.to_str()?.strip_prefix("checkpoint_")?.strip_suffix(".bin")?.parse().ok()
+}
+
+/// The checkpoints of the run directory `run_dir` (complete names only, not the
+/// temporary files of a write in progress), by step.
+pub fn list(run_dir: &Path) -> Vec<(u64, PathBuf)> {
+    let mut out: Vec<(u64, PathBuf)> = std::fs::read_dir(run_dir.join(FOLDER))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter_map(|p| step_of(&p).map(|s| (s, p)))
+        .collect();
+    out.sort();
+    out
+}
+
+/// A 64-bit checksum of `bytes` (word-wise multiply–rotate; detects truncation and
+/// corruption, not tampering).
+fn checksum(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325 ^ (bytes.len() as u64);
+    let mut chunks = bytes.chunks_exact(8);
+    for c in &mut chunks {
+        let w = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+        h = (h ^ w).wrapping_mul(0x9e37_79b9_7f4a_7c15).rotate_left(29);
+    }
+    let mut last = [0u8; 8];
+    last[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
+    h = (h ^ u64::from_le_bytes(last)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+    h ^ (h >> 33)
+}
+
+/// The bytes of a checkpoint of `sim` with the runner's state `runner`.
+pub fn encode(sim: &Simulation, runner: &RunnerState) -> Result<Vec<u8>, Error> {
+    let mut w = StateWriter::new();
+    w.u64(sim.steps);
+    w.f64(sim.time);
+    w.str(&sim.case.to_ron());
+    runner.write(&mut w);
+    w.bytes(&sim.save_state()?);
+    let payload = w.into_bytes();
+    let mut out = Vec::with_capacity(HEADER + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&checksum(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    Ok(out)
+}
+
+/// A bad checkpoint: the message says what is wrong with `path` and how to go on.
+fn bad(path: &Path, what: String) -> Error {
+    let mut fix = String::new();
+    let run_dir = path.parent().filter(|p| p.file_name().is_some_and(|n| n == FOLDER)).and_then(Path::parent);
+    if let Some(run_dir) = run_dir {
+        let others: Vec<PathBuf> =
+            list(run_dir).into_iter().rev().map(|(_, p)| p).filter(|p| p.file_name() != path.file_name()).collect();
+        if let Some(good) = others.iter().find(|p| load(p).is_ok()) {
+            fix = format!("; restart from the complete checkpoint {} instead", good.display());
+        }
+    }
+    if fix.is_empty() {
+        fix = "; restart from another checkpoint (a run with output.checkpoints writes them into \
+               <run directory>/checkpoints/), or run the case from t = 0 without --restart"
+            .into();
+    }
+    Error::Model(format!("checkpoint {}: {what}{fix}", path.display()))
+}
+
+/// Reads and checks the checkpoint `path`.
+pub fn read(path: &Path) -> Result<Checkpoint, Error> {
+    load(path).map_err(|m| bad(path, m))
+}
+
+/// [`read`] with the bare reason of a failure.
+fn load(path: &Path) -> Result<Checkpoint, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot be read: {e}"))?;
+    decode(path, &bytes)
+}
+
+fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
+    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+        let what = if bytes.is_empty() { "the file is empty" } else { "not a multifield checkpoint" };
+        return Err(format!("{what} (it does not start with the checkpoint signature)"));
+    }
+    if bytes.len() < HEADER {
+        return Err(format!(
+            "truncated: {} bytes, shorter than the header (a run killed while writing it?)",
+            bytes.len()
+        ));
+    }
+    let word = |k: usize| u64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != VERSION {
+        return Err(format!(
+            "format version {version}, this multifield reads version {VERSION}: continue it with the \
+                 multifield that wrote it"
+        ));
+    }
+    let (length, sum) = (word(12), word(20));
+    let payload = &bytes[HEADER..];
+    if (payload.len() as u64) < length {
+        return Err(format!(
+            "truncated: {} of {} bytes (a run killed while writing it, or an incomplete copy)",
+            bytes.len(),
+            HEADER as u64 + length
+        ));
+    }
+    if payload.len() as u64 > length {
+        return Err(format!("{} bytes, {} expected: extra bytes after the end", bytes.len(), HEADER as u64 + length));
+    }
+    if checksum(payload) != sum {
+        return Err("corrupt: the checksum does not match its contents".into());
+    }
+    let mut r = StateReader::new(payload);
+    let step = r.u64("step")?;
+    let time = r.f64("time")?;
+    let case = Case::from_ron(&r.str("case")?, path).map_err(|e| format!("the case it holds does not parse: {e}"))?;
+    let runner = RunnerState::read(&mut r)?;
+    let simulation = r.bytes("simulation state")?.to_vec();
+    r.finish("checkpoint")?;
+    Ok(Checkpoint { path: path.to_path_buf(), step, time, case, runner, simulation })
+}
+
+/// Entries of `case` that a restart may change.
+const MAY_CHANGE: [&str; 3] = ["time", "output", "description"];
+
+/// The entries in which two cases differ (dotted paths as for `--set`, named list entries
+/// by name), except [`MAY_CHANGE`]; each as "`path` is A in the checkpoint, B here".
+pub fn differences(checkpoint: &Case, here: &Case) -> Vec<String> {
+    fn walk(path: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+        use serde_json::Value;
+        let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
+        match (a, b) {
+            (Value::Object(x), Value::Object(y)) => {
+                for (k, va) in x {
+                    if path.is_empty() && MAY_CHANGE.contains(&k.as_str()) {
+                        continue;
+                    }
+                    walk(&join(k), va, y.get(k).unwrap_or(&Value::Null), out);
+                }
+                for (k, vb) in y.iter().filter(|(k, _)| !x.contains_key(*k)) {
+                    if !(path.is_empty() && MAY_CHANGE.contains(&k.as_str())) {
+                        walk(&join(k), &Value::Null, vb, out);
+                    }
+                }
+            }
+            (Value::Array(x), Value::Array(y))
+                if x.len() == y.len() && x.iter().chain(y).any(|v| v.is_object() || v.is_array()) =>
+            {
+                for (k, (va, vb)) in x.iter().zip(y).enumerate() {
+                    let key = match (va.get("name"), vb.get("name")) {
+                        (Some(Value::String(n)), Some(Value::String(m))) if n == m => n.clone(),
+                        _ => k.to_string(),
+                    };
+                    walk(&join(&key), va, vb, out);
+                }
+            }
+            _ if a == b => {}
+            _ => out.push(format!("`{path}` is {a} in the checkpoint, {b} here")),
+        }
+    }
+    let (Ok(a), Ok(b)) = (serde_json::to_value(checkpoint), serde_json::to_value(here)) else {
+        return vec!["the cases cannot be compared".into()];
+    };
+    let mut out = Vec::new();
+    walk("", &a, &b, &mut out);
+    out
+}
+
+/// Builds the simulation of `case` and restores the checkpoint `path` into it. Refuses a
+/// checkpoint of another case (module doc) with the entries that differ.
+pub fn restore(case: &Case, path: &Path) -> Result<(Simulation, Checkpoint), Error> {
+    let checkpoint = read(path)?;
+    let mut sim = Simulation::new(case)?;
+    let diff = differences(&checkpoint.case, &sim.case);
+    if !diff.is_empty() {
+        let shown = diff.iter().take(6).cloned().collect::<Vec<_>>().join("; ");
+        let more = if diff.len() > 6 { format!("; and {} more", diff.len() - 6) } else { String::new() };
+        return Err(Error::Model(format!(
+            "checkpoint {} was written by a different case `{}`: {shown}{more}. A restart may change only \
+             time.*, output.* and description: restart with the case the checkpoint was written with (its \
+             run directory's case.ron, with --set time.end=… to go further), or run the changed case from \
+             t = 0 without --restart",
+            path.display(),
+            checkpoint.case.name
+        )));
+    }
+    sim.load_state(&checkpoint.simulation).map_err(|e| bad(path, format!("does not fit the case: {e}")))?;
+    if sim.steps != checkpoint.step || sim.time.to_bits() != checkpoint.time.to_bits() {
+        return Err(bad(path, "its header and its simulation state disagree on the step".into()));
+    }
+    Ok((sim, checkpoint))
+}
+
+/// Next time of a schedule of `interval` after `t` when it cannot be carried over: the
+/// first multiple of `interval` after `t`.
+pub fn next_after(t: Real, interval: Real) -> Real {
+    let mut next = ((t / interval).floor() + 1.0) * interval;
+    while next <= t + 1e-9 * interval {
+        next += interval;
+    }
+    next
+}
+
+/// Deletes the checkpoints of `run_dir` beyond `step`: a run continued from the
+/// checkpoint of `step` replaces them (as it replaces the rows after that step), and a
+/// checkpoint of the abandoned steps must not be mistaken for one of the new run.
+pub fn discard_after(run_dir: &Path, step: u64) -> Result<(), Error> {
+    for (_, path) in list(run_dir).into_iter().filter(|(s, _)| *s > step) {
+        std::fs::remove_file(&path).map_err(|source| Error::Io { path, source })?;
+    }
+    Ok(())
+}
+
+/// The checkpoint writer of a run.
+#[derive(Debug)]
+pub struct Checkpoints {
+    folder: PathBuf,
+    interval: Real,
+    next: Real,
+    last_step: Option<u64>,
+}
+
+impl Checkpoints {
+    /// Checkpoints into `run_dir/checkpoints/` on `schedule`, the next at `next` (the
+    /// interval for a new run); `last_step` is the step of a checkpoint the run starts
+    /// from. Creates the folder and removes temporary files left by a killed run.
+    pub fn create(run_dir: &Path, schedule: Schedule, next: Real, last_step: Option<u64>) -> Result<Self, Error> {
+        let folder = run_dir.join(FOLDER);
+        std::fs::create_dir_all(&folder).map_err(|source| Error::Io { path: folder.clone(), source })?;
+        for e in std::fs::read_dir(&folder).map_err(|source| Error::Io { path: folder.clone(), source })?.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with(".checkpoint_") && name.ends_with(".bin.tmp") {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+        Ok(Self { folder, interval: schedule.interval, next, last_step })
+    }
+
+    /// Whether a checkpoint is due after a step that ended at `t`; if so, moves the
+    /// schedule past `t` (the rule of [`crate::output::Due`]).
+    pub fn due(&mut self, t: Real) -> bool {
+        if t < self.next - 1e-9 * self.interval {
+            return false;
+        }
+        while self.next <= t + 1e-9 * self.interval {
+            self.next += self.interval;
+        }
+        true
+    }
+
+    /// Simulated time of the next checkpoint.
+    pub fn next(&self) -> Real {
+        self.next
+    }
+
+    /// Step of the last checkpoint written (or started from).
+    pub fn last_step(&self) -> Option<u64> {
+        self.last_step
+    }
+
+    /// Writes the checkpoint of `sim` (atomically), then deletes those of earlier steps
+    /// but the newest of them. `runner.next_checkpoint` is set here.
+    pub fn write(&mut self, sim: &Simulation, runner: &RunnerState) -> Result<PathBuf, Error> {
+        let runner = RunnerState { next_checkpoint: self.next, ..runner.clone() };
+        let bytes = encode(sim, &runner)?;
+        let path = self.folder.join(file_name(sim.steps));
+        crate::output::write_atomically(&path, &bytes)?;
+        self.last_step = Some(sim.steps);
+        let run_dir = self.folder.parent().unwrap_or(Path::new("."));
+        let earlier: Vec<PathBuf> = list(run_dir).into_iter().filter(|(s, _)| *s < sim.steps).map(|(_, p)| p).collect();
+        for old in earlier.iter().rev().skip(1) {
+            std::fs::remove_file(old).map_err(|source| Error::Io { path: old.clone(), source })?;
+        }
+        Ok(path)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checksums_see_truncation_and_flipped_bits() {
+        let a: Vec<u8> = (0..1000u32).map(|k| (k * 7 % 251) as u8).collect();
+        let mut b = a.clone();
+        b[500] ^= 1;
+        assert_ne!(checksum(&a), checksum(&b));
+        assert_ne!(checksum(&a), checksum(&a[..999]));
+        assert_ne!(checksum(&[0; 7]), checksum(&[0; 8]));
+    }
+
+    #[test]
+    fn names_carry_the_step() {
+        assert_eq!(step_of(Path::new("x/checkpoints/checkpoint_120.bin")), Some(120));
+        assert_eq!(step_of(Path::new(&file_name(7))), Some(7));
+        assert_eq!(step_of(Path::new(".checkpoint_120.bin.tmp")), None);
+    }
+
+    #[test]
+    fn a_schedule_after_a_time_starts_at_the_next_multiple() {
+        assert_eq!(next_after(0.0, 0.1), 0.1);
+        assert!((next_after(0.25, 0.1) - 0.3).abs() < 1e-12);
+        assert!((next_after(0.3 - 1e-15, 0.1) - 0.4).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,668 @@
+//! PNG pictures of the flow at output times (`output.pictures` in the case), for looking
+//! at a run and for an animation.
+//!
+//! The run writes `frames/frame_000000.png`, `frame_000001.png`, … numbered by frame: the
+//! first at t = 0, then every `output.pictures.interval` of simulated time, and always the
+//! last step of the run. Each picture is `width` pixels wide: the domain with its aspect
+//! (y up), a band above it with the case name and the time, and a band below with the
+//! colour bar and its numeric range. What the colours show (`quantity`):
+//!
+//! - `Vorticity`: ω = ∂v/∂x − ∂u/∂y of the mixture velocity Σθu/Σθ at cell centres
+//!   (centred differences), on a diverging blue–white–red map symmetric about 0; the range
+//!   ±ω_max is the frame's 99.5th percentile of |ω| (the thin layers on body surfaces
+//!   would wash out the wakes with the maximum), brighter values saturate;
+//! - `Speed`: |Σθu/Σθ| on a sequential map (viridis), from 0 to the frame's largest speed
+//!   (the components interpolated to the pixel, then combined, so zeros stay sharp);
+//! - `VolumeFraction`: θ of the field that fills the rest (region `Rest`), or of the first
+//!   field, from 0 to 1 (viridis).
+//!
+//! Cells that no field occupies (Σθ ≈ 0, e.g. the vacuum around colliding disks) are grey.
+//! Material points are drawn as dots (at most [`MAX_POINTS`], a deterministic sample),
+//! bodies as black circles of their radius at their centroid. The state comes from the
+//! frames themselves (an Eulerian field's own θ and face velocities, a Lagrangian field's
+//! points spread to cell centres with linear weights), so the frame at t = 0 shows the
+//! initial state.
+//!
+//! Make an animation of the frames with ffmpeg:
+//!
+//! ```text
+//! ffmpeg -framerate 20 -i frames/frame_%06d.png -pix_fmt yuv420p dkt.mp4
+//! ```
+//!
+//! The height is always even; yuv420p needs an even width too, so give `width` an even
+//! number (or add `-vf pad=ceil(iw/2)*2:ih`).
+//!
+//! A run from t = 0 first removes the frames an earlier run left in `frames/`; a run
+//! continued from a checkpoint keeps the frames up to its start and draws on from there
+//! ([`Pictures::create`]). A frame of a domain 320 × 1280 cells, 640 pixels wide, takes
+//! 0.08–0.17 s on two cores (most of it the PNG encoder).
+
+use crate::core::case::{PictureQuantity, PictureSpec};
+use crate::core::error::Error;
+use crate::core::grid::Grid;
+use crate::core::math::Real;
+use crate::core::simulation::Simulation;
+use crate::frames::eulerian::Eulerian;
+use crate::frames::lagrangian::Lagrangian;
+use crate::output::{Due, Writer};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// At most this many material points are drawn per frame (a deterministic sample beyond).
+pub const MAX_POINTS: usize = 20_000;
+
+/// Largest picture, in pixels.
+const MAX_PIXELS: u64 = 64 << 20;
+
+/// Percentile of |ω| that sets the vorticity range.
+const VORTICITY_PERCENTILE: f64 = 0.995;
+
+/// Colour of cells no field occupies.
+const EMPTY: [u8; 3] = [200, 200, 200];
+
+/// Where things are in a picture (pixels; rows from the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Width of the picture (and of the domain).
+    pub width: u32,
+    /// Height of the picture.
+    pub height: u32,
+    /// First row of the domain.
+    pub field_top: u32,
+    /// Rows of the domain: `round(width × Ly / Lx)`.
+    pub field_height: u32,
+    /// Row of the middle of the colour bar.
+    pub bar_row: u32,
+    /// Columns of the colour bar's ends (first and last column).
+    pub bar_columns: (u32, u32),
+    /// Text size (pixels).
+    pub font: u32,
+}
+
+impl Layout {
+    /// The layout of a picture `width` pixels wide of a domain of size `size`.
+    pub fn new(size: [Real; 2], width: u32) -> Self {
+        let field_height = ((width as Real) * size[1] / size[0]).round().max(1.0) as u32;
+        let font = ((width as f64) / 28.0).round().clamp(10.0, 18.0) as u32;
+        let top = 2 * font;
+        let pad = font / 2;
+        let bar = font;
+        // bar, labels under it; the whole height even (yuv420p)
+        let mut bottom = pad + bar + pad + font + pad + font / 3;
+        if (top + field_height + bottom) % 2 == 1 {
+            bottom += 1;
+        }
+        let margin = (2 * font).min(width / 8);
+        Layout {
+            width,
+            height: top + field_height + bottom,
+            field_top: top,
+            field_height,
+            bar_row: top + field_height + pad + bar / 2,
+            bar_columns: (margin, width.saturating_sub(margin + 1).max(margin)),
+            font,
+        }
+    }
+
+    /// Pixel (column, row) of the point (x, y) of a domain with lower-left corner `origin`
+    /// and size `size`.
+    pub fn pixel(&self, origin: [Real; 2], size: [Real; 2], x: Real, y: Real) -> (i64, i64) {
+        let px = ((x - origin[0]) / size[0] * self.width as Real).floor() as i64;
+        let py = self.field_top as i64 + ((1.0 - (y - origin[1]) / size[1]) * self.field_height as Real).floor() as i64;
+        (px, py)
+    }
+}
+
+/// Piecewise-linear interpolation between evenly spaced colours, `t` in [0, 1].
+fn ramp(stops: &[[u8; 3]], t: f64) -> [u8; 3] {
+    let t = if t.is_nan() { 0.5 } else { t.clamp(0.0, 1.0) };
+    let s = t * (stops.len() - 1) as f64;
+    let k = (s.floor() as usize).min(stops.len() - 2);
+    let f = s - k as f64;
+    let (a, b) = (stops[k], stops[k + 1]);
+    std::array::from_fn(|c| (a[c] as f64 + f * (b[c] as f64 - a[c] as f64)).round() as u8)
+}
+
+const DIVERGING: [[u8; 3]; 11] = [
+    [5, 48, 97],
+    [33, 102, 172],
+    [67, 147, 195],
+    [146, 197, 222],
+    [209, 229, 240],
+    [255, 255, 255],
+    [253, 219, 199],
+    [244, 165, 130],
+    [214, 96, 77],
+    [178, 24, 43],
+    [103, 0, 31],
+];
+
+const VIRIDIS: [[u8; 3]; 9] = [
+    [68, 1, 84],
+    [71, 44, 122],
+    [59, 81, 139],
+    [44, 113, 142],
+    [33, 144, 141],
+    [39, 173, 129],
+    [92, 200, 99],
+    [170, 220, 50],
+    [253, 231, 37],
+];
+
+/// The diverging map (vorticity): `s` in [−1, 1], dark blue at −1, white at 0, dark red at 1.
+pub fn diverging(s: f64) -> [u8; 3] {
+    ramp(&DIVERGING, 0.5 * (s + 1.0))
+}
+
+/// The sequential map (speed, volume fraction): `t` in [0, 1], viridis.
+pub fn sequential(t: f64) -> [u8; 3] {
+    ramp(&VIRIDIS, t)
+}
+
+/// A cell-centred scalar of the picture and its colour range. A speed is held as its two
+/// components (`values`, `second`), interpolated apart and then combined, so that a zero
+/// of the velocity stays a zero between cell centres.
+struct Scalar {
+    values: Vec<Real>,
+    second: Option<Vec<Real>>,
+    lo: Real,
+    hi: Real,
+    diverging: bool,
+    label: String,
+}
+
+/// Σθ and Σθu, Σθv at cell centres, over every field; and the θ of each field.
+fn mixture(sim: &Simulation) -> (Vec<Real>, Vec<Real>, Vec<Real>, Vec<Vec<Real>>) {
+    let g = &sim.grid;
+    let n = g.n_cells();
+    let (px, py) = (sim.boundaries.periodic_x(), sim.boundaries.periodic_y());
+    let (mut theta, mut tu, mut tv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut per_field = Vec::with_capacity(sim.fields.len());
+    for f in &sim.fields {
+        let any = f.frame.as_any();
+        let (th, u, v) = if let Some(e) = any.downcast_ref::<Eulerian>() {
+            let (u, v) = cell_velocity(g, &e.velocity().u, &e.velocity().v);
+            (e.theta().to_vec(), u, v)
+        } else if let Some(l) = any.downcast_ref::<Lagrangian>() {
+            spread_points(g, l, px, py)
+        } else {
+            let s = &f.state;
+            let (u, v) = cell_velocity(g, &s.velocity.u, &s.velocity.v);
+            (s.theta.clone(), u, v)
+        };
+        for c in 0..n {
+            theta[c] += th[c];
+            tu[c] += th[c] * u[c];
+            tv[c] += th[c] * v[c];
+        }
+        per_field.push(th);
+    }
+    (theta, tu, tv, per_field)
+}
+
+/// Face velocities averaged to cell centres.
+fn cell_velocity(g: &Grid, u: &[Real], v: &[Real]) -> (Vec<Real>, Vec<Real>) {
+    let mut cu = vec![0.0; g.n_cells()];
+    let mut cv = vec![0.0; g.n_cells()];
+    if u.len() != g.n_xfaces() || v.len() != g.n_yfaces() {
+        return (cu, cv);
+    }
+    for j in 0..g.ny {
+        for i in 0..g.nx {
+            cu[g.cell(i, j)] = 0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]);
+            cv[g.cell(i, j)] = 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)]);
+        }
+    }
+    (cu, cv)
+}
+
+/// θ and velocity at cell centres from material points, with linear weights (wrapped on a
+/// periodic side, clamped to the edge cell on the others, which conserves volume there).
+fn spread_points(g: &Grid, l: &Lagrangian, px: bool, py: bool) -> (Vec<Real>, Vec<Real>, Vec<Real>) {
+    let n = g.n_cells();
+    let (mut vol, mut mu, mut mv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let p = &l.points;
+    let index = |k: i64, len: usize, periodic: bool| -> usize {
+        if periodic {
+            k.rem_euclid(len as i64) as usize
+        } else {
+            k.clamp(0, len as i64 - 1) as usize
+        }
+    };
+    for k in 0..p.len() {
+        let x = p.x[k];
+        let fx = (x.x - g.origin.x) / g.h - 0.5;
+        let fy = (x.y - g.origin.y) / g.h - 0.5;
+        if !(fx.is_finite() && fy.is_finite()) {
+            continue;
+        }
+        let (i0, j0) = (fx.floor(), fy.floor());
+        let (a, b) = (fx - i0, fy - j0);
+        let w = p.volume(k);
+        let vel = p.v[k];
+        for (dj, wy) in [(0, 1.0 - b), (1, b)] {
+            let j = index(j0 as i64 + dj, g.ny, py);
+            for (di, wx) in [(0, 1.0 - a), (1, a)] {
+                let i = index(i0 as i64 + di, g.nx, px);
+                let c = g.cell(i, j);
+                let s = w * wx * wy;
+                vol[c] += s;
+                mu[c] += s * vel.x;
+                mv[c] += s * vel.y;
+            }
+        }
+    }
+    let area = g.cell_area();
+    let mut u = vec![0.0; n];
+    let mut v = vec![0.0; n];
+    for c in 0..n {
+        if vol[c] > 0.0 {
+            u[c] = mu[c] / vol[c];
+            v[c] = mv[c] / vol[c];
+        }
+        vol[c] /= area;
+    }
+    (vol, u, v)
+}
+
+/// The `q` quantile of the finite values (0 when there are none).
+fn quantile(values: &[Real], q: f64) -> Real {
+    let mut v: Vec<Real> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let k = ((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1);
+    *v.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
+}
+
+/// A usable positive range end.
+fn range_end(x: Real) -> Real {
+    if x.is_finite() && x > 0.0 {
+        x
+    } else {
+        1.0
+    }
+}
+
+fn scalar(sim: &Simulation, quantity: PictureQuantity) -> Scalar {
+    let g = &sim.grid;
+    let (theta, tu, tv, per_field) = mixture(sim);
+    let occupied = |c: usize| theta[c] > 1e-6;
+    let u: Vec<Real> = (0..g.n_cells()).map(|c| if occupied(c) { tu[c] / theta[c] } else { Real::NAN }).collect();
+    let v: Vec<Real> = (0..g.n_cells()).map(|c| if occupied(c) { tv[c] / theta[c] } else { Real::NAN }).collect();
+    match quantity {
+        PictureQuantity::Vorticity => {
+            let (px, py) = (sim.boundaries.periodic_x(), sim.boundaries.periodic_y());
+            let mut w = vec![Real::NAN; g.n_cells()];
+            for j in 0..g.ny {
+                for i in 0..g.nx {
+                    let c = g.cell(i, j);
+                    if !occupied(c) {
+                        continue;
+                    }
+                    let dvdx = derivative(&v, g, i, j, true, px);
+                    let dudy = derivative(&u, g, i, j, false, py);
+                    w[c] = dvdx - dudy;
+                }
+            }
+            let abs: Vec<Real> = w.iter().map(|x| x.abs()).collect();
+            let m = range_end(quantile(&abs, VORTICITY_PERCENTILE));
+            Scalar { values: w, second: None, lo: -m, hi: m, diverging: true, label: "vorticity".into() }
+        }
+        PictureQuantity::Speed => {
+            let m = u.iter().zip(&v).map(|(u, v)| u.hypot(*v)).filter(|x| x.is_finite()).fold(0.0, Real::max);
+            Scalar { values: u, second: Some(v), lo: 0.0, hi: range_end(m), diverging: false, label: "speed".into() }
+        }
+        PictureQuantity::VolumeFraction => {
+            let k = sim.fields.iter().position(|f| f.fills_rest).unwrap_or(0);
+            let values = per_field.get(k).cloned().unwrap_or_else(|| vec![0.0; g.n_cells()]);
+            let label = match sim.fields.get(k) {
+                Some(f) => format!("volume fraction of {}", f.name),
+                None => "volume fraction".into(),
+            };
+            Scalar { values, second: None, lo: 0.0, hi: 1.0, diverging: false, label }
+        }
+    }
+}
+
+/// ∂f/∂x (`along_x`) or ∂f/∂y at cell (i, j): centred where both neighbours hold a value,
+/// one-sided where one does, 0 where none does.
+fn derivative(f: &[Real], g: &Grid, i: usize, j: usize, along_x: bool, periodic: bool) -> Real {
+    let (k, len) = if along_x { (i, g.nx) } else { (j, g.ny) };
+    let at = |m: usize| if along_x { f[g.cell(m, j)] } else { f[g.cell(i, m)] };
+    let prev = if k > 0 {
+        Some(k - 1)
+    } else if periodic && len > 1 {
+        Some(len - 1)
+    } else {
+        None
+    };
+    let next = if k + 1 < len {
+        Some(k + 1)
+    } else if periodic && len > 1 {
+        Some(0)
+    } else {
+        None
+    };
+    let c = at(k);
+    let p = prev.map(at).filter(|x| x.is_finite());
+    let n = next.map(at).filter(|x| x.is_finite());
+    match (p, n) {
+        (Some(p), Some(n)) => (n - p) / (2.0 * g.h),
+        (Some(p), None) => (c - p) / g.h,
+        (None, Some(n)) => (n - c) / g.h,
+        (None, None) => 0.0,
+    }
+}
+
+/// Colour of a value of `s`.
+fn colour(s: &Scalar, x: Real) -> [u8; 3] {
+    if !x.is_finite() {
+        return EMPTY;
+    }
+    if s.diverging {
+        diverging(x / s.hi)
+    } else {
+        sequential((x - s.lo) / (s.hi - s.lo))
+    }
+}
+
+/// Paints the domain: the scalar interpolated bilinearly between cell centres at every
+/// pixel centre (cells without a value left out of the weights).
+fn paint_field(rgb: &mut [u8], lay: &Layout, g: &Grid, s: &Scalar) {
+    let w = lay.width as usize;
+    let start = lay.field_top as usize * w * 3;
+    let rows = &mut rgb[start..start + lay.field_height as usize * w * 3];
+    let (nx, ny) = (g.nx, g.ny);
+    let (fw, fh) = (lay.width as Real, lay.field_height as Real);
+    rows.par_chunks_mut(w * 3).enumerate().for_each(|(r, row)| {
+        let fy = (1.0 - (r as Real + 0.5) / fh) * ny as Real - 0.5;
+        let j0 = fy.floor().clamp(0.0, (ny - 1) as Real) as usize;
+        let j1 = (j0 + 1).min(ny - 1);
+        let b = (fy - j0 as Real).clamp(0.0, 1.0);
+        for (col, px) in row.chunks_mut(3).enumerate() {
+            let fx = (col as Real + 0.5) / fw * nx as Real - 0.5;
+            let i0 = fx.floor().clamp(0.0, (nx - 1) as Real) as usize;
+            let i1 = (i0 + 1).min(nx - 1);
+            let a = (fx - i0 as Real).clamp(0.0, 1.0);
+            let (mut sum, mut sum2, mut wsum) = (0.0, 0.0, 0.0);
+            for (i, j, wt) in
+                [(i0, j0, (1.0 - a) * (1.0 - b)), (i1, j0, a * (1.0 - b)), (i0, j1, (1.0 - a) * b), (i1, j1, a * b)]
+            {
+                let x = s.values[i + j * nx];
+                if x.is_finite() && wt > 0.0 {
+                    sum += wt * x;
+                    sum2 += s.second.as_ref().map_or(0.0, |y| wt * y[i + j * nx]);
+                    wsum += wt;
+                }
+            }
+            let value = if s.second.is_some() { sum.hypot(sum2) } else { sum };
+            let c = if wsum > 1e-12 { colour(s, value / wsum) } else { EMPTY };
+            px.copy_from_slice(&c);
+        }
+    });
+}
+
+/// Blends `c` with opacity `alpha` into pixel (x, y) when it lies in the domain's rows.
+fn blend(rgb: &mut [u8], lay: &Layout, x: i64, y: i64, c: [u8; 3], alpha: f64) {
+    let (y0, y1) = (lay.field_top as i64, (lay.field_top + lay.field_height) as i64);
+    if x < 0 || x >= lay.width as i64 || y < y0 || y >= y1 || alpha <= 0.0 {
+        return;
+    }
+    let k = 3 * (y as usize * lay.width as usize + x as usize);
+    let a = alpha.min(1.0);
+    for ch in 0..3 {
+        let d = rgb[k + ch] as f64;
+        rgb[k + ch] = (d + a * (c[ch] as f64 - d)).round() as u8;
+    }
+}
+
+/// Material points as one-pixel dots, a deterministic sample of at most [`MAX_POINTS`].
+fn paint_points(rgb: &mut [u8], lay: &Layout, sim: &Simulation) {
+    let total: usize =
+        sim.fields.iter().filter_map(|f| f.frame.as_any().downcast_ref::<Lagrangian>()).map(|l| l.points.len()).sum();
+    if total == 0 {
+        return;
+    }
+    let size = sim.grid.size();
+    let (origin, size) = ([sim.grid.origin.x, sim.grid.origin.y], [size.x, size.y]);
+    // keep point k when a hash of k falls under the kept fraction (no lattice aliasing)
+    let keep = (MAX_POINTS as f64 / total as f64).min(1.0);
+    let threshold = (keep * u32::MAX as f64) as u64;
+    let mut k_all: u64 = 0;
+    for l in sim.fields.iter().filter_map(|f| f.frame.as_any().downcast_ref::<Lagrangian>()) {
+        for x in &l.points.x {
+            k_all += 1;
+            let h = (k_all.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) & 0xFFFF_FFFF;
+            if keep < 1.0 && h > threshold {
+                continue;
+            }
+            let (px, py) = lay.pixel(origin, size, x.x, x.y);
+            blend(rgb, lay, px, py, [40, 40, 40], 0.55);
+        }
+    }
+}
+
+/// Body outlines: anti-aliased black circles of the body's radius at its centroid.
+fn paint_bodies(rgb: &mut [u8], lay: &Layout, sim: &Simulation) {
+    let size = sim.grid.size();
+    let scale = lay.width as Real / size.x;
+    let line = (lay.width as Real / 300.0).clamp(1.2, 3.0);
+    for (_, b) in sim.bodies() {
+        let cx = (b.position.x - sim.grid.origin.x) * scale;
+        let cy = lay.field_top as Real + (size.y - (b.position.y - sim.grid.origin.y)) * scale;
+        let r = b.radius * scale;
+        if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
+            continue;
+        }
+        let reach = r + line;
+        let (x0, x1) = ((cx - reach).floor() as i64, (cx + reach).ceil() as i64);
+        let (y0, y1) = ((cy - reach).floor() as i64, (cy + reach).ceil() as i64);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let d = ((x as Real + 0.5 - cx).hypot(y as Real + 0.5 - cy) - r).abs();
+                let cover = (0.5 * line + 0.5 - d).clamp(0.0, 1.0);
+                blend(rgb, lay, x, y, [0, 0, 0], cover);
+            }
+        }
+    }
+}
+
+/// The colour bar's gradient.
+fn paint_bar(rgb: &mut [u8], lay: &Layout, s: &Scalar) {
+    let (c0, c1) = lay.bar_columns;
+    let half = lay.font / 2;
+    let w = lay.width as usize;
+    for row in lay.bar_row - half..lay.bar_row - half + lay.font {
+        for col in c0..=c1 {
+            let t = if c1 > c0 { (col - c0) as f64 / (c1 - c0) as f64 } else { 0.5 };
+            let c = colour(s, s.lo + t * (s.hi - s.lo));
+            let k = 3 * (row as usize * w + col as usize);
+            rgb[k..k + 3].copy_from_slice(&c);
+        }
+    }
+}
+
+/// A number with three significant digits, with a true minus sign.
+pub fn format_number(x: Real) -> String {
+    let s = if x == 0.0 {
+        "0".to_string()
+    } else if x.abs() >= 1e4 || x.abs() < 1e-2 {
+        format!("{x:.2e}")
+    } else {
+        let decimals = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+        format!("{x:.decimals$}")
+    };
+    s.replace('-', "−")
+}
+
+/// Draws one picture of `sim` into `path` (PNG, through `tmp` and a rename).
+fn write_picture(sim: &Simulation, spec: &PictureSpec, lay: &Layout, path: &Path, tmp: &Path) -> Result<(), Error> {
+    let s = scalar(sim, spec.quantity);
+    let mut rgb = vec![255u8; lay.width as usize * lay.height as usize * 3];
+    paint_field(&mut rgb, lay, &sim.grid, &s);
+    paint_points(&mut rgb, lay, sim);
+    paint_bodies(&mut rgb, lay, sim);
+    paint_bar(&mut rgb, lay, &s);
+    crate::plot::register_font();
+    let draw = || -> Result<(), String> {
+        let root = BitMapBackend::new(tmp, (lay.width, lay.height)).into_drawing_area();
+        let image = BitMapElement::with_ref((0, 0), (lay.width, lay.height), &rgb)
+            .ok_or_else(|| "picture buffer of the wrong size".to_string())?;
+        root.draw(&image).map_err(|e| e.to_string())?;
+        let f = lay.font as i32;
+        let style = |h, v| ("sans-serif", f).into_font().color(&BLACK).pos(Pos::new(h, v));
+        let top = lay.field_top as i32 / 2;
+        root.draw(&Text::new(sim.case.name.clone(), (f / 2, top), style(HPos::Left, VPos::Center)))
+            .map_err(|e| e.to_string())?;
+        root.draw(&Text::new(
+            time_label(sim.time, spec.interval),
+            (lay.width as i32 - f / 2, top),
+            style(HPos::Right, VPos::Center),
+        ))
+        .map_err(|e| e.to_string())?;
+        let (c0, c1) = (lay.bar_columns.0 as i32, lay.bar_columns.1 as i32);
+        let bar_bottom = lay.bar_row as i32 - f / 2 + f;
+        let label_row = bar_bottom + f / 4;
+        root.draw(&Text::new(format_number(s.lo), (c0, label_row), style(HPos::Left, VPos::Top)))
+            .map_err(|e| e.to_string())?;
+        root.draw(&Text::new(format_number(s.hi), (c1, label_row), style(HPos::Right, VPos::Top)))
+            .map_err(|e| e.to_string())?;
+        root.draw(&Text::new(s.label.clone(), ((c0 + c1) / 2, label_row), style(HPos::Center, VPos::Top)))
+            .map_err(|e| e.to_string())?;
+        // the bar's frame, and a tick at 0 on a diverging map
+        let top_row = lay.bar_row as i32 - f / 2;
+        root.draw(&Rectangle::new([(c0 - 1, top_row - 1), (c1 + 1, bar_bottom)], BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?;
+        if s.diverging {
+            let mid = (c0 + c1) / 2;
+            root.draw(&PathElement::new(vec![(mid, top_row - f / 4), (mid, top_row)], BLACK.stroke_width(1)))
+                .map_err(|e| e.to_string())?;
+        }
+        root.present().map_err(|e| e.to_string())
+    };
+    if let Err(m) = draw() {
+        let _ = std::fs::remove_file(tmp);
+        return Err(Error::Model(format!("cannot draw {}: {m}", path.display())));
+    }
+    std::fs::rename(tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source })
+}
+
+/// "t = 2.40": two decimals more than the interval needs, at least one.
+fn time_label(t: Real, interval: Real) -> String {
+    let decimals = if interval > 0.0 { ((-interval.log10()).ceil() as i64 + 1).clamp(1, 9) as usize } else { 4 };
+    format!("t = {t:.decimals$}")
+}
+
+/// Name of frame `k`.
+pub fn frame_name(k: usize) -> String {
+    format!("frame_{k:06}.png")
+}
+
+/// Writer of `frames/`.
+pub struct Pictures {
+    dir: PathBuf,
+    spec: PictureSpec,
+    layout: Layout,
+    due: Due,
+    next: usize,
+    last_step: Option<u64>,
+    resumed: bool,
+}
+
+impl Pictures {
+    /// Prepares `dir/frames/`. A run from t = 0 removes the frames an earlier run left
+    /// there (`frame_NNNNNN.png`), so that an animation never mixes two runs. A run
+    /// continued from a checkpoint at time T keeps the frames of the times kΔ ≤ T (the
+    /// first K = ⌊T/Δ⌋ + 1, drawn before the checkpoint), removes the later ones, and
+    /// draws on from frame K: the frames of the continued run are those of an
+    /// uninterrupted one (when every interval holds a step, i.e. Δt ≤ Δ).
+    pub fn create(sim: &Simulation, dir: &Path, spec: PictureSpec) -> Result<Self, Error> {
+        if !(spec.interval > 0.0 && spec.interval.is_finite()) {
+            return Err(Error::invalid(
+                "output.pictures.interval",
+                format!("{}: must be a positive time", spec.interval),
+            ));
+        }
+        let size = sim.grid.size();
+        let layout = Layout::new([size.x, size.y], spec.width);
+        if layout.width as u64 * layout.height as u64 > MAX_PIXELS || spec.width < 16 {
+            return Err(Error::invalid(
+                "output.pictures.width",
+                format!(
+                    "{}: the picture would be {} × {} pixels; give a width between 16 and one that keeps it under {} megapixels",
+                    spec.width,
+                    layout.width,
+                    layout.height,
+                    MAX_PIXELS >> 20
+                ),
+            ));
+        }
+        let frames = dir.join("frames");
+        std::fs::create_dir_all(&frames).map_err(|source| Error::Io { path: frames.clone(), source })?;
+        let existing: Vec<(usize, PathBuf)> = std::fs::read_dir(&frames)
+            .map_err(|source| Error::Io { path: frames.clone(), source })?
+            .filter_map(|e| e.ok())
+            .filter_map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let k = name.strip_prefix("frame_")?.strip_suffix(".png")?;
+                if k.len() != 6 || !k.bytes().all(|b| b.is_ascii_digit()) {
+                    return None;
+                }
+                Some((k.parse().ok()?, e.path()))
+            })
+            .collect();
+        let keep = if sim.steps == 0 { 0 } else { (sim.time / spec.interval + 1e-9).floor() as usize + 1 };
+        for (_, p) in existing.iter().filter(|(k, _)| *k >= keep) {
+            std::fs::remove_file(p).map_err(|source| Error::Io { path: p.clone(), source })?;
+        }
+        let next = keep;
+        // a continued run's state at T is that of a step drawn (or not due) before
+        let resumed = sim.steps > 0;
+        Ok(Self { dir: frames, spec, layout, due: Due::new(0.0, spec.interval), next, last_step: None, resumed })
+    }
+
+    /// The layout of this run's pictures.
+    pub fn layout(&self) -> Layout {
+        self.layout
+    }
+
+    fn draw(&mut self, sim: &Simulation) -> Result<(), Error> {
+        let name = frame_name(self.next);
+        let path = self.dir.join(&name);
+        let tmp = self.dir.join(format!(".{}.partial.png", name.trim_end_matches(".png")));
+        write_picture(sim, &self.spec, &self.layout, &path, &tmp)?;
+        self.next += 1;
+        self.last_step = Some(sim.steps);
+        Ok(())
+    }
+}
+
+impl Writer for Pictures {
+    fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
+        if self.due.check(sim.time) && !self.resumed {
+            self.draw(sim)?;
+        }
+        Ok(())
+    }
+
+    fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error> {
+        let due = self.due.check(sim.time);
+        if (due || last) && self.last_step != Some(sim.steps) {
+            self.draw(sim)?;
+        }
+        Ok(())
+    }
+}
+
+/// Draws the picture of `sim` now into `path` (PNG), as the run's frames are drawn.
+pub fn write_frame(sim: &Simulation, spec: &PictureSpec, path: &Path) -> Result<Layout, Error> {
+    let size = sim.grid.size();
+    let layout = Layout::new([size.x, size.y], spec.width);
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{}.partial.png", name.trim_end_matches(".png")));
+    write_picture(sim, spec, &layout, path, &tmp)?;
+    Ok(layout)
+}

@@ -1,0 +1,388 @@
+//! Checkpoint and restart (`output.checkpoints`, `multifield run --restart`):
+//!
+//! - a run continued from a checkpoint reproduces the uninterrupted run bit for bit (body
+//!   states, pressure, every field's velocities and points, the APIC matrices, the whole
+//!   final checkpoint) and its `diagnostics.csv`/`bodies.csv` continue byte for byte: on a
+//!   coupled DKT scene (Eulerian water, rigid Lagrangian disks, contact, MG-PCG), on a
+//!   Lagrangian APIC fluid with each pressure solver, and for a finished run extended to a
+//!   later `time.end`;
+//! - a run killed mid-write (a leftover temporary checkpoint, a half-written row, rows past
+//!   the last checkpoint) continues from its last complete checkpoint, and a truncated
+//!   checkpoint is refused with the reason and the complete one to use (exit code 2);
+//! - a checkpoint of a case with another grid is refused with the entry that differs.
+
+use multifield::checkpoint::{self, Checkpoint};
+use multifield::core::case::Case;
+use multifield::core::math::Real;
+use multifield::core::simulation::{Simulation, Status};
+use multifield::frames::eulerian::Eulerian;
+use multifield::frames::lagrangian::Lagrangian;
+use multifield::run::{run, Outcome, RunOptions};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn load(file: &str, overrides: &[&str]) -> Case {
+    multifield::link_all();
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    Case::load(Path::new(file), &overrides).unwrap()
+}
+
+fn run_into(case: &Case, dir: &Path, restart: Option<&Path>) -> Outcome {
+    let options = RunOptions { restart: restart.map(Path::to_path_buf), ..RunOptions::quiet() };
+    let outcome = run(case, dir, &options).unwrap();
+    assert_eq!(outcome.status, Status::Completed, "{:?}", outcome.summary.reason);
+    outcome
+}
+
+fn bits(x: &[Real]) -> Vec<u64> {
+    x.iter().map(|v| v.to_bits()).collect()
+}
+
+fn vector_bits(x: &[multifield::core::math::Vector]) -> Vec<[u64; 2]> {
+    x.iter().map(|v| [v.x.to_bits(), v.y.to_bits()]).collect()
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Asserts that two simulations hold the same state, bit for bit, part by part.
+fn assert_same_state(a: &Simulation, b: &Simulation) {
+    assert_eq!((a.steps, a.time.to_bits()), (b.steps, b.time.to_bits()), "step and time");
+    assert_eq!(bits(&a.pressure), bits(&b.pressure), "pressure");
+    let body = |s: &multifield::core::plugin::BodyState| {
+        [s.position.x, s.position.y, s.velocity.x, s.velocity.y, s.angular_velocity, s.force.x, s.force.y, s.torque]
+            .map(Real::to_bits)
+    };
+    let (ba, bb) = (a.bodies(), b.bodies());
+    assert_eq!(ba.len(), bb.len());
+    for ((_, x), (_, y)) in ba.iter().zip(&bb) {
+        assert_eq!(x.name, y.name);
+        assert_eq!(body(x), body(y), "body {}", x.name);
+    }
+    for (fa, fb) in a.fields.iter().zip(&b.fields) {
+        let name = &fa.name;
+        assert_eq!(bits(&fa.state.velocity.u), bits(&fb.state.velocity.u), "grid u of {name}");
+        assert_eq!(bits(&fa.state.velocity.v), bits(&fb.state.velocity.v), "grid v of {name}");
+        assert_eq!(bits(&fa.state.theta), bits(&fb.state.theta), "θ of {name}");
+        if let Some(ea) = fa.frame.as_any().downcast_ref::<Eulerian>() {
+            let eb = fb.frame.as_any().downcast_ref::<Eulerian>().unwrap();
+            assert_eq!(bits(&ea.velocity().u), bits(&eb.velocity().u), "u of {name}");
+            assert_eq!(bits(&ea.velocity().v), bits(&eb.velocity().v), "v of {name}");
+            assert_eq!(bits(ea.theta()), bits(eb.theta()), "frame θ of {name}");
+        }
+        if let Some(la) = fa.frame.as_any().downcast_ref::<Lagrangian>() {
+            let (pa, pb) = (&la.points, &fb.frame.as_any().downcast_ref::<Lagrangian>().unwrap().points);
+            assert_eq!(vector_bits(&pa.x), vector_bits(&pb.x), "point positions of {name}");
+            assert_eq!(vector_bits(&pa.v), vector_bits(&pb.v), "point velocities of {name}");
+            assert_eq!(vector_bits(&pa.c_u), vector_bits(&pb.c_u), "APIC C (u) of {name}");
+            assert_eq!(vector_bits(&pa.c_v), vector_bits(&pb.c_v), "APIC C (v) of {name}");
+        }
+    }
+}
+
+/// The checkpoints of a run directory.
+fn checkpoints(dir: &Path) -> Vec<(u64, PathBuf)> {
+    checkpoint::list(dir)
+}
+
+/// Runs `case` uninterrupted into `name/full`, then from its first checkpoint into
+/// `name/restarted`; checks both end in the same state and write the same rows.
+fn restart_reproduces_the_run(name: &str, case: &Case) -> (Checkpoint, Checkpoint) {
+    let full = out_dir(&format!("{name}/full"));
+    let t = Instant::now();
+    let a = run_into(case, &full, None);
+    let list = checkpoints(&full);
+    assert_eq!(list.len(), 2, "the last two checkpoints are kept: {list:?}");
+    let (mid_step, mid) = list[0].clone();
+    let (end_step, end) = list[1].clone();
+    assert_eq!(end_step, a.summary.steps, "a completed run ends with a checkpoint");
+    assert!(0 < mid_step && mid_step < end_step, "{list:?}");
+    let restarted = out_dir(&format!("{name}/restarted"));
+    let b = run_into(case, &restarted, Some(&mid));
+    eprintln!("{name}: {} steps, restarted at step {mid_step}, {:.2} s", a.summary.steps, t.elapsed().as_secs_f64());
+    assert_eq!(b.summary.restarted_from.as_deref(), Some(mid.display().to_string().as_str()));
+
+    // the final states, part by part, then the whole final checkpoints byte for byte
+    let (sa, ca) = checkpoint::restore(case, &end).unwrap();
+    let end_b = restarted.join("checkpoints").join(checkpoint::file_name(end_step));
+    let (sb, cb) = checkpoint::restore(case, &end_b).unwrap();
+    assert_same_state(&sa, &sb);
+    assert!(std::fs::read(&end).unwrap() == std::fs::read(&end_b).unwrap(), "final checkpoints differ");
+
+    // the rows after the checkpoint, then the whole files (the earlier rows are carried over)
+    for file in ["diagnostics.csv", "bodies.csv"] {
+        if !full.join(file).exists() {
+            continue;
+        }
+        let (ta, tb) = (read(&full.join(file)), read(&restarted.join(file)));
+        let after = |t: &str| -> Vec<String> {
+            t.lines()
+                .skip(1)
+                .filter(|l| l.split(',').next().unwrap().parse::<u64>().unwrap() > mid_step)
+                .map(String::from)
+                .collect()
+        };
+        assert!(!after(&ta).is_empty(), "{file} has rows after step {mid_step}");
+        assert_eq!(after(&ta), after(&tb), "{file} after step {mid_step}");
+        assert_eq!(ta, tb, "{file}");
+    }
+    let (x, y) = (&a.summary, &b.summary);
+    assert_eq!(
+        (x.steps, x.diagnostics_rows, x.pressure_iterations_total),
+        (y.steps, y.diagnostics_rows, y.pressure_iterations_total)
+    );
+    assert_eq!(
+        [x.max_divergence, x.max_volume_fraction_error, x.min_dt, x.final_kinetic_energy].map(Real::to_bits),
+        [y.max_divergence, y.max_volume_fraction_error, y.min_dt, y.final_kinetic_energy].map(Real::to_bits)
+    );
+    (ca, cb)
+}
+
+/// Coupled scene: Eulerian water, two rigid Lagrangian disks with contact, no-slip
+/// exchange, MG-preconditioned CG (warm-started from the checkpointed pressure).
+#[test]
+fn a_restarted_dkt_run_is_bit_identical_to_the_uninterrupted_one() {
+    let case = load(
+        "examples/dkt_uhlmann2005.ron",
+        &[
+            "domain.cells=(16, 48)",
+            "time.end=0.02",
+            "output.interval=0.002",
+            "output.checkpoints=Some((interval: 0.01))",
+            "output.charts=false",
+        ],
+    );
+    let (end, _) = restart_reproduces_the_run("dkt", &case);
+    assert!(end.step >= 20, "{} steps", end.step);
+    let sim = checkpoint::restore(&case, &end.path).unwrap().0;
+    assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
+}
+
+/// A Lagrangian fluid (APIC, quadratic B-splines: the C matrices carry over), with each
+/// pressure solver (none keeps a state that changes its result but the initial guess).
+#[test]
+fn a_restarted_apic_run_is_bit_identical_with_every_pressure_solver() {
+    for (k, solver) in [
+        "Some((model: \"pcg\"))",
+        "Some((model: \"pcg\", params: (preconditioner: \"multigrid\")))",
+        "Some((model: \"multigrid\"))",
+        "Some((model: \"cholesky\"))",
+    ]
+    .iter()
+    .enumerate()
+    {
+        let case = load(
+            "examples/taylor_green_flip.ron",
+            &[
+                "domain.cells=(16, 16)",
+                "time.end=1.0",
+                "output.checkpoints=Some((interval: 0.5))",
+                "output.charts=false",
+                &format!("pressure={solver}"),
+            ],
+        );
+        restart_reproduces_the_run(&format!("apic_{k}"), &case);
+    }
+}
+
+/// Eulerian Taylor–Green, fixed Δt = 0.01, rows every 0.02, checkpoints every 0.05.
+fn taylor_green(overrides: &[&str]) -> Case {
+    let mut all = vec![
+        "domain.cells=(16, 16)",
+        "time.fixed_dt=Some(0.01)",
+        "output.interval=0.02",
+        "output.checkpoints=Some((interval: 0.05))",
+        "output.charts=false",
+    ];
+    all.extend_from_slice(overrides);
+    load("examples/taylor_green.ron", &all)
+}
+
+/// A finished run goes on to a later `time.end` from its final checkpoint, in its own
+/// directory, as if it had been run to that time at once.
+#[test]
+fn a_finished_run_extends_to_a_later_end_time() {
+    let long = taylor_green(&["time.end=0.2"]);
+    let full = out_dir("extend/full");
+    run_into(&long, &full, None);
+    let dir = out_dir("extend/extended");
+    let short = run_into(&taylor_green(&["time.end=0.1"]), &dir, None);
+    assert_eq!(short.summary.steps, 10);
+    let last = checkpoints(&dir).last().unwrap().clone();
+    assert_eq!(last.0, 10);
+    let extended = run_into(&long, &dir, Some(&last.1));
+    assert_eq!(extended.summary.steps, 20);
+    assert_eq!(read(&full.join("diagnostics.csv")), read(&dir.join("diagnostics.csv")));
+    let end = checkpoint::file_name(20);
+    assert!(
+        std::fs::read(full.join("checkpoints").join(&end)).unwrap()
+            == std::fs::read(dir.join("checkpoints").join(&end)).unwrap()
+    );
+}
+
+/// A run killed after step 14 (rows written to step 14, the last one cut in half, a
+/// checkpoint half-written under its temporary name) continues from its last complete
+/// checkpoint (step 10) and ends with the files of the uninterrupted run; a truncated
+/// checkpoint is refused, naming the complete one.
+#[test]
+fn a_run_killed_mid_write_continues_from_its_last_complete_checkpoint() {
+    let case = taylor_green(&["time.end=0.2"]);
+    let full = out_dir("killed/full");
+    run_into(&case, &full, None);
+
+    // the killed run: stopped after step 14, its clean final checkpoint removed (a killed
+    // run writes none), a torn row and a temporary checkpoint left behind
+    let dir = out_dir("killed/run");
+    run_into(&taylor_green(&["time.end=0.2", "time.max_steps=Some(14)"]), &dir, None);
+    let list = checkpoints(&dir);
+    assert_eq!(list.iter().map(|c| c.0).collect::<Vec<_>>(), [10, 14], "{list:?}");
+    let later = std::fs::read(&list[1].1).unwrap();
+    std::fs::remove_file(&list[1].1).unwrap();
+    let good = list[0].1.clone();
+    let bytes = std::fs::read(&good).unwrap();
+    let tmp = dir.join("checkpoints").join(".checkpoint_15.bin.tmp");
+    std::fs::write(&tmp, &bytes[..bytes.len() / 2]).unwrap();
+    let mut csv = read(&dir.join("diagnostics.csv"));
+    assert!(csv.lines().last().unwrap().starts_with("14,"), "the killed run wrote rows past its checkpoint");
+    csv.push_str("16,0.16,0.01,fi");
+    std::fs::write(dir.join("diagnostics.csv"), &csv).unwrap();
+
+    // what a killed run leaves: only complete checkpoints are listed, and they read
+    assert_eq!(checkpoints(&dir), vec![(10, good.clone())]);
+    let c = checkpoint::read(&good).unwrap();
+    assert_eq!((c.step, c.case.name.as_str()), (10, "taylor_green"));
+
+    // a truncated checkpoint (a copy cut short) is refused with the reason and the fix
+    let truncated = dir.join("checkpoints").join(checkpoint::file_name(15));
+    std::fs::write(&truncated, &bytes[..bytes.len() - 100]).unwrap();
+    let before = read(&dir.join("summary.json"));
+    let options = RunOptions { restart: Some(truncated.clone()), ..RunOptions::quiet() };
+    let e = run(&case, &dir, &options).expect_err("a truncated checkpoint is refused").to_string();
+    assert!(e.contains("truncated") && e.contains("a run killed while writing it"), "{e}");
+    assert!(e.contains(&format!("restart from the complete checkpoint {}", good.display())), "{e}");
+    assert_eq!(read(&dir.join("summary.json")), before, "a refused restart leaves the run's files alone");
+    // the command line says it on stderr with exit code 2 (bad input)
+    let case_file = dir.join("case.ron");
+    let cli = std::process::Command::new(env!("CARGO_BIN_EXE_multifield"))
+        .args(["run", case_file.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&dir)
+        .arg("--restart")
+        .arg(&truncated)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&cli.stderr);
+    assert_eq!(cli.status.code(), Some(2), "{stderr}");
+    assert!(stderr.starts_with("error: checkpoint ") && stderr.contains("truncated"), "{stderr}");
+    // a missing one too
+    let e = run(&case, &dir, &RunOptions { restart: Some(dir.join("nothing.bin")), ..RunOptions::quiet() })
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("nothing.bin: cannot be read"), "{e}");
+    std::fs::remove_file(&truncated).unwrap();
+
+    // the restart from step 10 replaces the later rows and checkpoints (here one of a
+    // step the new run does not reach) and ends with the uninterrupted run's files
+    std::fs::write(dir.join("checkpoints").join(checkpoint::file_name(30)), &later).unwrap();
+    run_into(&case, &dir, Some(&good));
+    assert!(!tmp.exists(), "the temporary file of the killed write is cleaned up");
+    assert_eq!(read(&full.join("diagnostics.csv")), read(&dir.join("diagnostics.csv")));
+    let end = checkpoint::file_name(20);
+    assert!(
+        std::fs::read(full.join("checkpoints").join(&end)).unwrap()
+            == std::fs::read(dir.join("checkpoints").join(&end)).unwrap()
+    );
+    assert_eq!(checkpoints(&dir).iter().map(|c| c.0).collect::<Vec<_>>(), [15, 20], "the last two are kept");
+}
+
+/// Another grid (or another field) is refused with the entries that differ; `time` and
+/// `output` may change.
+#[test]
+fn a_checkpoint_of_another_grid_is_refused() {
+    let case = taylor_green(&["time.end=0.1"]);
+    let dir = out_dir("other_grid");
+    run_into(&case, &dir, None);
+    let last = checkpoints(&dir).last().unwrap().1.clone();
+    let finer = taylor_green(&["time.end=0.2", "domain.cells=(32, 32)"]);
+    let e =
+        run(&finer, &out_dir("other_grid_finer"), &RunOptions { restart: Some(last.clone()), ..RunOptions::quiet() })
+            .expect_err("another grid is refused")
+            .to_string();
+    assert!(e.contains("was written by a different case `taylor_green`"), "{e}");
+    assert!(e.contains("`domain.cells` is [16,16] in the checkpoint, [32,32] here"), "{e}");
+    assert!(e.contains("A restart may change only time.*, output.* and description"), "{e}");
+    let thicker = taylor_green(&["time.end=0.2", "fields.fluid.density=2.0"]);
+    let e = checkpoint::restore(&thicker, &last).err().unwrap().to_string();
+    assert!(e.contains("`fields.fluid.density` is 1.0 in the checkpoint, 2.0 here"), "{e}");
+    // time and output may change
+    let later = taylor_green(&["time.end=0.15", "output.interval=0.05", "output.checkpoints=None"]);
+    let outcome = run_into(&later, &out_dir("other_grid_later"), Some(&last));
+    assert_eq!(outcome.summary.steps, 15);
+    assert!(checkpoints(&outcome.output_dir).is_empty());
+}
+
+/// `multifield run` killed (SIGKILL) while it writes a checkpoint every step: every
+/// checkpoint left reads back whole, and the run continued from the last one ends with the
+/// files of a run that was never interrupted.
+#[test]
+fn a_killed_process_leaves_readable_checkpoints_and_continues_from_them() {
+    let dir = out_dir("sigkill");
+    let exe = env!("CARGO_BIN_EXE_multifield");
+    let sets = |end: &str| {
+        ["domain.cells=(16, 16)", "time.fixed_dt=Some(0.01)", "output.interval=0.02", "output.charts=false"]
+            .into_iter()
+            .map(String::from)
+            .chain(["output.checkpoints=Some((interval: 0.01))".into(), format!("time.end={end}")])
+            .flat_map(|s| ["--set".to_string(), s])
+            .collect::<Vec<_>>()
+    };
+    let out = dir.join("run");
+    let mut child = std::process::Command::new(exe)
+        .args(["run", "examples/taylor_green.ron", "--quiet", "--out"])
+        .arg(&out)
+        .args(sets("1000"))
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while checkpoints(&out).last().is_none_or(|c| c.0 < 5) {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended by itself");
+        assert!(start.elapsed().as_secs() < 120, "no checkpoint after 120 s");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let list = checkpoints(&out);
+    assert!(list.len() >= 2, "{list:?}");
+    for (step, path) in &list {
+        let c = checkpoint::read(path).unwrap_or_else(|e| panic!("after the kill: {e}"));
+        assert_eq!(c.step, *step);
+    }
+    // continue to 5 steps past the last checkpoint, and compare with a run to that time
+    let (last, path) = list.last().unwrap().clone();
+    let end = format!("{}", (last + 5) as Real * 0.01);
+    let cli = std::process::Command::new(exe)
+        .args(["run", "examples/taylor_green.ron", "--quiet", "--out"])
+        .arg(&out)
+        .args(sets(&end))
+        .arg("--restart")
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(cli.status.success(), "{}", String::from_utf8_lossy(&cli.stderr));
+    let reference = out_dir("sigkill_reference");
+    let case = taylor_green(&["output.checkpoints=Some((interval: 0.01))", &format!("time.end={end}")]);
+    let r = run_into(&case, &reference, None);
+    assert_eq!(r.summary.steps, last + 5);
+    assert_eq!(read(&reference.join("diagnostics.csv")), read(&out.join("diagnostics.csv")));
+    let name = checkpoint::file_name(last + 5);
+    let (a, b) = (reference.join("checkpoints").join(&name), out.join("checkpoints").join(&name));
+    assert!(std::fs::read(a).unwrap() == std::fs::read(b).unwrap(), "final checkpoints differ");
+}
