@@ -168,8 +168,9 @@ fn run_case(case: &Case, out: Option<PathBuf>, options: &RunOptions) -> Result<(
     if let Some(c) = &s.last_checkpoint {
         println!("  last checkpoint: {c} (continue with --restart {c})");
     }
-    let bodies = if dir.join("bodies.csv").exists() { ", bodies.csv" } else { "" };
-    println!("output: {}/ (case.ron, diagnostics.csv, summary.json{bodies})", dir.display());
+    let files = ["case.ron", "diagnostics.csv", "summary.json", "bodies.csv", "snapshots/", "frames/", "checkpoints/"];
+    let written: Vec<&str> = files.into_iter().chain(["charts/"]).filter(|f| dir.join(f).exists()).collect();
+    println!("output: {}/ ({})", dir.display(), written.join(", "));
     match outcome.status {
         Status::Completed => Ok(()),
         Status::Unstable(r) => Err(Failure::Run(format!("the run became unstable: {r}"))),
