@@ -71,6 +71,7 @@ fn the_coupled_scene_is_bit_identical_with_one_and_two_threads() {
             "domain.cells=(32, 96)".into(),
             "time.max_steps=30".into(),
             "fields.disks.region.Bodies.1.shape.Disk.center=(0.999, 4.725)".into(),
+            "contact.params.dt_factor=0.1".into(),
         ],
     )
     .unwrap();
