@@ -100,6 +100,13 @@ impl From<Error> for Failure {
 
 /// Parses the command line and runs it; links the shipped frames and physics first.
 pub fn main() -> ExitCode {
+    // Output piped into `head` and closed early ends the program quietly, as any Unix
+    // tool does, instead of a panic on the failed write.
+    #[cfg(unix)]
+    // SAFETY: restoring the default action of SIGPIPE at start-up, before any thread exists
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     crate::link_all();
     let cli = Cli::parse();
     let result = match cli.command {
