@@ -1,4 +1,7 @@
 //! Momentum-exchange models between two fields.
 
 pub mod constant;
+pub mod cylinder;
 pub mod no_slip;
+pub mod schiller_naumann;
+pub mod stokes;
