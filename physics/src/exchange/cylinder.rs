@@ -32,7 +32,7 @@
 //! (Re_s = θ_f Re) and multiplies by θ_f^(−χ(Re_s)), χ = 3.7 − 0.65 exp(−(1.5 − log₁₀ Re_s)²/2):
 //! K = (2/π) C_D(Re_s) Re_s μ θ_f^(−χ) / d². It equals the plain law at θ_f = 1.
 
-use super::stokes::{fill_drag, validate_particle};
+use super::drag::{fill_drag, validate_particle};
 use multifield_core::math::Real;
 use multifield_core::plugin::{ExchangeContext, ExchangeModel};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -88,7 +88,7 @@ impl Cylinder {
     }
     /// K at a slip speed |Δu|, fluid density ρ_f and fluid fraction θ_f.
     pub fn coefficient(&self, slip: Real, rho_f: Real, theta_f: Real) -> Real {
-        super::stokes::drag_coefficient(
+        super::drag::drag_coefficient(
             2.0 / std::f64::consts::PI,
             cd_re,
             self.diameter,
