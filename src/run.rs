@@ -107,6 +107,10 @@ pub struct Summary {
     pub restarted_from: Option<String>,
     /// The last checkpoint written (`null` when none).
     pub last_checkpoint: Option<String>,
+    /// Where the run left its models' range of validity: point particles larger than a
+    /// cell, Reynolds numbers outside a drag law's range (one sentence each, with the
+    /// ratio; empty when none). Also printed at the end of the run.
+    pub warnings: Vec<String>,
 }
 
 /// The result of [`run`]: the summary as written, and the output directory.
@@ -349,6 +353,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         last_dt_limit: String::new(),
         diagnostics_rows: 0,
         restarted_from: None,
+        warnings: Vec::new(),
         last_checkpoint: None,
     };
     // a bad checkpoint is refused before anything in the output directory is touched
@@ -586,6 +591,12 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     summary.status = status.label().into();
     if status != Status::Completed {
         summary.reason = status.reason().into();
+    }
+    summary.warnings = sim.warnings();
+    if !options.quiet {
+        for w in &summary.warnings {
+            eprintln!("warning: {w}");
+        }
     }
     write_summary(dir, &summary)?;
     if sim.case.output.charts {

@@ -295,6 +295,24 @@ pub struct FieldSpec {
     /// Stress models (viscosity, elasticity, …), applied in order.
     #[serde(default)]
     pub stress: Vec<PluginSpec>,
+    /// How a field of bodies is represented: `Resolved` (default; many material points per
+    /// body, the frame above) or `MassPoint` (one point per disk carrying its mass, volume
+    /// and diameter, spread over the cells by exact disk ∩ cell areas; METHOD.md §4). The
+    /// one switch between fully resolved and point-particle bodies: the rest of the case
+    /// stays the same (an exchange entry may name the drag law the points feel in its
+    /// `mass_point` model).
+    #[serde(default)]
+    pub representation: Representation,
+}
+
+/// How a field of bodies is represented.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Representation {
+    /// Many material points per body (the field's frame).
+    #[default]
+    Resolved,
+    /// One material point per disk (frame `mass_point`), its volume spread exactly.
+    MassPoint,
 }
 
 /// How an exchange term is integrated in time.
@@ -321,6 +339,13 @@ pub struct ExchangeSpec {
     /// Implicit (default) or explicit.
     #[serde(default)]
     pub integration: Integration,
+    /// The model used instead when the second field of `between` is represented by mass
+    /// points (`representation: MassPoint`): the drag law a point feels, e.g.
+    /// `Some((model: "cylinder", params: (added_mass: 1.0, rotation: true)))`. A drag law's
+    /// `diameter` defaults to the bodies' and its `viscosity` to the first field's
+    /// `newtonian` viscosity. Ignored for resolved bodies.
+    #[serde(default)]
+    pub mass_point: Option<PluginSpec>,
 }
 
 /// Options of the pressure coupling.
@@ -712,6 +737,30 @@ impl Case {
         }
         if rest > 1 {
             return bad("fields", "only one field can take region `Rest` (what the others leave free)".into());
+        }
+        for f in &self.fields {
+            if f.representation != Representation::MassPoint {
+                continue;
+            }
+            let path = format!("fields.{}.representation", f.name);
+            let Region::Bodies(bodies) = &f.region else {
+                return bad(
+                    &path,
+                    "`MassPoint` represents a list of bodies: give the field `region: Bodies([...])` of disks, \
+                     or use `Resolved`"
+                        .into(),
+                );
+            };
+            if let Some(b) = bodies.iter().find(|b| !matches!(b.shape, BodyShape::Disk { .. })) {
+                return bad(
+                    &path,
+                    format!(
+                        "body `{}` is not a disk: a mass point stands for a disk (its volume is spread as a disk); \
+                         use `Resolved` for other shapes",
+                        b.name
+                    ),
+                );
+            }
         }
         for (k, e) in self.exchange.iter().enumerate() {
             for name in &e.between {

@@ -13,6 +13,7 @@ pub mod case;
 pub mod error;
 pub mod exchange;
 pub mod field;
+pub mod geometry;
 pub mod grid;
 pub mod math;
 pub mod plugin;

@@ -49,6 +49,40 @@ pub struct FrameContext<'a> {
     pub stress: &'a [Box<dyn StressModel>],
     /// Contact force and torque on each of the field's bodies (phase 8), by body index.
     pub body_forces: &'a [(Vector, Real)],
+    /// The fluid this field exchanges momentum with through a drag law (the first field of
+    /// an exchange whose model has [`ExchangeModel::drag_law`] and whose second field is
+    /// this one), for the models that need it: the rotation torque and the Reynolds number
+    /// of point particles.
+    pub partner: Option<Partner<'a>>,
+}
+
+/// The fluid a dispersed field is coupled to by a drag law.
+#[derive(Clone, Copy)]
+pub struct Partner<'a> {
+    /// The fluid's grid state (velocities of the current phase).
+    pub state: &'a FieldState,
+    /// The fluid's material density ρ_f.
+    pub density: Real,
+    /// The drag law.
+    pub law: &'a DragLaw,
+}
+
+/// What a drag-law exchange tells the core and the frames about itself.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DragLaw {
+    /// The exchange model's name.
+    pub model: &'static str,
+    /// Particle diameter d.
+    pub diameter: Real,
+    /// Dynamic viscosity μ of the fluid.
+    pub viscosity: Real,
+    /// The Reynolds numbers Re = ρ_f |Δu| d / μ where the law holds (lower, upper).
+    pub valid_re: (Real, Real),
+    /// Added-mass coefficient C_A (0: none; 1 for a 2D disk, ½ for a sphere), solved
+    /// implicitly in the exchange.
+    pub added_mass: Real,
+    /// Whether points feel the rotational torque 4πμa²(½∇×u_f − ω) (per unit length).
+    pub rotation: bool,
 }
 
 /// The state of one body of a field, as frames report it.
@@ -113,6 +147,11 @@ pub trait Frame: Send + Sync {
     fn mass(&self) -> Real;
     /// The field's bodies (empty when its region has none).
     fn bodies(&self) -> Vec<BodyState> {
+        Vec::new()
+    }
+    /// Where the run left the frame's model's range of validity (for the run summary),
+    /// one sentence each, naming the body and the ratio; empty when it did not.
+    fn warnings(&self, _grid: &Grid) -> Vec<String> {
         Vec::new()
     }
     /// Downcasting, for output writers and tests.
@@ -409,6 +448,11 @@ pub trait ExchangeModel: Send + Sync {
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in.
     fn params(&self) -> serde_json::Value;
+    /// A drag law on particles (diameter, viscosity, valid Re, added mass, rotation), or
+    /// `None` for other couplings.
+    fn drag_law(&self) -> Option<DragLaw> {
+        None
+    }
     /// K = ∞: the two fields move as one (exact mass-weighted average).
     fn no_slip(&self) -> bool {
         false

@@ -5,15 +5,15 @@
 //! attach to phases through their traits; nothing depends on registration order.
 
 use crate::boundary::Boundaries;
-use crate::case::{Case, Integration, Region, MAX_FIELDS};
+use crate::case::{BodyShape, Case, Integration, PluginSpec, Region, Representation, MAX_FIELDS};
 use crate::error::{Error, Result};
 use crate::exchange::{self, Coefficients, Local};
 use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
-    BodyState, ContactContext, ContactModel, ExchangeContext, ExchangeModel, Frame, FrameContext, GridStressContext,
-    InitContext, PressureSolver, StateReader, StateWriter, StressModel, TimeStepContext,
+    BodyState, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
+    GridStressContext, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel, TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -125,6 +125,8 @@ pub struct Simulation {
     pub contact: Option<Box<dyn ContactModel>>,
     /// Contact force and torque on each body of each field (phase 8).
     pub body_forces: Vec<Vec<(Vector, Real)>>,
+    /// Per field, the fluid it is coupled to by a drag law, and the law.
+    partners: Vec<Option<(usize, DragLaw)>>,
     /// Pressure at cell centres.
     pub pressure: Vec<Real>,
     /// Simulated time.
@@ -169,8 +171,17 @@ impl Simulation {
         let mut fields = Vec::new();
         for (k, spec) in case.fields.iter_mut().enumerate() {
             let path = format!("fields.{}", spec.name);
-            let frame = registry::build_frame(&spec.frame.model, &spec.frame.params, &format!("{path}.frame"))?;
+            let mut frame = registry::build_frame(&spec.frame.model, &spec.frame.params, &format!("{path}.frame"))?;
             spec.frame.params = frame.params();
+            if spec.representation == Representation::MassPoint {
+                // the resolved frame's options stay in the case, so that switching back is
+                // one entry; the points are the `mass_point` frame's
+                frame = registry::build_frame(
+                    MASS_POINT_FRAME,
+                    &serde_json::Value::Object(Default::default()),
+                    &format!("{path}.representation"),
+                )?;
+            }
             let mut stress = Vec::new();
             for (s, st) in spec.stress.iter_mut().enumerate() {
                 let m = registry::build_stress(&st.model, &st.params, &format!("{path}.stress.{s}"))?;
@@ -196,10 +207,45 @@ impl Simulation {
             });
         }
         let mut exchanges = Vec::new();
+        let mut partners: Vec<Option<(usize, DragLaw)>> = vec![None; fields.len()];
         for (k, e) in case.exchange.iter_mut().enumerate() {
             let idx = |n: &String| case_index(&fields, n);
-            let model = registry::build_exchange(&e.model, &e.params, &format!("exchange.{k}"))?;
-            e.params = model.params();
+            let (fa, fb) = (idx(&e.between[0]), idx(&e.between[1]));
+            let spec_b = &case.fields[fb];
+            let model = if spec_b.representation == Representation::MassPoint {
+                let path = format!("exchange.{k}.mass_point");
+                let alt = match &e.mass_point {
+                    Some(alt) => alt.clone(),
+                    None if e.model == "no_slip" => {
+                        return Err(Error::invalid(
+                            path,
+                            format!(
+                                "field `{}` is represented by mass points, which need a drag law, but this \
+                                 exchange is `no_slip` and names no `mass_point` model; add e.g. \
+                                 `mass_point: Some((model: \"cylinder\", params: (added_mass: 1.0)))` to \
+                                 the exchange (or set `representation: Resolved`)",
+                                spec_b.name
+                            ),
+                        ))
+                    }
+                    None => PluginSpec::with(&e.model, e.params.clone()),
+                };
+                let params = point_drag_params(&alt, &case.fields[fa], spec_b, &path)?;
+                let model = registry::build_exchange(&alt.model, &params, &path)?;
+                let law = model.drag_law();
+                if let Some(law) = &law {
+                    check_point_diameters(law, spec_b, &path)?;
+                }
+                e.mass_point = Some(PluginSpec::with(&alt.model, model.params()));
+                model
+            } else {
+                let model = registry::build_exchange(&e.model, &e.params, &format!("exchange.{k}"))?;
+                e.params = model.params();
+                model
+            };
+            if let Some(law) = model.drag_law() {
+                partners[fb] = Some((fa, law));
+            }
             exchanges.push(Exchange {
                 fields: [idx(&e.between[0]), idx(&e.between[1])],
                 model,
@@ -231,8 +277,11 @@ impl Simulation {
                 continue;
             }
             let spec = &case.fields[k];
-            let theta: Vec<Real> =
-                region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect();
+            let theta: Vec<Real> = if spec.representation == Representation::MassPoint {
+                mass_point_fraction(&spec.region, &grid, [boundaries.periodic_x(), boundaries.periodic_y()])
+            } else {
+                region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect()
+            };
             for (o, t) in occupied.iter_mut().zip(&theta) {
                 *o += t;
             }
@@ -286,6 +335,7 @@ impl Simulation {
             pressure_solver,
             contact,
             body_forces: vec![Vec::new(); n_fields],
+            partners,
             time: 0.0,
             steps: 0,
             last: StepDiagnostics::default(),
@@ -562,7 +612,21 @@ impl Simulation {
         phase: &str,
         mut f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
     ) -> Result<()> {
-        for (k, field) in self.fields.iter_mut().enumerate() {
+        for k in 0..self.fields.len() {
+            // the field mutably, its drag partner (another field) immutably
+            let (field, partner) = match &self.partners[k] {
+                Some((p, law)) => {
+                    let (field, other) = if *p > k {
+                        let (lo, hi) = self.fields.split_at_mut(*p);
+                        (&mut lo[k], &hi[0])
+                    } else {
+                        let (lo, hi) = self.fields.split_at_mut(k);
+                        (&mut hi[0], &lo[*p])
+                    };
+                    (field, Some(Partner { state: &other.state, density: other.density, law }))
+                }
+                None => (&mut self.fields[k], None),
+            };
             let mut ctx = FrameContext {
                 grid: &self.grid,
                 boundaries: &self.boundaries,
@@ -573,11 +637,22 @@ impl Simulation {
                 state: &mut field.state,
                 stress: &field.stress,
                 body_forces: &self.body_forces[k],
+                partner,
             };
             f(field.frame.as_mut(), &mut ctx)
                 .map_err(|m| Error::Model(format!("{phase} of field `{}`: {m}", field.name)))?;
         }
         Ok(())
+    }
+
+    /// Where the run left its models' range of validity (point particles larger than a
+    /// cell, Reynolds numbers outside a drag law's range): one sentence each, prefixed with
+    /// the field's name.
+    pub fn warnings(&self) -> Vec<String> {
+        self.fields
+            .iter()
+            .flat_map(|f| f.frame.warnings(&self.grid).into_iter().map(move |w| format!("field `{}`: {w}", f.name)))
+            .collect()
     }
 
     /// Phase 1: every frame puts its state on the grid.
@@ -670,6 +745,15 @@ impl Simulation {
             }
         }
         let densities: Vec<Real> = self.fields.iter().map(|f| f.density).collect();
+        // added mass C_A ρ_f θ_s per face, between the fluid a and the particles b
+        let added: Vec<([usize; 2], Real)> = self
+            .exchanges
+            .iter()
+            .filter_map(|e| {
+                let law = e.model.drag_law()?;
+                (law.added_mass > 0.0).then(|| (e.fields, law.added_mass * densities[e.fields[0]]))
+            })
+            .collect();
         for lattice in 0..2 {
             let nf = if lattice == 0 { self.grid.n_xfaces() } else { self.grid.n_yfaces() };
             for face in 0..nf {
@@ -680,20 +764,28 @@ impl Simulation {
                     theta: [0.0; MAX_FIELDS],
                     material_density: [1.0; MAX_FIELDS],
                     u: [0.0; MAX_FIELDS],
+                    u_old: [0.0; MAX_FIELDS],
                     w: [0.0; MAX_FIELDS],
                 };
                 for (k, f) in self.fields.iter().enumerate() {
                     let s = &f.state;
-                    let (m, t, u) = if lattice == 0 {
-                        (s.mass_u[face], s.theta_u[face], s.velocity.u[face])
+                    let (m, t, u, u0) = if lattice == 0 {
+                        (s.mass_u[face], s.theta_u[face], s.velocity.u[face], s.velocity_old.u[face])
                     } else {
-                        (s.mass_v[face], s.theta_v[face], s.velocity.v[face])
+                        (s.mass_v[face], s.theta_v[face], s.velocity.v[face], s.velocity_old.v[face])
                     };
                     loc.rho[k] = m / area;
                     loc.rho_w[k] = t * densities[k];
                     loc.theta[k] = t;
                     loc.u[k] = u;
+                    loc.u_old[k] = u0;
                     loc.material_density[k] = densities[k];
+                }
+                let mut added_mass: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
+                for ([a, b], c) in &added {
+                    let am = c * loc.theta[*b];
+                    added_mass[*a][*b] = am;
+                    added_mass[*b][*a] = am;
                 }
                 let mut implicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
                 let mut explicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
@@ -713,7 +805,7 @@ impl Simulation {
                 if any_explicit {
                     exchange::explicit(&mut loc, &explicit, dt);
                 }
-                exchange::solve(&mut loc, &implicit, dt);
+                exchange::solve_with_added_mass(&mut loc, &implicit, &added_mass, dt);
                 for (k, f) in self.fields.iter_mut().enumerate() {
                     let s = &mut f.state;
                     if lattice == 0 {
@@ -924,4 +1016,95 @@ pub fn constraint_of(g: &Grid, fields: &[Field], beta: Real, dt: Real) -> Vec<Re
 
 fn case_index(fields: &[Field], name: &str) -> usize {
     fields.iter().position(|f| f.name == name).expect("validated: exchange names exist")
+}
+
+/// Name of the frame of fields with `representation: MassPoint`.
+pub const MASS_POINT_FRAME: &str = "mass_point";
+
+/// Volume fraction of a list of disks spread exactly (disk ∩ cell areas), as the
+/// `mass_point` frame spreads it.
+fn mass_point_fraction(region: &Region, grid: &Grid, periodic: [bool; 2]) -> Vec<Real> {
+    let mut theta = vec![0.0; grid.n_cells()];
+    if let Region::Bodies(bodies) = region {
+        let mut cells = Vec::new();
+        for b in bodies {
+            if let BodyShape::Disk { center, radius } = b.shape {
+                cells.clear();
+                crate::geometry::disk_cell_fractions(grid, center, radius, periodic, &mut cells);
+                for (c, t) in &cells {
+                    theta[*c] += t;
+                }
+            }
+        }
+    }
+    theta
+}
+
+/// The parameters of the drag law of mass points: a registered `diameter` defaults to the
+/// bodies' (when they all have one), a `viscosity` to the fluid's `newtonian` viscosity.
+fn point_drag_params(
+    spec: &PluginSpec,
+    fluid: &crate::case::FieldSpec,
+    points: &crate::case::FieldSpec,
+    path: &str,
+) -> Result<serde_json::Value> {
+    let entry = registry::find(registry::Role::Exchange, &spec.model, path)?;
+    let mut params = match &spec.params {
+        serde_json::Value::Object(m) => m.clone(),
+        serde_json::Value::Null => Default::default(),
+        other => {
+            return Err(Error::invalid(format!("{path}.params"), format!("{other}: expected a map of parameters")))
+        }
+    };
+    let has = |name: &str| entry.params.iter().any(|p| p.name == name);
+    if has("diameter") && !params.contains_key("diameter") {
+        let mut diameters = Vec::new();
+        if let Region::Bodies(bodies) = &points.region {
+            for b in bodies {
+                if let BodyShape::Disk { radius, .. } = b.shape {
+                    diameters.push(2.0 * radius);
+                }
+            }
+        }
+        if let Some(&d) = diameters.first() {
+            if diameters.iter().all(|x| (x - d).abs() <= 1e-12 * d) {
+                params.insert("diameter".into(), serde_json::json!(d));
+            }
+        }
+    }
+    if has("viscosity") && !params.contains_key("viscosity") {
+        let mu = fluid
+            .stress
+            .iter()
+            .find(|s| s.model == "newtonian")
+            .and_then(|s| s.params.get("viscosity"))
+            .and_then(|v| v.as_f64());
+        if let Some(mu) = mu {
+            params.insert("viscosity".into(), serde_json::json!(mu));
+        }
+    }
+    Ok(serde_json::Value::Object(params))
+}
+
+/// Every body of a mass-point field must have the drag law's diameter.
+fn check_point_diameters(law: &DragLaw, points: &crate::case::FieldSpec, path: &str) -> Result<()> {
+    if let Region::Bodies(bodies) = &points.region {
+        for b in bodies {
+            if let BodyShape::Disk { radius, .. } = b.shape {
+                let d = 2.0 * radius;
+                if (d - law.diameter).abs() > 1e-9 * d {
+                    return Err(Error::invalid(
+                        format!("{path}.params.diameter"),
+                        format!(
+                            "{}: body `{}` of field `{}` has diameter {d}; a drag law has one diameter, so \
+                             give `diameter: {d}` (or leave it out to take the bodies'), or put bodies of \
+                             another size in a field of their own",
+                            law.diameter, b.name, points.name
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }

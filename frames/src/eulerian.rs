@@ -771,6 +771,7 @@ mod tests {
                 state: &mut state,
                 stress: &[],
                 body_forces: &[],
+                partner: None,
             };
             e.to_grid(&mut ctx).unwrap();
             e.predict(&mut ctx).unwrap();

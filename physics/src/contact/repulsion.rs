@@ -7,7 +7,10 @@
 //!
 //! zero beyond; c_ij = ½ (W_i + W_j), W = (M − ρ_f V) |g| the buoyant weight (METHOD.md §4;
 //! the full weight when there is no ambient fluid, `force_scale` when there is no gravity
-//! or the bodies are neutrally buoyant), ρ = `range_cells` · h, ε = `stiffness`. A wall acts through the mirror image
+//! or the bodies are neutrally buoyant), ρ = min(`range_cells` · h, `max_range` · min(R_i, R_j)),
+//! ε = `stiffness`. The cap keeps the range a fraction of the bodies' size where the grid is
+//! coarse against them (point particles with d ≈ h), where 2h would push disks apart a
+//! diameter away; bodies resolved with 4 or more cells per radius never reach it. A wall acts through the mirror image
 //! of the body. Its stiffness k = 2c/(ερ) limits the step while bodies are in range:
 //! Δt ≤ `dt_factor` · sqrt(M/k) (METHOD.md §5).
 
@@ -37,6 +40,13 @@ pub struct Repulsion {
     /// Fraction of sqrt(M/k) allowed as a time step while bodies are in range.
     #[serde(default = "default_dt_factor")]
     pub dt_factor: Real,
+    /// Largest range, as a fraction of the smaller radius of the pair.
+    #[serde(default = "default_max_range")]
+    pub max_range: Real,
+}
+
+fn default_max_range() -> Real {
+    0.5
 }
 
 fn default_range() -> Real {
@@ -64,6 +74,12 @@ impl Repulsion {
         if !(self.force_scale >= 0.0) {
             return Err(format!("force_scale {}: must be zero or positive", self.force_scale));
         }
+        if !(self.max_range > 0.0) {
+            return Err(format!(
+                "max_range {}: must be positive (a fraction of the smaller radius; 0.5 usual)",
+                self.max_range
+            ));
+        }
         if !(self.dt_factor > 0.0 && self.dt_factor <= 1.0) {
             return Err(format!("dt_factor {}: must lie in (0, 1]", self.dt_factor));
         }
@@ -88,16 +104,18 @@ impl Repulsion {
     }
 
     /// Every interacting pair: (i, Some(j)) for bodies, (i, None) with the image position
-    /// for walls; returns (i, j, image, centre distance, sum of radii).
-    fn pairs(&self, ctx: &ContactContext, mut f: impl FnMut(usize, Option<usize>, Vector, Real, Real)) {
-        let rho = self.range_cells * ctx.grid.h;
+    /// for walls; returns (i, j, image, centre distance, sum of radii, range ρ).
+    fn pairs(&self, ctx: &ContactContext, mut f: impl FnMut(usize, Option<usize>, Vector, Real, Real, Real)) {
+        let grid_range = self.range_cells * ctx.grid.h;
+        let range = |r: Real| grid_range.min(self.max_range * r);
         let bodies = ctx.bodies;
         for i in 0..bodies.len() {
             for j in (i + 1)..bodies.len() {
                 let d = (bodies[i].position - bodies[j].position).norm();
                 let reach = bodies[i].radius + bodies[j].radius;
+                let rho = range(bodies[i].radius.min(bodies[j].radius));
                 if d <= reach + 2.0 * rho {
-                    f(i, Some(j), bodies[j].position, d, reach);
+                    f(i, Some(j), bodies[j].position, d, reach, rho);
                 }
             }
             if !self.walls {
@@ -118,8 +136,9 @@ impl Repulsion {
                 };
                 let d = (x - image).norm();
                 let reach = 2.0 * bodies[i].radius;
+                let rho = range(bodies[i].radius);
                 if d <= reach + 2.0 * rho {
-                    f(i, None, image, d, reach);
+                    f(i, None, image, d, reach, rho);
                 }
             }
         }
@@ -139,6 +158,12 @@ multifield_core::register!(
         ParamDoc { name: "force_scale", unit: "force/length", default: "0", doc: "c when the buoyant weight is zero" },
         ParamDoc { name: "walls", unit: "-", default: "true", doc: "whether walls repel bodies" },
         ParamDoc { name: "dt_factor", unit: "-", default: "0.1", doc: "Δt ≤ dt_factor·sqrt(M/k) while in range" },
+        ParamDoc {
+            name: "max_range",
+            unit: "radii",
+            default: "0.5",
+            doc: "ρ at most this fraction of the smaller radius (coarse grids, point particles)",
+        },
     ]
 );
 
@@ -150,9 +175,8 @@ impl ContactModel for Repulsion {
         params_value(self)
     }
     fn forces(&self, ctx: &ContactContext, out: &mut [(Vector, Real)]) {
-        let rho = self.range_cells * ctx.grid.h;
         out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
-        self.pairs(ctx, |i, j, other, d, reach| {
+        self.pairs(ctx, |i, j, other, d, reach, rho| {
             if d > reach + rho || d <= 0.0 {
                 return;
             }
@@ -167,9 +191,8 @@ impl ContactModel for Repulsion {
         });
     }
     fn stable_dt(&self, ctx: &ContactContext) -> Option<Real> {
-        let rho = self.range_cells * ctx.grid.h;
         let mut best: Option<Real> = None;
-        self.pairs(ctx, |i, j, _, _, _| {
+        self.pairs(ctx, |i, j, _, _, _, rho| {
             let a = &ctx.bodies[i];
             let c = self.scale(ctx, a, j.map(|j| &ctx.bodies[j]));
             if c <= 0.0 {
@@ -196,7 +219,14 @@ mod tests {
         let bc = Boundaries::default();
         let body =
             |x: Real, y: Real| BodyState { mass: 2.0, radius: 0.1, position: Vector::new(x, y), ..Default::default() };
-        let rep = Repulsion { range_cells: 2.0, stiffness: 0.5, force_scale: 0.0, walls: false, dt_factor: 0.1 };
+        let rep = Repulsion {
+            range_cells: 2.0,
+            stiffness: 0.5,
+            force_scale: 0.0,
+            walls: false,
+            dt_factor: 0.1,
+            max_range: 10.0,
+        };
         // ρ = 0.2, R_i + R_j = 0.2, d = 0.3: overlap (0.2 + 0.2 − 0.3)/0.2 = 0.5
         let bodies = [body(0.3, 0.5), body(0.6, 0.5)];
         let ctx = ContactContext {
@@ -230,7 +260,14 @@ mod tests {
             position: Vector::new(x, 0.5),
             ..Default::default()
         };
-        let rep = Repulsion { range_cells: 2.0, stiffness: 0.5, force_scale: 7.0, walls: false, dt_factor: 0.1 };
+        let rep = Repulsion {
+            range_cells: 2.0,
+            stiffness: 0.5,
+            force_scale: 7.0,
+            walls: false,
+            dt_factor: 0.1,
+            max_range: 10.0,
+        };
         let bodies = [body(0.3), body(0.6)];
         let g = Vector::new(0.0, -10.0);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
@@ -252,7 +289,14 @@ mod tests {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let b = [BodyState { mass: 1.0, radius: 0.1, position: Vector::new(0.5, 0.15), ..Default::default() }];
-        let rep = Repulsion { range_cells: 2.0, stiffness: 1e-2, force_scale: 0.0, walls: true, dt_factor: 0.1 };
+        let rep = Repulsion {
+            range_cells: 2.0,
+            stiffness: 1e-2,
+            force_scale: 0.0,
+            walls: true,
+            dt_factor: 0.1,
+            max_range: 10.0,
+        };
         let ctx = ContactContext {
             grid: &grid,
             boundaries: &bc,

@@ -34,7 +34,7 @@
 
 use super::drag::{fill_drag, validate_particle};
 use multifield_core::math::Real;
-use multifield_core::plugin::{ExchangeContext, ExchangeModel};
+use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
 
@@ -79,12 +79,19 @@ pub struct Cylinder {
     /// Di Felice's (1994) dense-suspension correction.
     #[serde(default)]
     pub di_felice: bool,
+    /// Added-mass coefficient C_A (implicit; 0 = none).
+    #[serde(default)]
+    pub added_mass: Real,
+    /// Rotational torque on mass points.
+    #[serde(default)]
+    pub rotation: bool,
 }
 
 impl Cylinder {
     /// Diameter and viscosity must be positive.
     pub fn validate(&mut self) -> Result<(), String> {
-        validate_particle(self.diameter, self.viscosity)
+        validate_particle(self.diameter, self.viscosity)?;
+        super::drag::validate_added_mass(self.added_mass)
     }
     /// K at a slip speed |Δu|, fluid density ρ_f and fluid fraction θ_f.
     pub fn coefficient(&self, slip: Real, rho_f: Real, theta_f: Real) -> Real {
@@ -120,6 +127,8 @@ multifield_core::register!(
             default: "false",
             doc: "Di Felice (1994) dense-suspension factor θf^(−χ) at the superficial slip",
         },
+        super::drag::POINT_PARAMS[0],
+        super::drag::POINT_PARAMS[1],
     ]
 );
 
@@ -129,6 +138,9 @@ impl ExchangeModel for Cylinder {
     }
     fn params(&self) -> serde_json::Value {
         params_value(self)
+    }
+    fn drag_law(&self) -> Option<DragLaw> {
+        Some(super::drag::law("cylinder", self.diameter, self.viscosity, (0.0, 2e5), self.added_mass, self.rotation))
     }
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
         fill_drag(ctx, kx, ky, 2.0 / std::f64::consts::PI, cd_re, self.diameter, self.viscosity, self.di_felice);
@@ -141,7 +153,7 @@ mod tests {
     use std::f64::consts::PI;
 
     fn law(di_felice: bool) -> Cylinder {
-        Cylinder { diameter: 0.1, viscosity: 0.01, di_felice }
+        Cylinder { diameter: 0.1, viscosity: 0.01, di_felice, added_mass: 0.0, rotation: false }
     }
 
     #[test]
@@ -205,7 +217,11 @@ mod tests {
 
     #[test]
     fn validation_rejects_non_positive_inputs() {
-        assert!(Cylinder { diameter: 0.0, viscosity: 1.0, di_felice: false }.validate().is_err());
-        assert!(Cylinder { diameter: 1.0, viscosity: -1.0, di_felice: true }.validate().is_err());
+        assert!(Cylinder { diameter: 0.0, viscosity: 1.0, di_felice: false, added_mass: 0.0, rotation: false }
+            .validate()
+            .is_err());
+        assert!(Cylinder { diameter: 1.0, viscosity: -1.0, di_felice: true, added_mass: 0.0, rotation: false }
+            .validate()
+            .is_err());
     }
 }

@@ -38,7 +38,8 @@
 
 use multifield_core::grid::Grid;
 use multifield_core::math::Real;
-use multifield_core::plugin::ExchangeContext;
+use multifield_core::plugin::{DragLaw, ExchangeContext};
+use multifield_core::registry::ParamDoc;
 
 /// Smallest Reynolds number the laws are evaluated at.
 pub const RE_FLOOR: Real = 1e-12;
@@ -57,6 +58,44 @@ pub fn validate_particle(diameter: Real, viscosity: Real) -> Result<(), String> 
         ));
     }
     Ok(())
+}
+
+/// The options every drag law offers point particles (`representation: MassPoint`).
+pub const POINT_PARAMS: [ParamDoc; 2] = [
+    ParamDoc {
+        name: "added_mass",
+        unit: "-",
+        default: "0",
+        doc: "added-mass coefficient C_A, solved implicitly (1 for a 2D disk, 0.5 for a sphere)",
+    },
+    ParamDoc {
+        name: "rotation",
+        unit: "-",
+        default: "false",
+        doc: "mass points feel the torque 4πμa²(½∇×u_f − ω) per unit length",
+    },
+];
+
+/// Checks the added-mass coefficient.
+pub fn validate_added_mass(c: Real) -> Result<(), String> {
+    if !(c >= 0.0 && c.is_finite()) {
+        return Err(format!(
+            "added_mass {c}: must be finite and ≥ 0 (the added-mass coefficient C_A: 1 for a 2D disk, 0.5 for a sphere)"
+        ));
+    }
+    Ok(())
+}
+
+/// The [`DragLaw`] a model reports.
+pub fn law(
+    model: &'static str,
+    diameter: Real,
+    viscosity: Real,
+    valid_re: (Real, Real),
+    added_mass: Real,
+    rotation: bool,
+) -> DragLaw {
+    DragLaw { model, diameter, viscosity, valid_re, added_mass, rotation }
 }
 
 /// Di Felice's (1994) exponent χ(Re) = 3.7 − 0.65 exp(−(1.5 − log₁₀ Re)²/2).

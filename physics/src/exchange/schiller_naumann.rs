@@ -27,7 +27,7 @@
 
 use super::drag::{fill_drag, validate_particle};
 use multifield_core::math::Real;
-use multifield_core::plugin::{ExchangeContext, ExchangeModel};
+use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
 
@@ -54,12 +54,19 @@ pub struct SchillerNaumann {
     /// Di Felice's (1994) dense-suspension correction.
     #[serde(default)]
     pub di_felice: bool,
+    /// Added-mass coefficient C_A (implicit; 0 = none).
+    #[serde(default)]
+    pub added_mass: Real,
+    /// Rotational torque on mass points.
+    #[serde(default)]
+    pub rotation: bool,
 }
 
 impl SchillerNaumann {
     /// Diameter and viscosity must be positive.
     pub fn validate(&mut self) -> Result<(), String> {
-        validate_particle(self.diameter, self.viscosity)
+        validate_particle(self.diameter, self.viscosity)?;
+        super::drag::validate_added_mass(self.added_mass)
     }
     /// K at a slip speed |Δu|, fluid density ρ_f and fluid fraction θ_f.
     pub fn coefficient(&self, slip: Real, rho_f: Real, theta_f: Real) -> Real {
@@ -86,6 +93,8 @@ multifield_core::register!(
             default: "false",
             doc: "Di Felice (1994) dense-suspension factor θf^(−χ) at the superficial slip",
         },
+        super::drag::POINT_PARAMS[0],
+        super::drag::POINT_PARAMS[1],
     ]
 );
 
@@ -95,6 +104,16 @@ impl ExchangeModel for SchillerNaumann {
     }
     fn params(&self) -> serde_json::Value {
         params_value(self)
+    }
+    fn drag_law(&self) -> Option<DragLaw> {
+        Some(super::drag::law(
+            "schiller_naumann",
+            self.diameter,
+            self.viscosity,
+            (0.0, 2e5),
+            self.added_mass,
+            self.rotation,
+        ))
     }
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
         fill_drag(ctx, kx, ky, 0.75, cd_re, self.diameter, self.viscosity, self.di_felice);
@@ -106,7 +125,7 @@ mod tests {
     use super::*;
 
     fn law(di_felice: bool) -> SchillerNaumann {
-        SchillerNaumann { diameter: 0.1, viscosity: 0.01, di_felice }
+        SchillerNaumann { diameter: 0.1, viscosity: 0.01, di_felice, added_mass: 0.0, rotation: false }
     }
 
     #[test]

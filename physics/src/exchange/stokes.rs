@@ -12,7 +12,7 @@
 //!
 
 use multifield_core::math::Real;
-use multifield_core::plugin::{ExchangeContext, ExchangeModel};
+use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
 
@@ -26,12 +26,19 @@ pub struct Stokes {
     pub diameter: Real,
     /// Dynamic viscosity μ of the fluid (the first field of `between`).
     pub viscosity: Real,
+    /// Added-mass coefficient C_A (implicit; 0 = none).
+    #[serde(default)]
+    pub added_mass: Real,
+    /// Rotational torque on mass points.
+    #[serde(default)]
+    pub rotation: bool,
 }
 
 impl Stokes {
     /// Diameter and viscosity must be positive.
     pub fn validate(&mut self) -> Result<(), String> {
-        validate_particle(self.diameter, self.viscosity)
+        validate_particle(self.diameter, self.viscosity)?;
+        super::drag::validate_added_mass(self.added_mass)
     }
     /// K at a fluid volume fraction θ_f.
     pub fn coefficient(&self, theta_f: Real) -> Real {
@@ -52,6 +59,8 @@ multifield_core::register!(
             default: "required",
             doc: "dynamic viscosity μ of the fluid (first field of `between`)",
         },
+        super::drag::POINT_PARAMS[0],
+        super::drag::POINT_PARAMS[1],
     ]
 );
 
@@ -61,6 +70,9 @@ impl ExchangeModel for Stokes {
     }
     fn params(&self) -> serde_json::Value {
         params_value(self)
+    }
+    fn drag_law(&self) -> Option<DragLaw> {
+        Some(super::drag::law("stokes", self.diameter, self.viscosity, (0.0, 1.0), self.added_mass, self.rotation))
     }
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
         for (k, t) in kx.iter_mut().zip(&ctx.a.theta_u) {
@@ -79,7 +91,7 @@ mod tests {
 
     #[test]
     fn stokes_k_matches_three_pi_mu_d() {
-        let s = Stokes { diameter: 0.1, viscosity: 0.01 };
+        let s = Stokes { diameter: 0.1, viscosity: 0.01, added_mass: 0.0, rotation: false };
         // F = 3πμdΔu, V_p = πd³/6: K = F/(V_p θ_f Δu) = 18μ/(d²θ_f)
         let theta_f = 0.8;
         let by_hand = 3.0 * std::f64::consts::PI * 0.01 * 0.1 / (std::f64::consts::PI * 0.001 / 6.0 * theta_f);
@@ -95,9 +107,9 @@ mod tests {
     #[test]
     fn validation_rejects_non_positive_inputs() {
         for (d, mu) in [(0.0, 1.0), (-1.0, 1.0), (1.0, 0.0), (1.0, -2.0), (Real::NAN, 1.0), (1.0, Real::INFINITY)] {
-            let e = Stokes { diameter: d, viscosity: mu }.validate().unwrap_err();
+            let e = Stokes { diameter: d, viscosity: mu, added_mass: 0.0, rotation: false }.validate().unwrap_err();
             assert!(e.contains("must be finite and > 0"), "{e}");
         }
-        assert!(Stokes { diameter: 1.0, viscosity: 1.0 }.validate().is_ok());
+        assert!(Stokes { diameter: 1.0, viscosity: 1.0, added_mass: 0.0, rotation: false }.validate().is_ok());
     }
 }

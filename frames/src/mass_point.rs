@@ -1,0 +1,451 @@
+//! Mass-point frame: each disk of a field is ONE material point {m, X, U, ω, V = πd²/4, d}
+//! (METHOD.md §4), the `representation: MassPoint` of a body list.
+//!
+//! **Particles to grid.** The point's volume is spread over the cells its disk covers with
+//! the exact disk ∩ cell areas ([`multifield_core::geometry`]), so θ ≤ 1 in every cell and
+//! Σ θ h² = V to round-off, whether the disk is smaller or larger than a cell, on a face,
+//! next to a wall or across a periodic side. The face fractions follow from the cell ones
+//! as for every field (mean of the two neighbours); the point puts mass ρ_s θ_face h² on
+//! each face it touches, moving with U. The fluid therefore sees the displaced volume in
+//! the pressure equation (buoyancy is −θ_s ∇p by itself) and the drag in the exchange.
+//!
+//! **Grid to particles.** The point takes the mass-weighted mean of its faces' velocity
+//! increments (FLIP): ΔU = Σ w_f (u_f − u_f^old) / Σ w_f over the faces it covers (walls'
+//! fixed faces left out). With the exchange's momentum conservation on every face, the
+//! point and the fluid exchange momentum exactly. The hydrodynamic force recorded in
+//! `bodies.csv` is m ΔU/Δt − m g; contact forces act after it, as on resolved bodies.
+//!
+//! **Rotation.** With a drag law's `rotation: true` the point feels the torque per unit
+//! length T = 4πμa² (½ ∇×u_f − ω) of a cylinder in a fluid rotating at ½∇×u_f (the
+//! fluid's vorticity averaged over the footprint with the weights θ), integrated
+//! implicitly: ω ← (I ω + Δt (c Ω_f + T_contact)) / (I + Δt c), c = 4πμa², I = m a²/2.
+//!
+//! **Validity.** The point model assumes d ≲ h and a Reynolds number in its drag law's
+//! range; [`Frame::warnings`] names every point that left either, with the ratio.
+
+use multifield_core::boundary::Boundaries;
+use multifield_core::case::{BodyShape, Motion, Region};
+use multifield_core::geometry::disk_cell_fractions;
+use multifield_core::grid::Grid;
+use multifield_core::math::{Real, Vector};
+use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext, StateReader, StateWriter};
+use multifield_core::registry::params_value;
+use serde::{Deserialize, Serialize};
+use std::any::Any;
+use std::f64::consts::PI;
+
+/// The mass-point frame (no parameters).
+#[derive(Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassPoint {
+    /// The points, one per body.
+    #[serde(skip)]
+    pub points: Vec<PointBody>,
+    /// The drag law's name and Re range, once a step has seen it.
+    #[serde(skip)]
+    law: Option<(&'static str, (Real, Real))>,
+}
+
+/// One body as a mass point.
+#[derive(Clone, Debug)]
+pub struct PointBody {
+    /// Free, fixed or prescribed.
+    pub motion: Motion,
+    /// Mass, volume, radius, position, velocity, rotation, forces (`bodies.csv`).
+    pub state: BodyState,
+    /// Largest particle Reynolds number ρ_f |U − u_f| d / μ seen (0 without a drag law).
+    pub max_reynolds: Real,
+    /// Cells of the footprint and their θ.
+    cells: Vec<(usize, Real)>,
+    /// x-faces of the footprint and their θ (with repeats).
+    xfaces: Vec<(usize, Real)>,
+    /// y-faces of the footprint and their θ (with repeats).
+    yfaces: Vec<(usize, Real)>,
+}
+
+impl MassPoint {
+    /// No parameters to check.
+    pub fn validate(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Face θ of one point from its cells, the way `FieldState::update_face_fractions`
+    /// derives face fractions (mean of the two neighbours; the inside cell on a wall; the
+    /// wrapped neighbour on a periodic side, where faces 0 and n are the same face).
+    fn footprint_faces(p: &mut PointBody, g: &Grid, periodic: [bool; 2]) {
+        p.xfaces.clear();
+        p.yfaces.clear();
+        let (nx, ny) = (g.nx, g.ny);
+        for &(c, t) in &p.cells {
+            let (i, j) = (c % nx, c / nx);
+            let half = 0.5 * t;
+            // x-faces i (left) and i + 1 (right)
+            for (f, edge, other) in [(i, i == 0, nx), (i + 1, i + 1 == nx, 0)] {
+                if !edge {
+                    p.xfaces.push((g.xface(f, j), half));
+                } else if periodic[0] {
+                    p.xfaces.push((g.xface(f, j), half));
+                    p.xfaces.push((g.xface(other, j), half));
+                } else {
+                    p.xfaces.push((g.xface(f, j), t));
+                }
+            }
+            for (f, edge, other) in [(j, j == 0, ny), (j + 1, j + 1 == ny, 0)] {
+                if !edge {
+                    p.yfaces.push((g.yface(i, f), half));
+                } else if periodic[1] {
+                    p.yfaces.push((g.yface(i, f), half));
+                    p.yfaces.push((g.yface(i, other), half));
+                } else {
+                    p.yfaces.push((g.yface(i, f), t));
+                }
+            }
+        }
+    }
+
+    /// Vorticity ∂v/∂x − ∂u/∂y of face velocities `(u, v)` at the centre of cell `c`
+    /// (central differences of cell-centred velocities, one-sided at walls).
+    fn vorticity(g: &Grid, bc: &Boundaries, u: &[Real], v: &[Real], c: usize) -> Real {
+        let (nx, ny) = (g.nx, g.ny);
+        let (i, j) = (c % nx, c / nx);
+        let uc = |i: usize, j: usize| 0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]);
+        let vc = |i: usize, j: usize| 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)]);
+        let step = |k: usize, n: usize, periodic: bool| -> (usize, usize, Real) {
+            if periodic {
+                ((k + n - 1) % n, (k + 1) % n, 2.0)
+            } else {
+                let lo = k.saturating_sub(1);
+                let hi = (k + 1).min(n - 1);
+                (lo, hi, (hi - lo) as Real)
+            }
+        };
+        let (il, ir, sx) = step(i, nx, bc.periodic_x());
+        let (jb, jt, sy) = step(j, ny, bc.periodic_y());
+        let dvdx = if sx > 0.0 { (vc(ir, j) - vc(il, j)) / (sx * g.h) } else { 0.0 };
+        let dudy = if sy > 0.0 { (uc(i, jt) - uc(i, jb)) / (sy * g.h) } else { 0.0 };
+        dvdx - dudy
+    }
+}
+
+multifield_core::register!(
+    Frame,
+    "mass_point",
+    MassPoint,
+    "one material point per disk (representation MassPoint): exact disk ∩ cell volume spreading, FLIP gather",
+    &[]
+);
+
+impl Frame for MassPoint {
+    fn model(&self) -> &'static str {
+        "mass_point"
+    }
+    fn params(&self) -> serde_json::Value {
+        params_value(self)
+    }
+    fn is_lagrangian(&self) -> bool {
+        true
+    }
+
+    fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
+        let Region::Bodies(specs) = ctx.region else {
+            return Err("a mass-point field needs `region: Bodies([...])` of disks".into());
+        };
+        self.points.clear();
+        for spec in specs {
+            let BodyShape::Disk { center, radius } = spec.shape else {
+                return Err(format!("body `{}` is not a disk; a mass point stands for a disk", spec.name));
+            };
+            let volume = PI * radius * radius;
+            let mass = ctx.density * volume;
+            let (velocity, omega) = match spec.motion {
+                Motion::Free => (spec.velocity, spec.angular_velocity),
+                Motion::Fixed => ([0.0, 0.0], 0.0),
+                Motion::Prescribed { velocity, angular_velocity } => (velocity, angular_velocity),
+            };
+            self.points.push(PointBody {
+                motion: spec.motion,
+                state: BodyState {
+                    name: spec.name.clone(),
+                    mass,
+                    inertia: 0.5 * mass * radius * radius,
+                    volume,
+                    radius,
+                    position: Vector::new(center[0], center[1]),
+                    velocity: Vector::new(velocity[0], velocity[1]),
+                    angular_velocity: omega,
+                    force: Vector::zeros(),
+                    torque: 0.0,
+                    free: spec.motion == Motion::Free,
+                },
+                max_reynolds: 0.0,
+                cells: Vec::new(),
+                xfaces: Vec::new(),
+                yfaces: Vec::new(),
+            });
+        }
+        Ok(())
+    }
+
+    fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        let g = ctx.grid;
+        let bc = ctx.boundaries;
+        let periodic = [bc.periodic_x(), bc.periodic_y()];
+        let s = &mut *ctx.state;
+        for a in [&mut s.theta, &mut s.mass_u, &mut s.mass_v, &mut s.velocity.u, &mut s.velocity.v] {
+            a.fill(0.0);
+        }
+        let scale = ctx.density * g.cell_area();
+        for p in &mut self.points {
+            let (x, r, u) = (p.state.position, p.state.radius, p.state.velocity);
+            if !(x.x.is_finite() && x.y.is_finite()) {
+                return Err(format!("point `{}` is at {x:?}: the run has blown up", p.state.name));
+            }
+            p.cells.clear();
+            disk_cell_fractions(g, [x.x, x.y], r, periodic, &mut p.cells);
+            for &(c, t) in &p.cells {
+                s.theta[c] += t;
+            }
+            Self::footprint_faces(p, g, periodic);
+            for &(f, w) in &p.xfaces {
+                s.mass_u[f] += scale * w;
+                s.velocity.u[f] += scale * w * u.x;
+            }
+            for &(f, w) in &p.yfaces {
+                s.mass_v[f] += scale * w;
+                s.velocity.v[f] += scale * w * u.y;
+            }
+        }
+        for (u, m) in s.velocity.u.iter_mut().zip(&s.mass_u) {
+            *u = if *m > 0.0 { *u / m } else { 0.0 };
+        }
+        for (v, m) in s.velocity.v.iter_mut().zip(&s.mass_v) {
+            *v = if *m > 0.0 { *v / m } else { 0.0 };
+        }
+        bc.enforce(g, &mut s.velocity);
+        s.velocity_old.u.copy_from_slice(&s.velocity.u);
+        s.velocity_old.v.copy_from_slice(&s.velocity.v);
+        Ok(())
+    }
+
+    fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        let g = ctx.grid;
+        let bc = ctx.boundaries;
+        let s = &*ctx.state;
+        let dt = ctx.dt;
+        let (nx, ny) = (g.nx, g.ny);
+        if let Some(p) = &ctx.partner {
+            self.law = Some((p.law.model, p.law.valid_re));
+        }
+        let lo = g.origin;
+        let hi = g.origin + g.size();
+        for (k, p) in self.points.iter_mut().enumerate() {
+            let st = &mut p.state;
+            let (m, r) = (st.mass, st.radius);
+            // mass-weighted velocity increment and fluid velocity over the footprint
+            let (mut du, mut wsum, mut uf) = (Vector::zeros(), Vector::zeros(), Vector::zeros());
+            for &(f, w) in &p.xfaces {
+                if bc.xface_fixed(g, f % (nx + 1)) {
+                    continue;
+                }
+                du.x += w * (s.velocity.u[f] - s.velocity_old.u[f]);
+                wsum.x += w;
+                if let Some(pt) = &ctx.partner {
+                    uf.x += w * pt.state.velocity.u[f];
+                }
+            }
+            for &(f, w) in &p.yfaces {
+                if bc.yface_fixed(g, f / nx) {
+                    continue;
+                }
+                du.y += w * (s.velocity.v[f] - s.velocity_old.v[f]);
+                wsum.y += w;
+                if let Some(pt) = &ctx.partner {
+                    uf.y += w * pt.state.velocity.v[f];
+                }
+            }
+            let mut gained = Vector::zeros();
+            for a in 0..2 {
+                if wsum[a] > 0.0 {
+                    gained[a] = du[a] / wsum[a];
+                    uf[a] /= wsum[a];
+                } else {
+                    gained[a] = dt * ctx.gravity[a];
+                    uf[a] = st.velocity[a];
+                }
+            }
+            let (fc, tc) = ctx.body_forces.get(k).copied().unwrap_or((Vector::zeros(), 0.0));
+            st.force = m * gained / dt - m * ctx.gravity;
+            let u_grid = st.velocity + gained;
+            // rotation: implicit torque 4πμa²(Ω_f − ω) towards the fluid's local rotation
+            let inertia = st.inertia;
+            let (c, omega_f) = match &ctx.partner {
+                Some(pt) if pt.law.rotation && !p.cells.is_empty() => {
+                    let (mut wsum, mut vort) = (0.0, 0.0);
+                    for &(cell, t) in &p.cells {
+                        vort += t * Self::vorticity(g, bc, &pt.state.velocity.u, &pt.state.velocity.v, cell);
+                        wsum += t;
+                    }
+                    (4.0 * PI * pt.law.viscosity * r * r, 0.5 * vort / wsum)
+                }
+                _ => (0.0, 0.0),
+            };
+            let (v_new, w_new) = match p.motion {
+                Motion::Free => {
+                    let w = (inertia * st.angular_velocity + dt * (c * omega_f + tc)) / (inertia + dt * c);
+                    (u_grid + dt * fc / m, w)
+                }
+                Motion::Fixed => (Vector::zeros(), 0.0),
+                Motion::Prescribed { velocity, angular_velocity } => {
+                    (Vector::new(velocity[0], velocity[1]), angular_velocity)
+                }
+            };
+            st.torque = c * (omega_f - w_new);
+            st.velocity = v_new;
+            st.angular_velocity = w_new;
+            if let Some(pt) = &ctx.partner {
+                let re = pt.density * (v_new - uf).norm() * 2.0 * r / pt.law.viscosity;
+                if re.is_finite() {
+                    p.max_reynolds = p.max_reynolds.max(re);
+                }
+            }
+            // move; wrap periodic sides, stop the centre at a disk's radius from a wall
+            let mut x = st.position + dt * v_new;
+            for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
+                let len = hi[axis] - lo[axis];
+                if periodic {
+                    if x[axis] < lo[axis] || x[axis] >= hi[axis] {
+                        x[axis] = lo[axis] + (x[axis] - lo[axis]).rem_euclid(len);
+                    }
+                } else if x[axis] < lo[axis] + r.min(0.5 * len) {
+                    x[axis] = lo[axis] + r.min(0.5 * len);
+                    st.velocity[axis] = st.velocity[axis].max(0.0);
+                } else if x[axis] > hi[axis] - r.min(0.5 * len) {
+                    x[axis] = hi[axis] - r.min(0.5 * len);
+                    st.velocity[axis] = st.velocity[axis].min(0.0);
+                }
+            }
+            st.position = x;
+        }
+        let _ = ny;
+        Ok(())
+    }
+
+    fn bodies(&self) -> Vec<BodyState> {
+        self.points.iter().map(|p| p.state.clone()).collect()
+    }
+
+    fn warnings(&self, grid: &Grid) -> Vec<String> {
+        let mut out = Vec::new();
+        for p in &self.points {
+            let d = 2.0 * p.state.radius;
+            if d > grid.h {
+                let mut cells = Vec::new();
+                disk_cell_fractions(
+                    grid,
+                    [p.state.position.x, p.state.position.y],
+                    p.state.radius,
+                    [true, true],
+                    &mut cells,
+                );
+                out.push(format!(
+                    "point `{}`: diameter {d} is {:.2} × the cell size {}; the point model assumes d ≲ h \
+                     (its volume is spread exactly over {} cells, so it runs, as a smeared body)",
+                    p.state.name,
+                    d / grid.h,
+                    grid.h,
+                    cells.len()
+                ));
+            }
+            if let Some((law, (lo, hi))) = self.law {
+                let re = p.max_reynolds;
+                if re > hi {
+                    out.push(format!(
+                        "point `{}`: its Reynolds number reached {re:.4} (ρ_f |U − u_f| d / μ), {:.2} × the \
+                         upper end Re = {hi} of drag law `{law}`",
+                        p.state.name,
+                        re / hi
+                    ));
+                } else if re < lo {
+                    out.push(format!(
+                        "point `{}`: its Reynolds number stayed below {re:.4}, under the lower end Re = {lo} of \
+                         drag law `{law}` ({:.2} ×)",
+                        p.state.name,
+                        re / lo
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    fn max_speed(&self) -> Real {
+        self.points.iter().map(|p| p.state.velocity.norm()).fold(0.0, Real::max)
+    }
+    fn kinetic_energy(&self) -> Real {
+        self.points
+            .iter()
+            .map(|p| {
+                let s = &p.state;
+                0.5 * s.mass * s.velocity.norm_squared() + 0.5 * s.inertia * s.angular_velocity.powi(2)
+            })
+            .sum()
+    }
+    fn momentum(&self) -> Vector {
+        self.points.iter().fold(Vector::zeros(), |a, p| a + p.state.mass * p.state.velocity)
+    }
+    fn mass(&self) -> Real {
+        self.points.iter().map(|p| p.state.mass).sum()
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+
+    /// Each point's name, position, velocity, angular velocity, last force and torque, and
+    /// largest Reynolds number. The footprints are rebuilt every step.
+    fn save_state(&self) -> Result<Vec<u8>, String> {
+        let mut w = StateWriter::new();
+        w.u64(self.points.len() as u64);
+        for p in &self.points {
+            let s = &p.state;
+            w.str(&s.name);
+            w.vector(s.position);
+            w.vector(s.velocity);
+            w.f64(s.angular_velocity);
+            w.vector(s.force);
+            w.f64(s.torque);
+            w.f64(p.max_reynolds);
+        }
+        Ok(w.into_bytes())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = StateReader::new(bytes);
+        let n = r.u64("points")? as usize;
+        if n != self.points.len() {
+            return Err(format!("{n} points in the checkpoint, {} bodies in the case", self.points.len()));
+        }
+        let mut states = Vec::with_capacity(n);
+        for p in &self.points {
+            let name = r.str("point name")?;
+            if name != p.state.name {
+                return Err(format!("point `{name}` in the checkpoint where the case has `{}`", p.state.name));
+            }
+            let mut s = p.state.clone();
+            s.position = r.vector("point position")?;
+            s.velocity = r.vector("point velocity")?;
+            s.angular_velocity = r.f64("point angular velocity")?;
+            s.force = r.vector("point force")?;
+            s.torque = r.f64("point torque")?;
+            states.push((s, r.f64("point Reynolds number")?));
+        }
+        r.finish("mass-point state")?;
+        for (p, (s, re)) in self.points.iter_mut().zip(states) {
+            p.state = s;
+            p.max_reynolds = re;
+        }
+        Ok(())
+    }
+}
