@@ -95,7 +95,8 @@ pub fn disk_cell_fractions(
             let (x0, y0) = (ox + i as Real * h, oy + j as Real * h);
             let a = disk_rectangle_area(center, radius, x0, x0 + h, y0, y0 + h);
             if a > 0.0 {
-                out.push((grid.cell(ii as usize, jj as usize), a / area));
+                // a covered cell is exactly 1 (x0 + h − x0 is h only to round-off)
+                out.push((grid.cell(ii as usize, jj as usize), (a / area).min(1.0)));
             }
         }
     }
