@@ -66,6 +66,29 @@ enum Command {
     },
     /// List every registered plugin by role, with its parameters, units and defaults.
     Plugins,
+    /// Run a scene with its bodies resolved and again as single mass points; report the
+    /// kiss and tumble times, settling speeds, their differences and the cost of each, and
+    /// overlay the trajectories (PNG and SVG).
+    Compare {
+        /// The case file (RON) with a body list.
+        case: PathBuf,
+        /// Override an entry of both runs, as for `run`.
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        overrides: Vec<String>,
+        /// Override an entry of the point run only, e.g. a coarser grid:
+        /// `--point-set 'domain.cells=(20, 80)'`.
+        #[arg(long = "point-set", value_name = "PATH=VALUE")]
+        point_overrides: Vec<String>,
+        /// Output directory [default: out/compare_<case name>].
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// Worker threads [default: all cores].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        threads: usize,
+        /// Folder of the reference curves [default: ../shared/reference/dkt-uhlmann2005 if present].
+        #[arg(long)]
+        reference: Option<PathBuf>,
+    },
     /// Drafting–kissing–tumbling analysis of finished two-disk runs: kiss and tumble
     /// times, RMS distance to Uhlmann (2005), and trajectory plots (PNG and SVG) against
     /// the published curves. One run: written into its directory. Several runs of one
@@ -133,6 +156,11 @@ pub fn main() -> ExitCode {
             Ok(())
         }
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
+        Some(Command::Compare { case, overrides, point_overrides, out, threads, reference }) => {
+            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
+                compare(&c, &point_overrides, out, &RunOptions { threads, quiet: true, restart: None }, reference)
+            })
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -294,6 +322,66 @@ fn plugins() {
 }
 
 /// `multifield dkt RUN_DIR...`: analysis and plots of drafting–kissing–tumbling runs.
+fn compare(
+    case: &Case,
+    point_overrides: &[String],
+    out: Option<PathBuf>,
+    options: &RunOptions,
+    reference: Option<PathBuf>,
+) -> Result<(), Failure> {
+    let reference = reference.or_else(|| {
+        let d = PathBuf::from("../shared/reference/dkt-uhlmann2005");
+        d.is_dir().then_some(d)
+    });
+    let dir = out.unwrap_or_else(|| Path::new("out").join(format!("compare_{}", run::directory_name(&case.name))));
+    println!("running {} resolved, then as mass points, into {}", case.name, dir.display());
+    let c =
+        crate::compare::compare(case, point_overrides, &dir, options, reference.as_deref()).map_err(|e| match e {
+            Error::Io { .. } => Failure::Run(e.to_string()),
+            e => Failure::Input(e),
+        })?;
+    let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.4}"));
+    println!(
+        "{:<10} {:>10} {:>8} {:>9} {:>10} {:>10} {:>10} {:>8}  largest settling speed (per body)",
+        "run", "status", "cells/d", "steps", "wall (s)", "kiss", "tumble", "RMS U05"
+    );
+    for r in [&c.resolved, &c.point] {
+        let speeds: Vec<String> = r.bodies.iter().map(|b| format!("{} {:.4}", b.body, b.max_settling_speed)).collect();
+        println!(
+            "{:<10} {:>10} {:>8.1} {:>9} {:>10.2} {:>10} {:>10} {:>8}  {}",
+            r.representation,
+            r.status,
+            r.cells_per_diameter,
+            r.steps,
+            r.wall_seconds,
+            show(r.kiss_time),
+            show(r.tumble_time),
+            r.rms_to_uhlmann_over_d.map_or("-".into(), |e| format!("{e:.3}d")),
+            speeds.join(", ")
+        );
+    }
+    let signed = |t: Option<f64>| t.map_or("-".to_string(), |t| format!("{t:+.4}"));
+    println!(
+        "point − resolved: kiss {}, tumble {}; largest settling speed {}; the point run is {:.1}× faster",
+        signed(c.kiss_time_difference),
+        signed(c.tumble_time_difference),
+        c.terminal_speed_relative_difference
+            .iter()
+            .map(|(b, d)| format!("{b} {:+.1} %", 100.0 * d))
+            .collect::<Vec<_>>()
+            .join(", "),
+        c.speedup
+    );
+    for w in &c.point.warnings {
+        println!("point run: warning: {w}");
+    }
+    println!(
+        "wrote {}/comparison.{{json,csv}} and the charts compare_position, compare_velocity (PNG and SVG)",
+        dir.display()
+    );
+    Ok(())
+}
+
 fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Result<(), Failure> {
     let reference = reference.or_else(|| {
         let d = PathBuf::from("../shared/reference/dkt-uhlmann2005");

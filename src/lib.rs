@@ -25,6 +25,7 @@ pub use multifield_physics as physics;
 pub mod charts;
 pub mod checkpoint;
 pub mod cli;
+pub mod compare;
 pub mod dkt;
 pub mod output;
 pub mod picture;

@@ -1,0 +1,281 @@
+//! Resolved against point bodies on one scene (`multifield compare CASE`): runs the case
+//! with every body list `Resolved` and again as `MassPoint` (optionally with overrides for
+//! the point run alone, e.g. a coarser grid), then reports per body the settling speed at
+//! the end and its largest value (the terminal velocity, when it is reached before landing), for two-disk scenes the kiss and tumble times (and the
+//! RMS distance to Uhlmann 2005 on its scene), the differences point − resolved, and the
+//! wall time and steps of each; overlays the trajectories (PNG and SVG).
+//!
+//! Output in the comparison directory: `resolved/` and `point/` (two ordinary runs),
+//! `comparison.json`, `comparison.csv` (one row per run and body), `compare_position` and
+//! `compare_velocity` charts, and for two disks `dkt_position`/`dkt_lateral`.
+
+use crate::core::case::{Case, Region, Representation};
+use crate::core::error::Error;
+use crate::core::math::Real;
+use crate::dkt::{self, Track};
+use crate::plot::{write_chart, Chart, Series};
+use crate::run::{self, RunOptions};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One body of one run.
+#[derive(Clone, Debug, Serialize)]
+pub struct BodyFigures {
+    /// Body name.
+    pub body: String,
+    /// Settling speed along gravity at the end of the run.
+    pub final_settling_speed: Real,
+    /// Largest settling speed along gravity.
+    pub max_settling_speed: Real,
+    /// Position along gravity at the end (from the upstream wall).
+    pub final_position: Real,
+}
+
+/// One run of the comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunFigures {
+    /// `resolved` or `point`.
+    pub representation: String,
+    /// How it ended.
+    pub status: String,
+    /// Cells per body diameter.
+    pub cells_per_diameter: Real,
+    /// Steps taken.
+    pub steps: u64,
+    /// Wall time of the time loop (s).
+    pub wall_seconds: f64,
+    /// Per body.
+    pub bodies: Vec<BodyFigures>,
+    /// Kiss time (two disks).
+    pub kiss_time: Option<Real>,
+    /// Tumble time (two disks).
+    pub tumble_time: Option<Real>,
+    /// RMS distance to Uhlmann 2005 in d (its scene only).
+    pub rms_to_uhlmann_over_d: Option<Real>,
+    /// The run's validity warnings.
+    pub warnings: Vec<String>,
+}
+
+/// What `comparison.json` holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// The case.
+    pub case: String,
+    /// The two runs.
+    pub resolved: RunFigures,
+    /// The point run.
+    pub point: RunFigures,
+    /// Point − resolved kiss time.
+    pub kiss_time_difference: Option<Real>,
+    /// Point − resolved tumble time.
+    pub tumble_time_difference: Option<Real>,
+    /// Per body, (point − resolved)/resolved largest settling speed (the terminal velocity
+    /// of a body that reaches it before it lands).
+    pub terminal_speed_relative_difference: BTreeMap<String, Real>,
+    /// Wall time ratio resolved/point.
+    pub speedup: f64,
+}
+
+/// The case with every body list represented as `rep`.
+pub fn with_representation(case: &Case, rep: Representation) -> Result<Case, Error> {
+    let mut c = case.clone();
+    let mut any = false;
+    for f in &mut c.fields {
+        if matches!(f.region, Region::Bodies(_)) {
+            f.representation = rep;
+            any = true;
+        }
+    }
+    if !any {
+        return Err(Error::invalid("fields", "no field has a body list (`region: Bodies([...])`): nothing to compare"));
+    }
+    Ok(c)
+}
+
+fn along_axis(case: &Case) -> (usize, Real, Real) {
+    let g = case.gravity;
+    let axis = if g[1].abs() >= g[0].abs() { 1 } else { 0 };
+    let sign = if g[axis] < 0.0 { -1.0 } else { 1.0 };
+    let wall = if sign < 0.0 { case.domain.origin[axis] + case.domain.size[axis] } else { case.domain.origin[axis] };
+    (axis, sign, wall)
+}
+
+fn figures(dir: &Path, label: &str, reference: Option<&Path>) -> Result<(RunFigures, BTreeMap<String, Track>), Error> {
+    let text = std::fs::read_to_string(dir.join("case.ron"))
+        .map_err(|source| Error::Io { path: dir.join("case.ron"), source })?;
+    let case = Case::from_ron(&text, &dir.join("case.ron"))?;
+    let summary: serde_json::Value = std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or_default();
+    let tracks = dkt::read_bodies(&dir.join("bodies.csv"))?;
+    let (axis, sign, wall) = along_axis(&case);
+    let mut diameter: Real = 0.0;
+    for f in &case.fields {
+        if let Region::Bodies(b) = &f.region {
+            for body in b {
+                let (lo, hi) = body.shape.bounds();
+                diameter = diameter.max(hi[0] - lo[0]);
+            }
+        }
+    }
+    let h = case.domain.size[0] / case.domain.cells[0] as Real;
+    let bodies = tracks
+        .iter()
+        .map(|(name, tr)| {
+            let v = if axis == 1 { &tr.vy } else { &tr.vx };
+            let p = if axis == 1 { &tr.y } else { &tr.x };
+            BodyFigures {
+                body: name.clone(),
+                final_settling_speed: v.last().map_or(0.0, |v| sign * v),
+                max_settling_speed: v.iter().map(|v| sign * v).fold(0.0, Real::max),
+                final_position: p.last().map_or(0.0, |p| sign * (p - wall)),
+            }
+        })
+        .collect();
+    let (kiss, tumble, rms) = if tracks.len() == 2 {
+        let (r, _, _) = dkt::analyse(dir, reference)?;
+        (r.kiss_time, r.tumble_time, r.rms_position_error_over_d)
+    } else {
+        (None, None, None)
+    };
+    Ok((
+        RunFigures {
+            representation: label.into(),
+            status: summary["status"].as_str().unwrap_or("unknown").into(),
+            cells_per_diameter: diameter / h,
+            steps: summary["steps"].as_u64().unwrap_or(0),
+            wall_seconds: summary["wall_seconds"].as_f64().unwrap_or(0.0),
+            bodies,
+            kiss_time: kiss,
+            tumble_time: tumble,
+            rms_to_uhlmann_over_d: rms,
+            warnings: summary["warnings"]
+                .as_array()
+                .map(|w| w.iter().filter_map(|s| s.as_str().map(String::from)).collect())
+                .unwrap_or_default(),
+        },
+        tracks,
+    ))
+}
+
+/// Runs `case` resolved and as points (with `point_overrides` on the point run) into
+/// `out/resolved` and `out/point`, writes the comparison files and charts, and returns it.
+pub fn compare(
+    case: &Case,
+    point_overrides: &[String],
+    out: &Path,
+    options: &RunOptions,
+    reference: Option<&Path>,
+) -> Result<Comparison, Error> {
+    let resolved = with_representation(case, Representation::Resolved)?;
+    let point = with_representation(case, Representation::MassPoint)?.with_overrides(point_overrides)?;
+    let mut dirs = Vec::new();
+    for (label, c) in [("resolved", &resolved), ("point", &point)] {
+        let dir = out.join(label);
+        let outcome = run::run(c, &dir, options)?;
+        if !options.quiet {
+            let s = &outcome.summary;
+            println!(
+                "{label}: {} after {} steps to t = {} in {:.2} s",
+                s.status, s.steps, s.simulated_time, s.wall_seconds
+            );
+        }
+        dirs.push(dir);
+    }
+    let (r, r_tracks) = figures(&dirs[0], "resolved", reference)?;
+    let (p, p_tracks) = figures(&dirs[1], "point", reference)?;
+    let diff = |a: Option<Real>, b: Option<Real>| a.zip(b).map(|(a, b)| b - a);
+    let mut rel = BTreeMap::new();
+    for (br, bp) in r.bodies.iter().zip(&p.bodies) {
+        if br.max_settling_speed != 0.0 {
+            rel.insert(br.body.clone(), (bp.max_settling_speed - br.max_settling_speed) / br.max_settling_speed);
+        }
+    }
+    let cmp = Comparison {
+        case: case.name.clone(),
+        kiss_time_difference: diff(r.kiss_time, p.kiss_time),
+        tumble_time_difference: diff(r.tumble_time, p.tumble_time),
+        terminal_speed_relative_difference: rel,
+        speedup: if p.wall_seconds > 0.0 { r.wall_seconds / p.wall_seconds } else { 0.0 },
+        resolved: r,
+        point: p,
+    };
+    let io = |path: PathBuf, e: std::io::Error| Error::Io { path, source: e };
+    let json = serde_json::to_string_pretty(&cmp).map_err(|e| Error::Model(e.to_string()))?;
+    std::fs::write(out.join("comparison.json"), json + "\n").map_err(|e| io(out.join("comparison.json"), e))?;
+    let mut csv = String::from(
+        "representation,status,cells_per_diameter,steps,wall_seconds,body,final_settling_speed,max_settling_speed,kiss_time,tumble_time\n",
+    );
+    for run in [&cmp.resolved, &cmp.point] {
+        for b in &run.bodies {
+            let opt = |t: Option<Real>| t.map_or(String::new(), |t| t.to_string());
+            csv += &format!(
+                "{},{},{},{},{},{},{},{},{},{}\n",
+                run.representation,
+                run.status,
+                run.cells_per_diameter,
+                run.steps,
+                run.wall_seconds,
+                b.body,
+                b.final_settling_speed,
+                b.max_settling_speed,
+                opt(run.kiss_time),
+                opt(run.tumble_time)
+            );
+        }
+    }
+    std::fs::write(out.join("comparison.csv"), csv).map_err(|e| io(out.join("comparison.csv"), e))?;
+    // overlays: every body of both runs, along gravity and its speed
+    let (axis, sign, wall) = along_axis(case);
+    let mut pos = Vec::new();
+    let mut vel = Vec::new();
+    for (k, (label, tracks)) in [("resolved", &r_tracks), ("point", &p_tracks)].into_iter().enumerate() {
+        for (b, (name, tr)) in tracks.iter().enumerate() {
+            let p = if axis == 1 { &tr.y } else { &tr.x };
+            let v = if axis == 1 { &tr.vy } else { &tr.vx };
+            let color = 2 * b + k;
+            pos.push(Series {
+                label: format!("{name}, {label}"),
+                points: tr.t.iter().zip(p).map(|(t, p)| (*t, sign * (p - wall))).collect(),
+                color,
+                markers: false,
+            });
+            vel.push(Series {
+                label: format!("{name}, {label}"),
+                points: tr.t.iter().zip(v).map(|(t, v)| (*t, sign * v)).collect(),
+                color,
+                markers: false,
+            });
+        }
+    }
+    for (stem, title, y, series) in [
+        ("compare_position", "position along gravity (from the upstream wall)", "position", pos),
+        ("compare_velocity", "settling speed", "speed along gravity", vel),
+    ] {
+        write_chart(
+            &out.join(stem),
+            &Chart {
+                title: format!("{}: resolved against mass points, {title}", case.name),
+                x_label: "time".into(),
+                y_label: y.into(),
+                series,
+                log: (false, false),
+            },
+        )?;
+    }
+    if r_tracks.len() == 2 && p_tracks.len() == 2 {
+        let (rr, rt, rc) = dkt::analyse(&dirs[0], reference)?;
+        let (pr, pt, pc) = dkt::analyse(&dirs[1], reference)?;
+        dkt::plot_runs(
+            out,
+            &[
+                dkt::Run { label: "resolved".into(), report: &rr, tracks: &rt, case: &rc },
+                dkt::Run { label: "mass points".into(), report: &pr, tracks: &pt, case: &pc },
+            ],
+            reference,
+        )?;
+    }
+    Ok(cmp)
+}
