@@ -355,3 +355,37 @@ fn bad_point_cases_say_how_to_fix_them() {
     };
     assert!(e.contains("body `box` is not a disk") && e.contains("Resolved"), "{e}");
 }
+
+#[test]
+fn compare_runs_both_representations_and_the_point_releases_with_its_added_mass() {
+    multifield::link_all();
+    // one disk, ρ_s/ρ_f = 1.5, every step written: the point's first step accelerates at
+    // (ρ_s − ρ_f) g/(ρ_s + C_A ρ_f) = 196.2 cm/s² (C_A = 1 in the example's drag law), not
+    // (ρ_s − ρ_f) g/ρ_s = 327 without added mass. The point run is on a 4 × 12 grid
+    // (d = h/2); the fluid left in the cells a larger point fills moves with it and adds
+    // inertia: measured −7.0 % at d = 2h, −5.0 % at d = h, −2.1 % at d = h/2
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sedimentation.ron");
+    let case =
+        Case::load(&path, &["domain.cells=(32, 96)".into(), "time.end=0.004".into(), "output.interval=0".into()])
+            .unwrap();
+    let dir = std::env::temp_dir().join(format!("mf_compare_{}", std::process::id()));
+    let c = multifield::compare::compare(&case, &["domain.cells=(4, 12)".into()], &dir, &RunOptions::quiet(), None)
+        .unwrap();
+    assert_eq!((c.resolved.status.as_str(), c.point.status.as_str()), ("completed", "completed"));
+    assert!((c.resolved.cells_per_diameter - 4.0).abs() < 1e-9 && (c.point.cells_per_diameter - 0.5).abs() < 1e-9);
+    let a = 0.5 * G / 2.5;
+    let tracks = multifield::dkt::read_bodies(&dir.join("point").join("bodies.csv")).unwrap();
+    let tr = &tracks["disk"];
+    let measured = -tr.vy[1] / tr.t[1];
+    eprintln!("point: first-step acceleration {measured:.2} against {a:.2} ({:+.2} %)", 100.0 * (measured / a - 1.0));
+    assert!((measured / a - 1.0).abs() < 0.05, "{measured} vs {a}");
+    assert_eq!((c.resolved.bodies.len(), c.point.bodies.len()), (1, 1));
+    let d = c.terminal_speed_relative_difference["disk"];
+    let (r, p) = (c.resolved.bodies[0].max_settling_speed, c.point.bodies[0].max_settling_speed);
+    assert!(r > 0.0 && p > 0.0 && (d - (p - r) / r).abs() < 1e-12);
+    assert_eq!(std::fs::read_to_string(dir.join("comparison.csv")).unwrap().lines().count(), 3);
+    for f in ["comparison.json", "compare_position.png", "compare_velocity.svg"] {
+        assert!(std::fs::metadata(dir.join(f)).unwrap().len() > 500, "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
