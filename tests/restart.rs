@@ -165,6 +165,31 @@ fn a_restarted_dkt_run_is_bit_identical_to_the_uninterrupted_one() {
     assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
 }
 
+/// Mass-point disks (drag law with added mass and rotation, contact): the points' state
+/// and their largest Reynolds numbers carry over.
+#[test]
+fn a_restarted_point_particle_run_is_bit_identical_to_the_uninterrupted_one() {
+    let case = load(
+        "examples/dkt_uhlmann2005.ron",
+        &[
+            "fields.disks.representation=MassPoint",
+            "domain.cells=(16, 48)",
+            "time.end=0.04",
+            "output.interval=0.002",
+            "output.checkpoints=Some((interval: 0.02))",
+            "output.charts=false",
+        ],
+    );
+    let (end, _) = restart_reproduces_the_run("points", &case);
+    let sim = checkpoint::restore(&case, &end.path).unwrap().0;
+    assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < -1.0), "the points settle");
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join("points");
+    let full = std::fs::read_to_string(dir.join("full").join("summary.json")).unwrap();
+    let restarted = std::fs::read_to_string(dir.join("restarted").join("summary.json")).unwrap();
+    let warnings = |t: &str| serde_json::from_str::<serde_json::Value>(t).unwrap()["warnings"].clone();
+    assert_eq!(warnings(&full), warnings(&restarted));
+}
+
 /// A Lagrangian fluid (APIC, quadratic B-splines: the C matrices carry over), with each
 /// pressure solver (none keeps a state that changes its result but the initial guess).
 #[test]
