@@ -76,6 +76,7 @@ use crate::core::grid::{FaceVelocity, Grid, Lattice};
 use crate::core::math::Real;
 use crate::core::simulation::{region_fraction, Simulation};
 use crate::frames::lagrangian::{Lagrangian, Points};
+use crate::frames::mass_point::MassPoint;
 use crate::output::{write_atomically, Due, Writer};
 use hdf5_pure::{AttrValue, FileBuilder, GroupBuilder, LibVer};
 use std::path::{Path, PathBuf};
@@ -350,6 +351,20 @@ fn point_data(sim: &Simulation, k: usize, l: &Lagrangian) -> PointData {
     d
 }
 
+/// The points of a mass-point field: one per body, no stress.
+fn mass_point_data(m: &MassPoint) -> PointData {
+    let mut d = PointData { bodies: m.points.iter().map(|p| p.state.name.clone()).collect(), ..PointData::default() };
+    for (k, p) in m.points.iter().enumerate() {
+        let s = &p.state;
+        d.position.extend([s.position.x, s.position.y, 0.0]);
+        d.velocity.extend([s.velocity.x, s.velocity.y, 0.0]);
+        d.volume.push(s.volume);
+        d.stress.extend([0.0; 3]);
+        d.body.push(k as i64);
+    }
+    d
+}
+
 impl Snapshot {
     /// The snapshot of the simulation's current state (module doc).
     pub fn of(sim: &Simulation) -> Snapshot {
@@ -378,7 +393,10 @@ impl Snapshot {
                 density: theta.iter().map(|t| t * f.density).collect(),
                 theta: theta.clone(),
                 velocity,
-                points: lagrangian.map(|l| point_data(sim, k, l)),
+                points: match lagrangian {
+                    Some(l) => Some(point_data(sim, k, l)),
+                    None => f.frame.as_any().downcast_ref::<MassPoint>().map(mass_point_data),
+                },
             });
         }
         let mut velocity = vec![0.0; 3 * n];
