@@ -13,7 +13,7 @@
 //! }
 //! ```
 
-use crate::core::case::{Case, Region};
+use crate::core::case::{Case, Region, Representation};
 use crate::core::error::Error;
 use crate::core::registry::{self, Role};
 use crate::core::simulation::{Simulation, Status};
@@ -262,12 +262,15 @@ fn check(case: &Case, file: &Path) -> Result<(), Failure> {
         t.max_steps.map(|n| format!(", max_steps {n}")).unwrap_or_default()
     );
     for (spec, f) in c.fields.iter().zip(&sim.fields) {
+        let frame = if spec.representation == Representation::MassPoint {
+            "mass points (one per disk; representation MassPoint)".to_string()
+        } else {
+            format!("{} frame {}", spec.frame.model, params_text(&spec.frame.params))
+        };
         println!(
-            "field    {}: density {}, {} frame {}, {}, mass {:.6e}",
+            "field    {}: density {}, {frame}, {}, mass {:.6e}",
             spec.name,
             spec.density,
-            spec.frame.model,
-            params_text(&spec.frame.params),
             region_text(&spec.region),
             f.frame.mass()
         );
@@ -276,14 +279,15 @@ fn check(case: &Case, file: &Path) -> Result<(), Failure> {
         }
     }
     for e in &c.exchange {
-        println!(
-            "exchange {} – {}: {} {} ({:?})",
-            e.between[0],
-            e.between[1],
-            e.model,
-            params_text(&e.params),
-            e.integration
-        );
+        let points = c.fields.iter().any(|f| f.name == e.between[1] && f.representation == Representation::MassPoint);
+        let (model, params) = match (&e.mass_point, points) {
+            (Some(m), true) => (format!("{} (the mass points' drag law)", m.model), &m.params),
+            _ => (e.model.clone(), &e.params),
+        };
+        println!("exchange {} – {}: {model} {} ({:?})", e.between[0], e.between[1], params_text(params), e.integration);
+    }
+    for w in sim.warnings() {
+        println!("warning  {w}");
     }
     match &c.pressure {
         Some(p) => println!("pressure {} {}", p.model, params_text(&p.params)),

@@ -317,7 +317,9 @@ fn bad_point_cases_say_how_to_fix_them() {
     multifield::link_all();
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sedimentation.ron");
     // no_slip without a drag law for the points
-    let case = Case::load(&path, &["fields.disks.representation=MassPoint".into()]).unwrap();
+    let case =
+        Case::load(&path, &["fields.disks.representation=MassPoint".into(), "exchange.0.mass_point=None".into()])
+            .unwrap();
     let e = Simulation::new(&case).err().unwrap().to_string();
     assert!(e.contains("exchange.0.mass_point") && e.contains("mass_point: Some((model: \"cylinder\""), "{e}");
     // a drag law of another diameter
@@ -354,6 +356,10 @@ fn bad_point_cases_say_how_to_fix_them() {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("body `box` is not a disk") && e.contains("Resolved"), "{e}");
+    // the mass-point frame is chosen by the representation, not named as a frame
+    let case = Case::load(&path, &["fields.disks.frame=(model: \"mass_point\")".into()]).unwrap();
+    let e = Simulation::new(&case).err().unwrap().to_string();
+    assert!(e.contains("fields.disks.frame.model") && e.contains("representation: MassPoint"), "{e}");
 }
 
 #[test]

@@ -173,6 +173,13 @@ impl Simulation {
             let path = format!("fields.{}", spec.name);
             let mut frame = registry::build_frame(&spec.frame.model, &spec.frame.params, &format!("{path}.frame"))?;
             spec.frame.params = frame.params();
+            if spec.frame.model == MASS_POINT_FRAME && spec.representation != Representation::MassPoint {
+                return Err(Error::invalid(
+                    format!("{path}.frame.model"),
+                    "`mass_point` is the frame of `representation: MassPoint`: set that entry instead \
+                     (and keep the resolved frame, e.g. `(model: \"lagrangian\")`, for switching back)",
+                ));
+            }
             if spec.representation == Representation::MassPoint {
                 // the resolved frame's options stay in the case, so that switching back is
                 // one entry; the points are the `mass_point` frame's

@@ -232,7 +232,7 @@ impl Frame for MassPoint {
         let bc = ctx.boundaries;
         let s = &*ctx.state;
         let dt = ctx.dt;
-        let (nx, ny) = (g.nx, g.ny);
+        let nx = g.nx;
         if let Some(p) = &ctx.partner {
             self.law = Some((p.law.model, p.law.valid_re));
         }
@@ -326,7 +326,6 @@ impl Frame for MassPoint {
             }
             st.position = x;
         }
-        let _ = ny;
         Ok(())
     }
 
