@@ -56,8 +56,8 @@ pub fn solve_with_added_mass(loc: &mut Local, k: &Coefficients, added: &Coeffici
     let n = loc.n;
     // absent fields take no part: keep u*, w = 1/ρ⁰
     let present: [bool; MAX_FIELDS] = std::array::from_fn(|i| i < n && loc.rho[i] > 1e-10 * loc.material_density[i]);
-    // one field alone (most of a domain with bodies): nothing to exchange
-    if present.iter().filter(|&&p| p).count() == 1 {
+    // no field or one alone (most of a domain with bodies): nothing to exchange
+    if present.iter().filter(|&&p| p).count() <= 1 {
         let l = &mut *loc;
         for (i, w) in l.w.iter_mut().enumerate().take(n) {
             *w = if present[i] && l.rho_w[i] > 0.0 {

@@ -734,6 +734,13 @@ impl Simulation {
 
     /// Phase 4: implicit (or explicit) momentum exchange on every face.
     fn exchange(&mut self, dt: Real) {
+        if self.exchanges.is_empty() {
+            // no coupling: velocities stay; each field's w = θ/(θρ⁰) for the pressure
+            if self.pressure_solver.is_some() {
+                self.uncoupled_specific_volumes();
+            }
+            return;
+        }
         let n = self.fields.len();
         let area = self.grid.cell_area();
         for e in &mut self.exchanges {
@@ -822,6 +829,33 @@ impl Simulation {
                         s.velocity.v[face] = loc.u[k];
                         s.specific_volume.v[face] = loc.w[k];
                     }
+                }
+            }
+        }
+    }
+
+    /// The specific volumes of fields that exchange nothing: what [`exchange::solve`] gives
+    /// without coupling, face by face, without building its local system.
+    fn uncoupled_specific_volumes(&mut self) {
+        let area = self.grid.cell_area();
+        for f in &mut self.fields {
+            let rho0 = f.density;
+            let s = &mut f.state;
+            for (w, m, t) in
+                [(&mut s.specific_volume.u, &s.mass_u, &s.theta_u), (&mut s.specific_volume.v, &s.mass_v, &s.theta_v)]
+            {
+                for ((w, m), t) in w.iter_mut().zip(m.iter()).zip(t.iter()) {
+                    let rho = m / area;
+                    let rho_w = t * rho0;
+                    *w = if rho > 1e-10 * rho0 {
+                        if rho_w > 0.0 {
+                            t / rho_w
+                        } else {
+                            t / rho
+                        }
+                    } else {
+                        1.0 / rho0
+                    };
                 }
             }
         }
