@@ -81,6 +81,24 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Run a study (docs/studies.md): every combination of the study file's axes, in
+    /// parallel, resumable; writes results.csv and the charts (PNG and SVG).
+    Study {
+        /// The study file (RON).
+        study: PathBuf,
+        /// Runs at a time [default: cores / threads per run].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        jobs: usize,
+        /// Output directory [default: out/studies/<study name>].
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// Worker threads of each run.
+        #[arg(long, default_value_t = 1)]
+        threads_per_run: usize,
+        /// No progress bar and no line per run.
+        #[arg(long, short)]
+        quiet: bool,
+    },
 }
 
 /// Why the command stopped.
@@ -133,6 +151,10 @@ pub fn main() -> ExitCode {
             Ok(())
         }
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
+        Some(Command::Study { study, jobs, out, threads_per_run, quiet }) => {
+            let options = crate::study::StudyOptions { jobs, threads_per_run, quiet };
+            run_study(&study, out, &options)
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -291,6 +313,29 @@ fn plugins() {
         }
         println!();
     }
+}
+
+/// `multifield study STUDY.ron`: exit 0 when every run ended (completed, unstable or
+/// failed: all data), 2 on bad input, 1 when the output cannot be written.
+fn run_study(file: &Path, out: Option<PathBuf>, options: &crate::study::StudyOptions) -> Result<(), Failure> {
+    let plan = crate::study::plan(file, out)?;
+    let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
+    let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
+    println!(
+        "study {}: {} runs: {} completed, {} unstable, {} failed ({} run now, {} skipped as finished)",
+        plan.study.name,
+        report.statuses.len(),
+        count("completed"),
+        count("unstable"),
+        count("failed"),
+        report.ran,
+        report.skipped
+    );
+    println!("results: {}", report.results.display());
+    for c in &report.charts {
+        println!("chart:   {} (and .svg)", c.display());
+    }
+    Ok(())
 }
 
 /// `multifield dkt RUN_DIR...`: analysis and plots of drafting–kissing–tumbling runs.
