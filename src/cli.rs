@@ -95,6 +95,10 @@ enum Command {
         /// Worker threads of each run.
         #[arg(long, default_value_t = 1)]
         threads_per_run: usize,
+        /// Only the combinations with this label on this axis (repeatable; several labels
+        /// of one axis: any of them), e.g. `--only representation=resolved`.
+        #[arg(long, value_name = "AXIS=LABEL")]
+        only: Vec<String>,
         /// No progress bar and no line per run.
         #[arg(long, short)]
         quiet: bool,
@@ -151,9 +155,9 @@ pub fn main() -> ExitCode {
             Ok(())
         }
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
-        Some(Command::Study { study, jobs, out, threads_per_run, quiet }) => {
+        Some(Command::Study { study, jobs, out, threads_per_run, only, quiet }) => {
             let options = crate::study::StudyOptions { jobs, threads_per_run, quiet };
-            run_study(&study, out, &options)
+            run_study(&study, out, &only, &options)
         }
     };
     match result {
@@ -317,8 +321,13 @@ fn plugins() {
 
 /// `multifield study STUDY.ron`: exit 0 when every run ended (completed, unstable or
 /// failed: all data), 2 on bad input, 1 when the output cannot be written.
-fn run_study(file: &Path, out: Option<PathBuf>, options: &crate::study::StudyOptions) -> Result<(), Failure> {
-    let plan = crate::study::plan(file, out)?;
+fn run_study(
+    file: &Path,
+    out: Option<PathBuf>,
+    only: &[String],
+    options: &crate::study::StudyOptions,
+) -> Result<(), Failure> {
+    let plan = crate::study::plan(file, out, only)?;
     let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
     let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
     println!(

@@ -299,7 +299,7 @@ pub struct Plan {
     pub file: PathBuf,
     /// Resolved values per axis.
     pub points: Vec<Vec<Point>>,
-    /// Every combination, the first axis varying slowest.
+    /// Every combination (or those chosen with `--only`), the first axis varying slowest.
     pub runs: Vec<Combination>,
     /// Output directory.
     pub out: PathBuf,
@@ -580,8 +580,10 @@ impl Study {
 }
 
 /// Reads and checks a study file, and builds every combination's case (overrides applied,
-/// validated, plugins constructed): any error names the combination.
-pub fn plan(file: &Path, out: Option<PathBuf>) -> Result<Plan, Error> {
+/// validated, plugins constructed): any error names the combination. With `only`
+/// (`axis=label`, e.g. `representation=resolved`), just the combinations with those labels
+/// (several labels of one axis: any of them).
+pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, Error> {
     let text = std::fs::read_to_string(file).map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
     let study = Study::from_ron(&text, file)?;
     let points = study.points(file)?;
@@ -591,6 +593,21 @@ pub fn plan(file: &Path, out: Option<PathBuf>) -> Result<Plan, Error> {
         std::fs::read_to_string(&base_file).map_err(|source| Error::Io { path: base_file.clone(), source })?;
     let base = Case::from_ron(&base_text, &base_file)?;
     let out = out.unwrap_or_else(|| Path::new("out/studies").join(run::directory_name(&study.name)));
+    let mut wanted: Vec<(usize, String)> = Vec::new();
+    for o in only {
+        let (axis, label) = o.split_once('=').ok_or_else(|| {
+            Error::Model(format!("--only {o}: expected axis=label, e.g. --only {}=…", study.axes[0].name))
+        })?;
+        let a = study.axis_index(file, &format!("--only {o}"), axis.trim())?;
+        let labels: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
+        if !labels.contains(&label.trim()) {
+            return Err(Error::Model(format!(
+                "--only {o}: axis `{axis}` has no value labelled `{label}`; labels: {}",
+                labels.join(", ")
+            )));
+        }
+        wanted.push((a, label.trim().to_string()));
+    }
     let mut runs = Vec::new();
     let counts: Vec<usize> = points.iter().map(Vec::len).collect();
     let total: usize = counts.iter().product();
@@ -603,6 +620,13 @@ pub fn plan(file: &Path, out: Option<PathBuf>) -> Result<Plan, Error> {
         }
         let chosen: Vec<&Point> = index.iter().enumerate().map(|(k, &i)| &points[k][i]).collect();
         let labels: Vec<String> = chosen.iter().map(|p| p.label.clone()).collect();
+        let selected = |a: usize| {
+            let of_axis: Vec<&String> = wanted.iter().filter(|w| w.0 == a).map(|w| &w.1).collect();
+            of_axis.is_empty() || of_axis.contains(&&labels[a])
+        };
+        if !(0..labels.len()).all(selected) {
+            continue;
+        }
         let mut overrides = study.set.clone();
         for p in &chosen {
             overrides.extend(p.set.iter().cloned());

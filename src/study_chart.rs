@@ -3,8 +3,8 @@
 //! - accuracy against cost: error against wall time, log–log, one series (colour) per
 //!   method, each point labelled with the run's other axes, the Pareto front (no other run
 //!   both cheaper and more accurate) drawn as a black staircase through ringed points;
-//! - stability map: two axes (logarithmic when numeric, positive and spanning a decade or
-//!   more; by rank with the labels otherwise), each run a marker (stable ●, unstable ✕,
+//! - stability map: two axes (logarithmic when numeric, positive and spanning a factor 5
+//!   or more; by rank with the labels otherwise), each run a marker (stable ●, unstable ✕,
 //!   failed ▲, not run yet ○), and the boundary drawn along the cell edges between
 //!   neighbouring stable and unstable runs; one panel per combination of the other axes.
 
@@ -239,6 +239,10 @@ where
     root.present().map_err(s)
 }
 
+const GREEN: RGBColor = RGBColor(44, 160, 44);
+const RED: RGBColor = RGBColor(214, 39, 40);
+const GREY: RGBColor = RGBColor(120, 120, 120);
+
 /// One panel of a stability map.
 struct Panel {
     title: String,
@@ -253,7 +257,6 @@ struct MapAxis {
     /// Positions: the values, or the ranks 0, 1, … when categorical.
     at: Vec<Real>,
     log: bool,
-    categorical: bool,
 }
 
 impl MapAxis {
@@ -262,13 +265,12 @@ impl MapAxis {
         let values: Vec<Real> = points.iter().map(|p| p.value).collect();
         let numeric = values.iter().all(|v| v.is_finite()) && values.windows(2).all(|w| w[1] > w[0]);
         let (lo, hi) = (values.first().copied().unwrap_or(0.0), values.last().copied().unwrap_or(0.0));
-        let log = numeric && lo > 0.0 && hi / lo >= 10.0;
+        let log = numeric && lo > 0.0 && hi / lo >= 5.0;
         Self {
             name: plan.study.axes[k].name.clone(),
             labels: points.iter().map(|p| p.label.clone()).collect(),
             at: if numeric { values } else { (0..points.len()).map(|i| i as Real).collect() },
             log,
-            categorical: !numeric,
         }
     }
     /// Cell edges: n + 1 positions around the n values (half a step beyond the ends).
@@ -363,81 +365,59 @@ where
     let (ex, ey) = (map.x.edges(), map.y.edges());
     let (x0, x1) = (ex[0], ex[ex.len() - 1]);
     let (y0, y1) = (ey[0], ey[ey.len() - 1]);
-    let green = RGBColor(44, 160, 44);
-    let red = RGBColor(214, 39, 40);
-    let grey = RGBColor(120, 120, 120);
-    let fmt = |axis: &MapAxis, v: Real| -> String {
-        if axis.categorical {
-            let k = v.round();
-            if (v - k).abs() < 1e-6 && k >= 0.0 {
-                axis.labels.get(k as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        } else if axis.log {
-            log_tick(v)
-        } else {
-            crate::study::short(v)
-        }
-    };
+    let base = area.get_base_pixel();
     macro_rules! body {
         ($chart:expr) => {{
             let mut chart = $chart;
-            let xl = if map.x.categorical { map.x.labels.len().max(2) } else { 10 };
-            let yl = if map.y.categorical { map.y.labels.len().max(2) } else { 10 };
+            // the axes' own ticks are the runs' values, labelled below and left of the plot
             chart
                 .configure_mesh()
                 .disable_mesh()
-                .x_labels(if map.x.categorical { xl * 2 + 1 } else { xl })
-                .y_labels(if map.y.categorical { yl * 2 + 1 } else { yl })
-                .x_label_formatter(&|v| fmt(&map.x, *v))
-                .y_label_formatter(&|v| fmt(&map.y, *v))
+                .x_labels(0)
+                .y_labels(0)
+                .x_label_formatter(&|_| String::new())
+                .y_label_formatter(&|_| String::new())
                 .x_desc(&map.x.name)
                 .y_desc(&map.y.name)
                 .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(s)?;
+            let font = ("sans-serif", 13).into_font();
+            // (a label too close to the one before it is left out; the tick stays)
+            let mut last = i32::MIN / 2;
+            for (k, label) in map.x.labels.iter().enumerate() {
+                let (px, py) = chart.backend_coord(&(map.x.at[k], y0));
+                let (px, py) = (px - base.0, py - base.1);
+                area.draw(&PathElement::new(vec![(px, py), (px, py + 5)], BLACK)).map_err(s)?;
+                let width = 8 * (label.chars().count() as i32 + 1);
+                if px - last < width {
+                    continue;
+                }
+                last = px;
+                let style = font.clone().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Top));
+                area.draw(&Text::new(label.clone(), (px, py + 8), style)).map_err(s)?;
+            }
+            let mut last = i32::MAX / 2;
+            for (k, label) in map.y.labels.iter().enumerate() {
+                let (px, py) = chart.backend_coord(&(x0, map.y.at[k]));
+                let (px, py) = (px - base.0, py - base.1);
+                area.draw(&PathElement::new(vec![(px - 5, py), (px, py)], BLACK)).map_err(s)?;
+                if last - py < 16 {
+                    continue;
+                }
+                last = py;
+                let style = font.clone().color(&BLACK).pos(Pos::new(HPos::Right, VPos::Center));
+                area.draw(&Text::new(label.clone(), (px - 8, py), style)).map_err(s)?;
+            }
             let at = |c: &(usize, usize, String)| (map.x.at[c.0], map.y.at[c.1]);
             let with = |want: &'static str| panel.cells.iter().filter(move |c| c.2 == want);
-            chart
-                .draw_series(with("completed").map(|c| Circle::new(at(c), 6, green.filled())))
-                .map_err(s)?
-                .label("stable")
-                .legend(move |(x, y)| Circle::new((x + 8, y), 6, green.filled()));
-            chart
-                .draw_series(with("unstable").map(|c| Cross::new(at(c), 6, red.stroke_width(3))))
-                .map_err(s)?
-                .label("unstable")
-                .legend(move |(x, y)| Cross::new((x + 8, y), 6, red.stroke_width(3)));
-            let failed: Vec<_> = with("failed").collect();
-            if !failed.is_empty() {
-                chart
-                    .draw_series(failed.iter().map(|c| TriangleMarker::new(at(c), 7, grey.filled())))
-                    .map_err(s)?
-                    .label("failed")
-                    .legend(move |(x, y)| TriangleMarker::new((x + 8, y), 7, grey.filled()));
+            chart.draw_series(with("completed").map(|c| Circle::new(at(c), 6, GREEN.filled()))).map_err(s)?;
+            chart.draw_series(with("unstable").map(|c| Cross::new(at(c), 6, RED.stroke_width(3)))).map_err(s)?;
+            chart.draw_series(with("failed").map(|c| TriangleMarker::new(at(c), 7, GREY.filled()))).map_err(s)?;
+            chart.draw_series(with("pending").map(|c| Circle::new(at(c), 6, GREY.stroke_width(1)))).map_err(s)?;
+            for seg in boundary(panel, &ex, &ey) {
+                chart.draw_series(LineSeries::new(seg, BLACK.stroke_width(3))).map_err(s)?;
             }
-            chart.draw_series(with("pending").map(|c| Circle::new(at(c), 6, grey.stroke_width(1)))).map_err(s)?;
-            let segments = boundary(panel, &ex, &ey);
-            if !segments.is_empty() {
-                let mut first = true;
-                for seg in segments {
-                    let a = chart.draw_series(LineSeries::new(seg, BLACK.stroke_width(3))).map_err(s)?;
-                    if first {
-                        a.label("stability boundary")
-                            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(3)));
-                        first = false;
-                    }
-                }
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 13))
-                .draw()
-                .map_err(s)?;
         }};
     }
     let mut b = ChartBuilder::on(area);
@@ -458,11 +438,32 @@ where
     let s = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(s)?;
     let inner = root.titled(&map.title, ("sans-serif", 20)).map_err(s)?;
+    let height = inner.dim_in_pixel().1 as i32;
+    let (panels, legend) = inner.split_vertically(height - 36);
     let cols = map.panels.len().clamp(1, 3);
     let lines = map.panels.len().div_ceil(3).max(1);
-    for (area, panel) in inner.split_evenly((lines, cols)).iter().zip(&map.panels) {
+    for (area, panel) in panels.split_evenly((lines, cols)).iter().zip(&map.panels) {
         draw_panel(area, map, panel)?;
     }
+    // one legend for every panel, in a strip under them
+    let font = ("sans-serif", 15);
+    let y = 16;
+    let mut x = 80;
+    let label = |x: &mut i32, text: &str| -> Result<(), String> {
+        legend.draw(&Text::new(text.to_string(), (*x + 14, y - 8), font)).map_err(s)?;
+        *x += 14 + 9 * text.chars().count() as i32 + 40;
+        Ok(())
+    };
+    legend.draw(&Circle::new((x, y), 6, GREEN.filled())).map_err(s)?;
+    label(&mut x, "stable (completed)")?;
+    legend.draw(&Cross::new((x, y), 6, RED.stroke_width(3))).map_err(s)?;
+    label(&mut x, "unstable")?;
+    legend.draw(&TriangleMarker::new((x, y), 7, GREY.filled())).map_err(s)?;
+    label(&mut x, "failed")?;
+    legend.draw(&Circle::new((x, y), 6, GREY.stroke_width(1))).map_err(s)?;
+    label(&mut x, "not run")?;
+    legend.draw(&PathElement::new(vec![(x - 9, y), (x + 9, y)], BLACK.stroke_width(3))).map_err(s)?;
+    label(&mut x, "stability boundary")?;
     root.present().map_err(s)
 }
 
