@@ -78,13 +78,14 @@ struct Accuracy {
 }
 
 /// The Pareto front of (cost, error) points: by increasing cost, each point more accurate
-/// than every cheaper one.
+/// than every cheaper one (by more than a relative 1e-9, so that runs with the same error
+/// up to round-off do not all count).
 pub fn pareto_front(points: &[(Real, Real)]) -> Vec<(Real, Real)> {
     let mut p: Vec<(Real, Real)> = points.to_vec();
     p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let mut front: Vec<(Real, Real)> = Vec::new();
     for q in p {
-        if front.last().is_none_or(|f| q.1 < f.1) {
+        if front.last().is_none_or(|f| q.1 < f.1 * (1.0 - 1e-9)) {
             front.push(q);
         }
     }
@@ -136,7 +137,8 @@ fn accuracy_data(plan: &Plan, rows: &[Row], series_axes: &[String]) -> Accuracy 
 
 /// Whole decades around `lo..hi`.
 fn decades(lo: Real, hi: Real) -> (Real, Real) {
-    if !(lo > 0.0 && hi.is_finite()) {
+    if !(lo > 0.0 && lo.is_finite() && hi >= lo && hi.is_finite()) {
+        // nothing to draw (every run without an error): an empty decade chart
         return (1e-3, 1.0);
     }
     let (a, b) = (lo.log10().floor(), hi.log10().ceil());
@@ -473,8 +475,15 @@ mod tests {
 
     #[test]
     fn the_pareto_front_keeps_the_runs_no_other_beats_on_both() {
-        let p = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.1), (0.5, 0.9), (4.0, 0.1), (5.0, 0.05)];
+        let p = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.1), (0.5, 0.9), (4.0, 0.1), (5.0, 0.05), (6.0, 0.05 * (1.0 - 1e-14))];
         assert_eq!(pareto_front(&p), vec![(0.5, 0.9), (1.0, 0.5), (3.0, 0.1), (5.0, 0.05)]);
+    }
+
+    #[test]
+    fn a_chart_without_points_has_finite_axes() {
+        assert_eq!(decades(Real::INFINITY, 0.0), (1e-3, 1.0));
+        let (a, b) = decades(0.03, 0.3);
+        assert!((a - 0.01).abs() < 1e-9 && (b - 1.0).abs() < 1e-6, "{a} {b}");
     }
 
     #[test]

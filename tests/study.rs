@@ -256,3 +256,27 @@ fn a_bad_metric_or_reference_is_refused() {
     );
     assert!(e.contains("reference.value") && e.contains("labels: 0.1, 0.2"), "{e}");
 }
+
+#[test]
+fn the_shipped_studies_are_valid() {
+    multifield::link_all();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        // study files have axes; the other RON files there are their base cases
+        if path.extension().is_none_or(|e| e != "ron") || !text.contains("axes:") {
+            continue;
+        }
+        // the point series needs the MassPoint representation, which this build may lack
+        let only: Vec<String> =
+            if text.contains("representation=MassPoint") { vec!["representation=resolved".into()] } else { vec![] };
+        let plan = multifield::study::plan(&path, Some(scratch("shipped").join("unused")), &only)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(plan.runs.len() >= 5, "{}: {} runs", path.display(), plan.runs.len());
+        assert!(!plan.study.charts.is_empty(), "{}: no chart", path.display());
+        seen += 1;
+    }
+    assert_eq!(seen, 5, "the five shipped studies");
+}
