@@ -881,7 +881,7 @@ fn analytic_error(dir: &Path, column: &str, law: &Law) -> Option<Real> {
     let d = Csv::read(&dir.join("diagnostics.csv"))?;
     let (t, v) = (d.column("time")?, d.column(column)?);
     let scale = v0.abs();
-    if t.is_empty() || !(scale > 0.0) {
+    if t.is_empty() || scale.is_nan() || scale <= 0.0 {
         return None;
     }
     let sum: Real =

@@ -66,11 +66,14 @@ fn save(
     Ok(())
 }
 
+/// The points of one method: (wall time, error, label).
+type MethodPoints = Vec<(Real, Real, String)>;
+
 /// Points of the accuracy–cost chart.
 struct Accuracy {
     title: String,
     /// (legend, points (wall, error, label)) per method.
-    series: Vec<(String, Vec<(Real, Real, String)>)>,
+    series: Vec<(String, MethodPoints)>,
     /// The Pareto front, by increasing cost.
     front: Vec<(Real, Real)>,
     /// Runs without a drawable error (unstable, failed, pending, or error 0: the reference).
@@ -95,7 +98,7 @@ pub fn pareto_front(points: &[(Real, Real)]) -> Vec<(Real, Real)> {
 fn accuracy_data(plan: &Plan, rows: &[Row], series_axes: &[String]) -> Accuracy {
     let axes = &plan.study.axes;
     let in_series: Vec<bool> = axes.iter().map(|a| series_axes.contains(&a.name)).collect();
-    let mut series: Vec<(String, Vec<(Real, Real, String)>)> = Vec::new();
+    let mut series: Vec<(String, MethodPoints)> = Vec::new();
     let mut left_out = 0;
     for (c, r) in plan.runs.iter().zip(rows) {
         let (Some(w), Some(e)) = (r.wall_seconds, r.error) else {
