@@ -598,7 +598,9 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
                  ({ENERGY_GROWTH:e} × the reference energy; see `multifield::run`): reduce time.cfl or time.fixed_dt",
                 d.kinetic_energy, d.step, d.time
             ))
-        } else if let Some(theta) = theta_bound.filter(|&b| d.volume_fraction_error.is_nan() || d.volume_fraction_error > b) {
+        } else if let Some(theta) =
+            theta_bound.filter(|&b| d.volume_fraction_error.is_nan() || d.volume_fraction_error > b)
+        {
             Some(format!(
                 "max |Σθ − 1| = {:.4e} at step {}, t = {} exceeds coupling.max_volume_fraction_error = {theta}: \
                  the fields no longer fill the space; reduce time.cfl, raise points_per_cell or \
