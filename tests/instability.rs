@@ -97,3 +97,34 @@ fn bodies_passing_through_each_other_stop_the_run() {
     let t = out.summary.simulated_time;
     assert!((0.25..0.25 + 0.006).contains(&t), "stopped at t = {t}");
 }
+
+/// A rigid disk in vacuum thrown at the left wall (no contact model): the wall's grid nodes
+/// stop it, softly at 2 (its centre stays 0.063 from the wall, above half its radius) and
+/// not in time at 10 (its points pass the wall nodes).
+fn thrown_at_the_wall(speed: f64) -> Case {
+    let text = format!(
+        r#"(
+        name: "wall", domain: (size: (1.0, 1.0), cells: (20, 20)),
+        time: (end: 0.2, max_dt: 0.005),
+        fields: [
+            (name: "disk", density: 1.0,
+             frame: (model: "lagrangian", params: (points_per_cell: 2, shape: "linear", transfer: "pic")),
+             region: Bodies([(name: "disk", shape: Disk(center: (0.3, 0.5), radius: 0.1), velocity: (-{speed}, 0.0))]),
+             stress: [(model: "rigid")]),
+        ],
+        output: (charts: false),
+    )"#
+    );
+    Case::from_ron(&text, Path::new("wall.ron")).unwrap()
+}
+
+#[test]
+fn a_body_through_a_wall_stops_the_run_and_one_stopped_by_it_does_not() {
+    multifield::link_all();
+    let out = run(&thrown_at_the_wall(2.0), &scratch("soft"), &RunOptions::quiet()).unwrap();
+    assert_eq!(out.status, Status::Completed, "{:?}", out.status);
+    let out = run(&thrown_at_the_wall(10.0), &scratch("hard"), &RunOptions::quiet()).unwrap();
+    let Status::Unstable(reason) = &out.status else { panic!("not unstable: {:?}", out.status) };
+    assert!(reason.starts_with("body `disk` crosses the Left wall at step"), "{reason}");
+    assert!(reason.contains("below 0.5 × its radius 1.0000e-1"), "{reason}");
+}
