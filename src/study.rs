@@ -889,6 +889,21 @@ fn analytic_error(dir: &Path, column: &str, law: &Law) -> Option<Real> {
     Some((sum / t.len() as Real).sqrt()).filter(|e| e.is_finite())
 }
 
+/// `interpolate` at `t`, with `t` a round-off (1e-9 relative) beyond either end taken at it:
+/// runs of different steps end at `time.end` up to the round-off of their sums of Δt.
+fn at(ts: &[Real], vs: &[Real], t: Real) -> Option<Real> {
+    let (first, last) = (*ts.first()?, *ts.last()?);
+    let slack = 1e-9 * t.abs().max(1e-300);
+    let t = if t > last && t - last <= slack {
+        last
+    } else if t < first && first - t <= slack {
+        first
+    } else {
+        t
+    };
+    crate::dkt::interpolate(ts, vs, t)
+}
+
 /// Error of the run in `dir` against the run in `reference`.
 pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<Real> {
     match compare {
@@ -900,9 +915,7 @@ pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<R
                 let ra = a.get(name)?;
                 for k in 0..rb.t.len() {
                     let t = rb.t[k];
-                    if let (Some(x), Some(y)) =
-                        (crate::dkt::interpolate(&ra.t, &ra.x, t), crate::dkt::interpolate(&ra.t, &ra.y, t))
-                    {
+                    if let (Some(x), Some(y)) = (at(&ra.t, &ra.x, t), at(&ra.t, &ra.y, t)) {
                         sum += (x - rb.x[k]).powi(2) + (y - rb.y[k]).powi(2);
                         n += 1;
                     }
@@ -917,7 +930,7 @@ pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<R
             let scale = vb.iter().fold(0.0, |m: Real, v| m.max(v.abs()));
             let (mut sum, mut n) = (0.0, 0usize);
             for (t, r) in tb.iter().zip(&vb) {
-                if let Some(v) = crate::dkt::interpolate(&ta, &va, *t) {
+                if let Some(v) = at(&ta, &va, *t) {
                     sum += (v - r).powi(2);
                     n += 1;
                 }

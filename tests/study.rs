@@ -280,3 +280,40 @@ fn the_shipped_studies_are_valid() {
     }
     assert_eq!(seen, 5, "the five shipped studies");
 }
+
+#[test]
+fn a_baseline_reference_compares_columns_at_the_baselines_times() {
+    let dir = scratch("baseline");
+    std::fs::write(dir.join("box.ron"), BOX).unwrap();
+    let study = dir.join("b.ron");
+    std::fs::write(
+        &study,
+        r#"(name: "b", base: "box.ron",
+            axes: [(name: "dt", values: List(path: "time.fixed_dt", values: [0.1, 0.4]))],
+            reference: Baseline(axis: "dt", value: "0.1", compare: Column("kinetic_energy")),
+            charts: [AccuracyCost(series: [])])"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = multifield(&["study", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rows = table(&out.join("results.csv"));
+    assert_eq!(num(&rows[0], "error"), 0.0, "the baseline against itself");
+    // independently: implicit steps multiply E − E_cm by (1 + Δt)^−2; the Δt = 0.4 run is
+    // interpolated linearly at the baseline's times t = 0.1 k inside its own rows (t ≥ 0.4;
+    // its last row, at 40 − 8e-14 by round-off, counts as t = 40)
+    let e = |dt: f64, n: f64| ECM + (E0 - ECM) * (1.0 + dt).powf(-2.0 * n);
+    let scale = e(0.1, 1.0);
+    let (mut sum, mut count) = (0.0, 0.0);
+    for k in 4..=400 {
+        let t = 0.1 * k as f64;
+        let j = (t / 0.4 + 1e-9).floor();
+        let w = t / 0.4 - j;
+        let coarse = if w < 1e-9 { e(0.4, j) } else { (1.0 - w) * e(0.4, j) + w * e(0.4, j + 1.0) };
+        sum += (coarse - e(0.1, k as f64)).powi(2);
+        count += 1.0;
+    }
+    let want = (sum / count).sqrt() / scale;
+    let got = num(&rows[1], "error");
+    assert!((got - want).abs() < 1e-6 * want, "error {got} vs {want}");
+}
