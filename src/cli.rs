@@ -104,6 +104,28 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Run a study (docs/studies.md): every combination of the study file's axes, in
+    /// parallel, resumable; writes results.csv and the charts (PNG and SVG).
+    Study {
+        /// The study file (RON).
+        study: PathBuf,
+        /// Runs at a time [default: cores / threads per run].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        jobs: usize,
+        /// Output directory [default: out/studies/<study name>].
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+        /// Worker threads of each run.
+        #[arg(long, default_value_t = 1)]
+        threads_per_run: usize,
+        /// Only the combinations with this label on this axis (repeatable; several labels
+        /// of one axis: any of them), e.g. `--only representation=resolved`.
+        #[arg(long, value_name = "AXIS=LABEL")]
+        only: Vec<String>,
+        /// No progress bar and no line per run.
+        #[arg(long, short)]
+        quiet: bool,
+    },
 }
 
 /// Why the command stopped.
@@ -160,6 +182,10 @@ pub fn main() -> ExitCode {
             Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
                 compare(&c, &point_overrides, out, &RunOptions { threads, quiet: true, restart: None }, reference)
             })
+        }
+        Some(Command::Study { study, jobs, out, threads_per_run, only, quiet }) => {
+            let options = crate::study::StudyOptions { jobs, threads_per_run, quiet };
+            run_study(&study, out, &only, &options)
         }
     };
     match result {
@@ -323,6 +349,34 @@ fn plugins() {
         }
         println!();
     }
+}
+
+/// `multifield study STUDY.ron`: exit 0 when every run ended (completed, unstable or
+/// failed: all data), 2 on bad input, 1 when the output cannot be written.
+fn run_study(
+    file: &Path,
+    out: Option<PathBuf>,
+    only: &[String],
+    options: &crate::study::StudyOptions,
+) -> Result<(), Failure> {
+    let plan = crate::study::plan(file, out, only)?;
+    let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
+    let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
+    println!(
+        "study {}: {} runs: {} completed, {} unstable, {} failed ({} run now, {} skipped as finished)",
+        plan.study.name,
+        report.statuses.len(),
+        count("completed"),
+        count("unstable"),
+        count("failed"),
+        report.ran,
+        report.skipped
+    );
+    println!("results: {}", report.results.display());
+    for c in &report.charts {
+        println!("chart:   {} (and .svg)", c.display());
+    }
+    Ok(())
 }
 
 /// `multifield dkt RUN_DIR...`: analysis and plots of drafting–kissing–tumbling runs.

@@ -32,6 +32,8 @@ pub mod picture;
 pub mod plot;
 pub mod run;
 pub mod snapshot;
+pub mod study;
+pub mod study_chart;
 
 /// Keeps the registrations of the frames and physics crates in the final binary
 /// (inventory drops a crate nothing references). Call it once before building a case.

@@ -24,7 +24,15 @@
 //!   energy, M the total mass, L the longer side of the domain, U_b the fastest prescribed
 //!   boundary velocity and t_end `time.end`. Each term is an energy the case can reach
 //!   physically (the start, a fall across the domain, the driving walls, a flow crossing
-//!   the domain once in the run); a million times the largest of them is a blow-up.
+//!   the domain once in the run); a million times the largest of them is a blow-up;
+//! - Σθ drifts: max |Σθ − 1| over the cells exceeds `coupling.max_volume_fraction_error`
+//!   (default 1: a cell may empty, as a Lagrangian fluid's points leave holes, but not hold
+//!   more than twice its volume) in a case with a pressure solver (which enforces Σθ = 1;
+//!   cases without one, bodies or a free surface in vacuum, are not checked);
+//! - bodies overlap: two disk bodies (one of them free) whose centres are closer than
+//!   [`OVERLAP_FRACTION`] × the sum of their radii, or a free disk body whose centre is
+//!   closer than [`OVERLAP_FRACTION`] × its radius to a wall (or outside the domain): the
+//!   contact model let them pass through each other or the wall.
 //!
 //! An error of a solver or a model (or a panic inside one) ends the run as `"failed"`
 //! with the message.
@@ -47,6 +55,70 @@ max_divergence,volume_fraction_error,pressure_iterations,pressure_residual";
 
 /// Kinetic energy above this multiple of the reference energy (module doc) is a blow-up.
 pub const ENERGY_GROWTH: Real = 1e6;
+
+/// Bodies closer than this fraction of the sum of their radii (or of the radius to a wall)
+/// overlap: the run stops as unstable (module doc).
+pub const OVERLAP_FRACTION: Real = 0.5;
+
+/// Why the bodies of `sim` overlap each other or a wall (module doc), if they do. Only disk
+/// bodies (by their shape in the case) are checked, with the radius of the body's state.
+pub fn body_overlap(sim: &Simulation) -> Option<String> {
+    let case = &sim.case;
+    let disks: Vec<&str> = case
+        .fields
+        .iter()
+        .flat_map(|f| match &f.region {
+            crate::core::case::Region::Bodies(b) => b
+                .iter()
+                .filter(|b| matches!(b.shape, crate::core::case::BodyShape::Disk { .. }))
+                .map(|b| b.name.as_str())
+                .collect(),
+            _ => Vec::new(),
+        })
+        .collect();
+    if disks.is_empty() {
+        return None;
+    }
+    let bodies: Vec<_> =
+        sim.bodies().into_iter().map(|(_, b)| b).filter(|b| disks.contains(&b.name.as_str())).collect();
+    for (k, a) in bodies.iter().enumerate() {
+        for b in &bodies[..k] {
+            let d = (a.position - b.position).norm();
+            let contact = a.radius + b.radius;
+            if (a.free || b.free) && d < OVERLAP_FRACTION * contact {
+                return Some(format!(
+                    "bodies `{}` and `{}` overlap at step {}, t = {}: centres {d:.4e} apart, below \
+                     {OVERLAP_FRACTION} × the sum of the radii {contact:.4e}; strengthen the contact \
+                     (contact.params) or reduce time.cfl",
+                    b.name, a.name, sim.steps, sim.time
+                ));
+            }
+        }
+        if !a.free {
+            continue;
+        }
+        let (o, size) = (case.domain.origin, case.domain.size);
+        let walls = [
+            (Side::Left, a.position.x - o[0]),
+            (Side::Right, o[0] + size[0] - a.position.x),
+            (Side::Bottom, a.position.y - o[1]),
+            (Side::Top, o[1] + size[1] - a.position.y),
+        ];
+        for (side, gap) in walls {
+            if matches!(case.boundaries.side(side), Boundary::Periodic) {
+                continue;
+            }
+            if gap.is_nan() || gap < OVERLAP_FRACTION * a.radius {
+                return Some(format!(
+                    "body `{}` crosses the {side:?} wall at step {}, t = {}: its centre is {gap:.4e} from the wall, \
+                     below {OVERLAP_FRACTION} × its radius {:.4e}; add or strengthen the contact model or reduce time.cfl",
+                    a.name, sim.steps, sim.time, a.radius
+                ));
+            }
+        }
+    }
+    None
+}
 
 /// How to run.
 #[derive(Clone, Debug, Default)]
@@ -446,6 +518,11 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         w.start(&sim)?;
     }
     let bound = ENERGY_GROWTH * reference_energy(&sim);
+    let theta_bound = sim.case.pressure.is_some().then_some(sim.case.coupling.max_volume_fraction_error);
+    let has_disks = sim.case.fields.iter().any(|f| {
+        matches!(&f.region, crate::core::case::Region::Bodies(b)
+            if b.iter().any(|b| matches!(b.shape, crate::core::case::BodyShape::Disk { .. })))
+    });
     summary.initial_kinetic_energy = sim.initial_energy;
     summary.final_kinetic_energy = if sim.steps > 0 { sim.last.kinetic_energy } else { sim.initial_energy };
     summary.kinetic_energy_bound = bound;
@@ -526,6 +603,17 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
                  ({ENERGY_GROWTH:e} × the reference energy; see `multifield::run`): reduce time.cfl or time.fixed_dt",
                 d.kinetic_energy, d.step, d.time
             ))
+        } else if let Some(theta) =
+            theta_bound.filter(|&b| d.volume_fraction_error.is_nan() || d.volume_fraction_error > b)
+        {
+            Some(format!(
+                "max |Σθ − 1| = {:.4e} at step {}, t = {} exceeds coupling.max_volume_fraction_error = {theta}: \
+                 the fields no longer fill the space; reduce time.cfl, raise points_per_cell or \
+                 coupling.volume_fraction_relaxation",
+                d.volume_fraction_error, d.step, d.time
+            ))
+        } else if has_disks {
+            body_overlap(&sim)
         } else {
             None
         };

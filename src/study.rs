@@ -1,0 +1,1068 @@
+//! Studies: many runs of one case over a grid of parameters, one results table, charts.
+//!
+//! A study file (RON) names a base case, the axes to sweep, the metrics to record, the
+//! reference to measure error against and the charts to draw (docs/studies.md has every
+//! key). `multifield study STUDY.ron` runs the cartesian product of the axes, each
+//! combination in its own directory `<out>/runs/<axis>-<label>__…`, in parallel, and writes
+//! `<out>/results.csv` (rewritten atomically after every run, so it is readable at any time)
+//! and the charts (`<out>/<chart name>.{png,svg}`, [`crate::study_chart`]).
+//!
+//! A run whose `summary.json` says `completed` or `unstable` and whose `study_case.ron` is
+//! the case the study would run now is not run again; a `failed`, missing or changed one is.
+//! Unstable and failed runs are data: the study carries on with the next run.
+//!
+//! Every combination is built, overridden, validated and its plugins constructed before the
+//! first run starts, so a bad override path or parameter stops the study up front with the
+//! combination named.
+
+use crate::core::case::Case;
+use crate::core::error::Error;
+use crate::core::math::Real;
+use crate::core::simulation::Simulation;
+use crate::run::{self, RunOptions};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// A study file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Study {
+    /// Name; the default output directory is `out/studies/<name>`.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// The base case file, relative to the study file.
+    pub base: PathBuf,
+    /// Overrides applied to the base case before the axes' (`PATH=VALUE`, as `run --set`).
+    #[serde(default)]
+    pub set: Vec<String>,
+    /// The parameters to sweep; the study runs every combination.
+    pub axes: Vec<Axis>,
+    /// Extra columns of the results table.
+    #[serde(default)]
+    pub metrics: Vec<Metric>,
+    /// What the `error` column measures against.
+    #[serde(default)]
+    pub reference: Reference,
+    /// Charts drawn from the results table.
+    #[serde(default)]
+    pub charts: Vec<ChartSpec>,
+}
+
+/// One swept parameter.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// Name: a column of the results table, and how charts refer to the axis.
+    pub name: String,
+    /// Its values.
+    pub values: Values,
+}
+
+/// The values of an axis.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Values {
+    /// Values set at one override path: `List(path: "time.cfl", values: [0.2, 0.4])`.
+    /// A text value is RON (`"Explicit"`, `"(160, 640)"`), or a plain string if it is not.
+    List {
+        /// Override path, e.g. `fields.disks.frame.params.transfer`.
+        path: String,
+        /// The values.
+        values: Vec<Scalar>,
+    },
+    /// `steps` numbers from `from` to `to`, evenly spaced (or geometrically with `log: true`).
+    Range {
+        /// Override path.
+        path: String,
+        /// First value.
+        from: Real,
+        /// Last value.
+        to: Real,
+        /// How many values (at least 2).
+        steps: usize,
+        /// Geometric spacing (both ends positive).
+        #[serde(default)]
+        log: bool,
+    },
+    /// Labelled sets of overrides, for a parameter that sets several entries at once.
+    Sets(Vec<LabelledSet>),
+}
+
+/// One value of a [`Values::Sets`] axis.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LabelledSet {
+    /// Label (directory names, legend, table).
+    pub label: String,
+    /// Its position on a chart's axis; default: the label read as a number, else its rank.
+    #[serde(default)]
+    pub value: Option<Real>,
+    /// The overrides, e.g. `["domain.cells=(160, 480)"]`.
+    pub set: Vec<String>,
+}
+
+/// A scalar value of a [`Values::List`] axis.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum Scalar {
+    /// A number.
+    Number(Real),
+    /// A boolean.
+    Bool(bool),
+    /// RON text (or a plain string).
+    Text(String),
+}
+
+/// An extra column of the results table, from each run's output.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Metric {
+    /// Last row of a `diagnostics.csv` column: column `final_<name>`.
+    Final(String),
+    /// Largest value of a `diagnostics.csv` column: column `max_<name>`.
+    Max(String),
+    /// Mean of a `diagnostics.csv` column over its rows: column `mean_<name>`.
+    Mean(String),
+    /// A number of `summary.json`, e.g. `"pressure_iterations_total"`: column `<name>`.
+    Summary(String),
+    /// Drafting–kissing–tumbling of two disks ([`crate::dkt`]): columns `kiss_time`,
+    /// `tumble_time`, `min_gap_over_d`.
+    Dkt,
+}
+
+/// Numbers of `summary.json` a [`Metric::Summary`] can name.
+pub const SUMMARY_NUMBERS: [&str; 11] = [
+    "steps",
+    "simulated_time",
+    "end_time",
+    "wall_seconds",
+    "initial_kinetic_energy",
+    "final_kinetic_energy",
+    "kinetic_energy_bound",
+    "max_divergence",
+    "max_volume_fraction_error",
+    "pressure_iterations_total",
+    "min_dt",
+];
+
+/// What the `error` column measures against.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Reference {
+    /// No error column values.
+    #[default]
+    None,
+    /// A closed-form history of a `diagnostics.csv` column. The error is the RMS over the
+    /// rows of (value − exact)/|exact(0)|.
+    Analytic {
+        /// The column, e.g. `"kinetic_energy"`.
+        column: String,
+        /// The exact history.
+        law: Law,
+    },
+    /// Uhlmann (2005)'s DKT curves in this folder (relative to the study file): the error
+    /// is the RMS distance of the along-gravity positions over [0, 0.28] s, in diameters
+    /// ([`crate::dkt::analyse`]); the run must be their scene.
+    Uhlmann(PathBuf),
+    /// The run of the same group (equal labels on every other axis) with the most cells,
+    /// among the values of `axis`.
+    Finest {
+        /// The resolution axis.
+        axis: String,
+        /// What is compared.
+        compare: Compare,
+    },
+    /// The run of the same group whose label on `axis` is `value`.
+    Baseline {
+        /// The axis.
+        axis: String,
+        /// The label of the baseline's value on it.
+        value: String,
+        /// What is compared.
+        compare: Compare,
+    },
+}
+
+/// A closed-form history v(t).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Law {
+    /// v(t) = floor + (v₀ − floor) e^(−rate t); v₀ = `initial`, or the run's initial kinetic
+    /// energy when the column is `kinetic_energy` and `initial` is left out. The
+    /// Taylor–Green vortex's energy decays with rate 4ν (unit wavenumbers).
+    Exponential {
+        /// Decay rate (1/time).
+        rate: Real,
+        /// v₀; see above.
+        #[serde(default)]
+        initial: Option<Real>,
+        /// The value approached.
+        #[serde(default)]
+        floor: Real,
+    },
+}
+
+/// What a run is compared with its reference run by.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Compare {
+    /// The bodies' centroids (`bodies.csv`): RMS distance over the reference's output times
+    /// and the bodies, in units of length.
+    Bodies,
+    /// A `diagnostics.csv` column: RMS of the difference at the reference's output times,
+    /// over the largest |value| of the reference.
+    Column(String),
+}
+
+/// A chart of the results.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ChartSpec {
+    /// Error against wall time, log–log, one series per combination of the labels of
+    /// `series`, the Pareto front marked.
+    AccuracyCost {
+        /// File name (without extension); default `accuracy_cost`.
+        #[serde(default)]
+        name: Option<String>,
+        /// The axes whose labels make a method (one series each).
+        series: Vec<String>,
+    },
+    /// Stable and unstable runs over two axes, the boundary drawn; one panel per
+    /// combination of the other axes.
+    StabilityMap {
+        /// File name (without extension); default `stability_<x>_<y>`.
+        #[serde(default)]
+        name: Option<String>,
+        /// The horizontal axis.
+        x: String,
+        /// The vertical axis.
+        y: String,
+    },
+}
+
+impl ChartSpec {
+    /// The file stem of the chart.
+    pub fn file_name(&self) -> String {
+        match self {
+            ChartSpec::AccuracyCost { name, .. } => name.clone().unwrap_or_else(|| "accuracy_cost".into()),
+            ChartSpec::StabilityMap { name, x, y } => name.clone().unwrap_or_else(|| format!("stability_{x}_{y}")),
+        }
+    }
+}
+
+/// One value of one axis, resolved.
+#[derive(Clone, Debug)]
+pub struct Point {
+    /// Label.
+    pub label: String,
+    /// Position on a chart's axis (NaN: categorical, placed by rank).
+    pub value: Real,
+    /// Overrides it applies.
+    pub set: Vec<String>,
+}
+
+/// One combination of the axes' values: one run.
+#[derive(Clone, Debug)]
+pub struct Combination {
+    /// Index of the value on every axis.
+    pub index: Vec<usize>,
+    /// The labels, one per axis.
+    pub labels: Vec<String>,
+    /// The chart positions, one per axis.
+    pub values: Vec<Real>,
+    /// Every override, the base's first.
+    pub overrides: Vec<String>,
+    /// The case to run.
+    pub case: Case,
+    /// Its directory.
+    pub dir: PathBuf,
+}
+
+impl Combination {
+    /// `axis=label, …`, for messages.
+    pub fn describe(&self, axes: &[Axis]) -> String {
+        axes.iter().zip(&self.labels).map(|(a, l)| format!("{}={l}", a.name)).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// A study read and checked: its axes resolved and every combination built.
+#[derive(Debug)]
+pub struct Plan {
+    /// The study as written.
+    pub study: Study,
+    /// The study file.
+    pub file: PathBuf,
+    /// Resolved values per axis.
+    pub points: Vec<Vec<Point>>,
+    /// Every combination (or those chosen with `--only`), the first axis varying slowest.
+    pub runs: Vec<Combination>,
+    /// Output directory.
+    pub out: PathBuf,
+}
+
+/// How to run a study.
+#[derive(Clone, Debug)]
+pub struct StudyOptions {
+    /// Runs at a time; 0: cores / threads per run.
+    pub jobs: usize,
+    /// Worker threads of each run.
+    pub threads_per_run: usize,
+    /// No progress bar and no line per run.
+    pub quiet: bool,
+}
+
+impl Default for StudyOptions {
+    fn default() -> Self {
+        Self { jobs: 0, threads_per_run: 1, quiet: true }
+    }
+}
+
+/// What [`run_study`] did.
+#[derive(Debug, Default)]
+pub struct Report {
+    /// Runs done now.
+    pub ran: usize,
+    /// Finished runs found and not rerun.
+    pub skipped: usize,
+    /// Status of every combination, in order.
+    pub statuses: Vec<String>,
+    /// The results table.
+    pub results: PathBuf,
+    /// The charts written (PNG; the SVG beside each).
+    pub charts: Vec<PathBuf>,
+}
+
+fn bad(file: &Path, path: &str, message: String) -> Error {
+    Error::Invalid { file: file.to_path_buf(), path: path.to_string(), message }
+}
+
+/// A number as a label: at most 6 significant digits, no trailing noise.
+pub fn short(x: Real) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = 5 - x.abs().log10().floor() as i32;
+    let r = if digits >= 0 { (x * 10f64.powi(digits)).round() / 10f64.powi(digits) } else { x };
+    if (1e-4..1e6).contains(&r.abs()) {
+        format!("{r}")
+    } else {
+        format!("{r:e}")
+    }
+}
+
+impl Study {
+    /// Parses a study from RON text; `file` is only used in messages.
+    pub fn from_ron(text: &str, file: &Path) -> Result<Study, Error> {
+        ron::Options::default().from_str::<Study>(text).map_err(|e| Error::Syntax {
+            file: file.to_path_buf(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: crate::core::case::explain_ron_error(&e.code),
+        })
+    }
+
+    /// The resolved values of every axis; checks the axes.
+    pub fn points(&self, file: &Path) -> Result<Vec<Vec<Point>>, Error> {
+        if self.axes.is_empty() {
+            return Err(bad(file, "axes", "a study needs at least one axis".into()));
+        }
+        let mut all = Vec::new();
+        for (k, axis) in self.axes.iter().enumerate() {
+            let here = format!("axes.{}", axis.name);
+            if axis.name.is_empty() || !axis.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(bad(
+                    file,
+                    &format!("axes.{k}.name"),
+                    format!("`{}`: an axis name is letters, digits and `_` (a results column)", axis.name),
+                ));
+            }
+            if self.axes[..k].iter().any(|a| a.name == axis.name) {
+                return Err(bad(file, &here, format!("two axes are named `{}`", axis.name)));
+            }
+            let points: Vec<Point> = match &axis.values {
+                Values::List { path, values } => values
+                    .iter()
+                    .map(|v| {
+                        let (text, value) = match v {
+                            Scalar::Number(x) => (format!("{x}"), *x),
+                            Scalar::Bool(b) => (b.to_string(), Real::NAN),
+                            Scalar::Text(s) => (s.clone(), s.trim().parse().unwrap_or(Real::NAN)),
+                        };
+                        let label = match v {
+                            Scalar::Number(x) => short(*x),
+                            _ => text.trim().trim_matches('"').to_string(),
+                        };
+                        Point { label, value, set: vec![format!("{path}={text}")] }
+                    })
+                    .collect(),
+                Values::Range { path, from, to, steps, log } => {
+                    if *steps < 2 || !from.is_finite() || !to.is_finite() || (*log && !(*from > 0.0 && *to > 0.0)) {
+                        return Err(bad(
+                            file,
+                            &here,
+                            format!(
+                                "Range(from: {from}, to: {to}, steps: {steps}, log: {log}): give at least 2 steps \
+                                 between finite ends, both positive with log: true"
+                            ),
+                        ));
+                    }
+                    (0..*steps)
+                        .map(|i| {
+                            let s = i as Real / (*steps - 1) as Real;
+                            let x = if *log { from * (to / from).powf(s) } else { from + (to - from) * s };
+                            let x = if i + 1 == *steps { *to } else { x };
+                            Point { label: short(x), value: x, set: vec![format!("{path}={x}")] }
+                        })
+                        .collect()
+                }
+                Values::Sets(sets) => sets
+                    .iter()
+                    .map(|s| Point {
+                        label: s.label.clone(),
+                        value: s.value.unwrap_or_else(|| s.label.trim().parse().unwrap_or(Real::NAN)),
+                        set: s.set.clone(),
+                    })
+                    .collect(),
+            };
+            if points.is_empty() {
+                return Err(bad(file, &here, "an axis needs at least one value".into()));
+            }
+            for (i, p) in points.iter().enumerate() {
+                if p.label.is_empty() || points[..i].iter().any(|q| q.label == p.label) {
+                    return Err(bad(
+                        file,
+                        &here,
+                        format!("the label `{}` is empty or repeated; labels must be unique", p.label),
+                    ));
+                }
+            }
+            all.push(points);
+        }
+        Ok(all)
+    }
+
+    fn axis_index(&self, file: &Path, path: &str, name: &str) -> Result<usize, Error> {
+        self.axes.iter().position(|a| a.name == name).ok_or_else(|| {
+            let names: Vec<&str> = self.axes.iter().map(|a| a.name.as_str()).collect();
+            bad(
+                file,
+                path,
+                format!(
+                    "no axis is named `{name}`; axes: {}{}",
+                    names.join(", "),
+                    crate::core::error::did_you_mean(name, names.iter().copied())
+                ),
+            )
+        })
+    }
+
+    /// Checks the metrics, the reference and the charts against the axes.
+    fn check_specs(&self, file: &Path, points: &[Vec<Point>]) -> Result<(), Error> {
+        let columns: Vec<&str> = run::CSV_HEADER.split(',').collect();
+        let column = |path: &str, c: &str| -> Result<(), Error> {
+            if columns.contains(&c) {
+                Ok(())
+            } else {
+                Err(bad(
+                    file,
+                    path,
+                    format!(
+                        "`{c}` is not a column of diagnostics.csv; columns: {}{}",
+                        columns.join(", "),
+                        crate::core::error::did_you_mean(c, columns.iter().copied())
+                    ),
+                ))
+            }
+        };
+        for (k, m) in self.metrics.iter().enumerate() {
+            let path = format!("metrics.{k}");
+            match m {
+                Metric::Final(c) | Metric::Max(c) | Metric::Mean(c) => column(&path, c)?,
+                Metric::Summary(s) if !SUMMARY_NUMBERS.contains(&s.as_str()) => {
+                    return Err(bad(
+                        file,
+                        &path,
+                        format!(
+                            "`{s}` is not a number of summary.json; numbers: {}{}",
+                            SUMMARY_NUMBERS.join(", "),
+                            crate::core::error::did_you_mean(s, SUMMARY_NUMBERS.iter().copied())
+                        ),
+                    ))
+                }
+                _ => {}
+            }
+        }
+        match &self.reference {
+            Reference::None => {}
+            Reference::Analytic { column: c, law: Law::Exponential { rate, initial, .. } } => {
+                column("reference.column", c)?;
+                if !rate.is_finite() {
+                    return Err(bad(file, "reference.law.rate", format!("{rate}: must be finite")));
+                }
+                if initial.is_none() && c != "kinetic_energy" {
+                    return Err(bad(
+                        file,
+                        "reference.law.initial",
+                        format!("give `initial: Some(v0)`: the value of `{c}` at t = 0 is not recorded"),
+                    ));
+                }
+            }
+            Reference::Uhlmann(dir) => {
+                let d = self.relative(file, dir);
+                if !d.join("Uhlmann2005-fig6a-leading-particle.csv").is_file() {
+                    return Err(bad(
+                        file,
+                        "reference",
+                        format!(
+                            "{}: no Uhlmann2005-fig6a-*-particle.csv there; give the folder of the reference \
+                             curves relative to the study file",
+                            d.display()
+                        ),
+                    ));
+                }
+            }
+            Reference::Finest { axis, compare } | Reference::Baseline { axis, compare, .. } => {
+                let a = self.axis_index(file, "reference.axis", axis)?;
+                if let Reference::Baseline { value, .. } = &self.reference {
+                    if !points[a].iter().any(|p| &p.label == value) {
+                        let labels: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
+                        return Err(bad(
+                            file,
+                            "reference.value",
+                            format!("axis `{axis}` has no value labelled `{value}`; labels: {}", labels.join(", ")),
+                        ));
+                    }
+                }
+                if let Compare::Column(c) = compare {
+                    column("reference.compare", c)?;
+                }
+            }
+        }
+        for (k, c) in self.charts.iter().enumerate() {
+            let path = format!("charts.{k}");
+            match c {
+                ChartSpec::AccuracyCost { series, .. } => {
+                    for s in series {
+                        self.axis_index(file, &format!("{path}.series"), s)?;
+                    }
+                }
+                ChartSpec::StabilityMap { x, y, .. } => {
+                    self.axis_index(file, &format!("{path}.x"), x)?;
+                    self.axis_index(file, &format!("{path}.y"), y)?;
+                    if x == y {
+                        return Err(bad(file, &path, format!("x and y are both `{x}`: give two different axes")));
+                    }
+                }
+            }
+            let name = c.file_name();
+            if name.is_empty() || !name.chars().all(|ch| ch.is_ascii_alphanumeric() || "-_".contains(ch)) {
+                return Err(bad(file, &format!("{path}.name"), format!("`{name}`: letters, digits, `-` and `_`")));
+            }
+            if self.charts[..k].iter().any(|o| o.file_name() == name) {
+                return Err(bad(file, &format!("{path}.name"), format!("two charts are named `{name}`")));
+            }
+        }
+        Ok(())
+    }
+
+    fn relative(&self, file: &Path, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            file.parent().unwrap_or(Path::new("")).join(p)
+        }
+    }
+}
+
+/// Reads and checks a study file, and builds every combination's case (overrides applied,
+/// validated, plugins constructed): any error names the combination. With `only`
+/// (`axis=label`, e.g. `representation=resolved`), just the combinations with those labels
+/// (several labels of one axis: any of them).
+pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, Error> {
+    let text = std::fs::read_to_string(file).map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
+    let study = Study::from_ron(&text, file)?;
+    let points = study.points(file)?;
+    study.check_specs(file, &points)?;
+    let base_file = study.relative(file, &study.base);
+    let base_text =
+        std::fs::read_to_string(&base_file).map_err(|source| Error::Io { path: base_file.clone(), source })?;
+    let base = Case::from_ron(&base_text, &base_file)?;
+    let out = out.unwrap_or_else(|| Path::new("out/studies").join(run::directory_name(&study.name)));
+    let mut wanted: Vec<(usize, String)> = Vec::new();
+    for o in only {
+        let (axis, label) = o.split_once('=').ok_or_else(|| {
+            Error::Model(format!("--only {o}: expected axis=label, e.g. --only {}=…", study.axes[0].name))
+        })?;
+        let a = study.axis_index(file, &format!("--only {o}"), axis.trim())?;
+        let labels: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
+        if !labels.contains(&label.trim()) {
+            return Err(Error::Model(format!(
+                "--only {o}: axis `{axis}` has no value labelled `{label}`; labels: {}",
+                labels.join(", ")
+            )));
+        }
+        wanted.push((a, label.trim().to_string()));
+    }
+    let mut runs = Vec::new();
+    let counts: Vec<usize> = points.iter().map(Vec::len).collect();
+    let total: usize = counts.iter().product();
+    for n in 0..total {
+        let mut index = vec![0; counts.len()];
+        let mut rest = n;
+        for k in (0..counts.len()).rev() {
+            index[k] = rest % counts[k];
+            rest /= counts[k];
+        }
+        let chosen: Vec<&Point> = index.iter().enumerate().map(|(k, &i)| &points[k][i]).collect();
+        let labels: Vec<String> = chosen.iter().map(|p| p.label.clone()).collect();
+        let selected = |a: usize| {
+            let of_axis: Vec<&String> = wanted.iter().filter(|w| w.0 == a).map(|w| &w.1).collect();
+            of_axis.is_empty() || of_axis.contains(&&labels[a])
+        };
+        if !(0..labels.len()).all(selected) {
+            continue;
+        }
+        let mut overrides = study.set.clone();
+        for p in &chosen {
+            overrides.extend(p.set.iter().cloned());
+        }
+        let name: Vec<String> = study.axes.iter().zip(&labels).map(|(a, l)| format!("{}-{l}", a.name)).collect();
+        let dir = out.join("runs").join(run::directory_name(&name.join("__")));
+        let combination = Combination {
+            index,
+            labels,
+            values: chosen.iter().map(|p| p.value).collect(),
+            overrides,
+            case: base.clone(),
+            dir,
+        };
+        let what = combination.describe(&study.axes);
+        let context = |e: Error| {
+            Error::Model(format!("{}: the combination {what} (run {} of {total}): {}", file.display(), n + 1, e))
+        };
+        let mut case = base.with_overrides(&combination.overrides).map_err(context)?;
+        case.validate().map_err(|e| context(e.in_file(&base_file)))?;
+        case.name = format!("{}: {what}", study.name);
+        // plugins: unknown models and bad parameters are found now, not mid-study
+        Simulation::new(&case).map_err(context)?;
+        runs.push(Combination { case, ..combination });
+    }
+    Ok(Plan { study, file: file.to_path_buf(), points, runs, out })
+}
+
+/// Whether the run in `dir` finished (completed or unstable) as the case `case_text`.
+pub fn finished(dir: &Path, case_text: &str) -> bool {
+    let same = std::fs::read_to_string(dir.join(STUDY_CASE)).is_ok_and(|t| t == case_text);
+    same && read_summary(dir).is_some_and(|s| matches!(s["status"].as_str(), Some("completed" | "unstable")))
+}
+
+/// The case as the study ran it, kept in each run directory to tell a finished run of the
+/// same case from a stale one.
+pub const STUDY_CASE: &str = "study_case.ron";
+
+fn read_summary(dir: &Path) -> Option<serde_json::Value> {
+    std::fs::read_to_string(dir.join("summary.json")).ok().and_then(|t| serde_json::from_str(&t).ok())
+}
+
+/// Runs the study: every combination not finished yet, `jobs` at a time; writes the results
+/// table after every run and the charts at the end.
+pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path: path.clone(), source }
+    };
+    std::fs::create_dir_all(plan.out.join("runs")).map_err(io(&plan.out))?;
+    let texts: Vec<String> = plan.runs.iter().map(|c| c.case.to_ron()).collect();
+    let todo: Vec<usize> = (0..plan.runs.len()).filter(|&k| !finished(&plan.runs[k].dir, &texts[k])).collect();
+    let skipped = plan.runs.len() - todo.len();
+    let threads = options.threads_per_run.max(1);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = if options.jobs == 0 { (cores / threads).max(1) } else { options.jobs }.min(todo.len().max(1));
+    let results = plan.out.join("results.csv");
+    write_results(plan)?;
+    if !options.quiet {
+        println!(
+            "study {}: {} runs ({} finished before, {} to run, {jobs} at a time, {threads} thread{} each) into {}/",
+            plan.study.name,
+            plan.runs.len(),
+            skipped,
+            todo.len(),
+            if threads == 1 { "" } else { "s" },
+            plan.out.display()
+        );
+    }
+    let bar = if options.quiet || !std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let b = indicatif::ProgressBar::new(todo.len() as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:30.cyan/blue} {pos}/{len} runs {msg} ETA {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    };
+    let next = AtomicUsize::new(0);
+    let table = Mutex::new(());
+    let first_error: Mutex<Option<Error>> = Mutex::new(None);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::SeqCst);
+                let Some(&r) = todo.get(k) else { break };
+                let c = &plan.runs[r];
+                let started = std::fs::create_dir_all(&c.dir)
+                    .map_err(io(&c.dir))
+                    .and_then(|_| {
+                        // a run directory of an earlier case is cleared of its results first
+                        let _ = std::fs::remove_file(c.dir.join("summary.json"));
+                        crate::output::write_atomically(&c.dir.join(STUDY_CASE), texts[r].as_bytes())
+                    })
+                    .and_then(|_| {
+                        let options = RunOptions { threads, quiet: true, restart: None };
+                        run::run(&c.case, &c.dir, &options)
+                    });
+                let line = match &started {
+                    Ok(o) => format!(
+                        "{:<10} {:>8.2} s {:>7} steps  {}{}",
+                        o.summary.status,
+                        o.summary.wall_seconds,
+                        o.summary.steps,
+                        c.describe(&plan.study.axes),
+                        if o.summary.reason.is_empty() { String::new() } else { format!(": {}", o.summary.reason) }
+                    ),
+                    Err(e) => format!("failed     {}: {e}", c.describe(&plan.study.axes)),
+                };
+                {
+                    let _guard = table.lock().unwrap_or_else(|e| e.into_inner());
+                    if let Err(e) = write_results(plan) {
+                        first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
+                    }
+                }
+                if let Err(Error::Io { path, source }) = started {
+                    // an output directory that cannot be written stops the study
+                    first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(Error::Io { path, source });
+                    next.store(todo.len(), Ordering::SeqCst);
+                }
+                if !options.quiet {
+                    bar.suspend(|| println!("{line}"));
+                }
+                bar.inc(1);
+            });
+        }
+    });
+    bar.finish_and_clear();
+    if let Some(e) = first_error.into_inner().unwrap_or(None) {
+        return Err(e);
+    }
+    let rows = write_results(plan)?;
+    let charts = crate::study_chart::write(plan, &rows)?;
+    let statuses = rows.iter().map(|r| r.status.clone()).collect();
+    Ok(Report { ran: todo.len(), skipped, statuses, results, charts })
+}
+
+/// One row of the results table.
+#[derive(Clone, Debug, Default)]
+pub struct Row {
+    /// `completed`, `unstable`, `failed` or `pending`.
+    pub status: String,
+    /// Why the run stopped early.
+    pub reason: String,
+    /// Wall-clock seconds of the time loop.
+    pub wall_seconds: Option<Real>,
+    /// Steps taken.
+    pub steps: Option<Real>,
+    /// Error against the reference.
+    pub error: Option<Real>,
+    /// Largest constraint residual.
+    pub max_divergence: Option<Real>,
+    /// Largest max |Σθ − 1|.
+    pub max_volume_fraction_error: Option<Real>,
+    /// Relative change of the kinetic energy over the run (docs/studies.md).
+    pub energy_drift: Option<Real>,
+    /// The study's metrics, in the order of [`metric_columns`].
+    pub metrics: Vec<Option<Real>>,
+}
+
+/// The columns of the study's metrics.
+pub fn metric_columns(metrics: &[Metric]) -> Vec<String> {
+    metrics
+        .iter()
+        .flat_map(|m| match m {
+            Metric::Final(c) => vec![format!("final_{c}")],
+            Metric::Max(c) => vec![format!("max_{c}")],
+            Metric::Mean(c) => vec![format!("mean_{c}")],
+            Metric::Summary(s) => vec![s.clone()],
+            Metric::Dkt => vec!["kiss_time".into(), "tumble_time".into(), "min_gap_over_d".into()],
+        })
+        .collect()
+}
+
+/// A CSV file as numbers by column name.
+struct Csv {
+    header: Vec<String>,
+    rows: Vec<Vec<Real>>,
+}
+
+impl Csv {
+    fn read(path: &Path) -> Option<Csv> {
+        let text = std::fs::read_to_string(path).ok()?;
+        let mut lines = text.lines();
+        let header: Vec<String> = lines.next()?.split(',').map(|s| s.trim().to_string()).collect();
+        let rows = lines
+            .map(|l| l.split(',').map(|s| s.trim().parse().unwrap_or(Real::NAN)).collect::<Vec<Real>>())
+            .filter(|r| r.len() == header.len())
+            .collect();
+        Some(Csv { header, rows })
+    }
+    fn column(&self, name: &str) -> Option<Vec<Real>> {
+        let k = self.header.iter().position(|h| h == name)?;
+        Some(self.rows.iter().map(|r| r[k]).collect())
+    }
+}
+
+/// The metrics of the run in `dir` (everything but the error).
+fn row_of(dir: &Path, study: &Study) -> Row {
+    let Some(s) = read_summary(dir) else {
+        return Row {
+            status: "pending".into(),
+            metrics: vec![None; metric_columns(&study.metrics).len()],
+            ..Row::default()
+        };
+    };
+    let num = |k: &str| s[k].as_f64();
+    let diagnostics = Csv::read(&dir.join("diagnostics.csv"));
+    let column = |c: &str| diagnostics.as_ref().and_then(|d| d.column(c)).filter(|v| !v.is_empty());
+    let e0 = num("initial_kinetic_energy").unwrap_or(Real::NAN);
+    let e1 = num("final_kinetic_energy").unwrap_or(Real::NAN);
+    let scale = if e0 > 0.0 {
+        e0
+    } else {
+        column("kinetic_energy").map_or(Real::NAN, |v| v.iter().copied().fold(0.0, Real::max))
+    };
+    let energy_drift = Some((e1 - e0) / scale).filter(|x| x.is_finite());
+    let mut metrics = Vec::new();
+    for m in &study.metrics {
+        match m {
+            Metric::Final(c) => metrics.push(column(c).and_then(|v| v.last().copied())),
+            Metric::Max(c) => metrics.push(column(c).map(|v| v.iter().copied().fold(Real::NEG_INFINITY, Real::max))),
+            Metric::Mean(c) => metrics.push(column(c).map(|v| v.iter().sum::<Real>() / v.len() as Real)),
+            Metric::Summary(k) => metrics.push(num(k)),
+            Metric::Dkt => match crate::dkt::analyse(dir, None) {
+                Ok((r, _, _)) => metrics.extend([r.kiss_time, r.tumble_time, Some(r.min_gap_over_d)]),
+                Err(_) => metrics.extend([None, None, None]),
+            },
+        }
+    }
+    Row {
+        status: s["status"].as_str().unwrap_or("failed").to_string(),
+        reason: s["reason"].as_str().unwrap_or_default().to_string(),
+        wall_seconds: num("wall_seconds"),
+        steps: num("steps"),
+        error: None,
+        max_divergence: num("max_divergence"),
+        max_volume_fraction_error: num("max_volume_fraction_error"),
+        energy_drift,
+        metrics,
+    }
+}
+
+/// Error of a run against a closed-form law.
+fn analytic_error(dir: &Path, column: &str, law: &Law) -> Option<Real> {
+    let Law::Exponential { rate, initial, floor } = law;
+    let v0 = match initial {
+        Some(v) => *v,
+        None => read_summary(dir)?["initial_kinetic_energy"].as_f64()?,
+    };
+    let d = Csv::read(&dir.join("diagnostics.csv"))?;
+    let (t, v) = (d.column("time")?, d.column(column)?);
+    let scale = v0.abs();
+    if t.is_empty() || scale.is_nan() || scale <= 0.0 {
+        return None;
+    }
+    let sum: Real =
+        t.iter().zip(&v).map(|(t, v)| ((v - (floor + (v0 - floor) * (-rate * t).exp())) / scale).powi(2)).sum();
+    Some((sum / t.len() as Real).sqrt()).filter(|e| e.is_finite())
+}
+
+/// `interpolate` at `t`, with `t` a round-off (1e-9 relative) beyond either end taken at it:
+/// runs of different steps end at `time.end` up to the round-off of their sums of Δt.
+fn at(ts: &[Real], vs: &[Real], t: Real) -> Option<Real> {
+    let (first, last) = (*ts.first()?, *ts.last()?);
+    let slack = 1e-9 * t.abs().max(1e-300);
+    let t = if t > last && t - last <= slack {
+        last
+    } else if t < first && first - t <= slack {
+        first
+    } else {
+        t
+    };
+    crate::dkt::interpolate(ts, vs, t)
+}
+
+/// Error of the run in `dir` against the run in `reference`.
+pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<Real> {
+    match compare {
+        Compare::Bodies => {
+            let a = crate::dkt::read_bodies(&dir.join("bodies.csv")).ok()?;
+            let b = crate::dkt::read_bodies(&reference.join("bodies.csv")).ok()?;
+            let (mut sum, mut n) = (0.0, 0usize);
+            for (name, rb) in &b {
+                let ra = a.get(name)?;
+                for k in 0..rb.t.len() {
+                    let t = rb.t[k];
+                    if let (Some(x), Some(y)) = (at(&ra.t, &ra.x, t), at(&ra.t, &ra.y, t)) {
+                        sum += (x - rb.x[k]).powi(2) + (y - rb.y[k]).powi(2);
+                        n += 1;
+                    }
+                }
+            }
+            (n > 0).then(|| (sum / n as Real).sqrt())
+        }
+        Compare::Column(c) => {
+            let a = Csv::read(&dir.join("diagnostics.csv"))?;
+            let b = Csv::read(&reference.join("diagnostics.csv"))?;
+            let (ta, va, tb, vb) = (a.column("time")?, a.column(c)?, b.column("time")?, b.column(c)?);
+            let scale = vb.iter().fold(0.0, |m: Real, v| m.max(v.abs()));
+            let (mut sum, mut n) = (0.0, 0usize);
+            for (t, r) in tb.iter().zip(&vb) {
+                if let Some(v) = at(&ta, &va, *t) {
+                    sum += (v - r).powi(2);
+                    n += 1;
+                }
+            }
+            (n > 0 && scale > 0.0).then(|| (sum / n as Real).sqrt() / scale)
+        }
+    }
+}
+
+/// The index of each run's reference run (Finest, Baseline), `None` for other references.
+pub fn reference_runs(plan: &Plan) -> Vec<Option<usize>> {
+    let axis = match &plan.study.reference {
+        Reference::Finest { axis, .. } | Reference::Baseline { axis, .. } => axis,
+        _ => return vec![None; plan.runs.len()],
+    };
+    let cells = |k: usize| plan.runs[k].case.domain.cells[0] * plan.runs[k].case.domain.cells[1];
+    let a = plan.study.axes.iter().position(|x| &x.name == axis).unwrap_or(0);
+    let mut groups: BTreeMap<Vec<usize>, Vec<usize>> = BTreeMap::new();
+    for (k, c) in plan.runs.iter().enumerate() {
+        let mut key = c.index.clone();
+        key[a] = usize::MAX;
+        groups.entry(key).or_default().push(k);
+    }
+    let mut out = vec![None; plan.runs.len()];
+    for group in groups.values() {
+        let r = match &plan.study.reference {
+            Reference::Baseline { value, .. } => group.iter().copied().find(|&k| &plan.runs[k].labels[a] == value),
+            _ => group.iter().copied().max_by_key(|&k| cells(k)),
+        };
+        for &k in group {
+            out[k] = r;
+        }
+    }
+    out
+}
+
+/// The rows of every combination as they stand.
+pub fn rows(plan: &Plan) -> Vec<Row> {
+    let refs = reference_runs(plan);
+    let mut rows: Vec<Row> = plan.runs.iter().map(|c| row_of(&c.dir, &plan.study)).collect();
+    let usable = |s: &str| s == "completed";
+    for (k, c) in plan.runs.iter().enumerate() {
+        if !usable(&rows[k].status) {
+            continue;
+        }
+        rows[k].error = match &plan.study.reference {
+            Reference::None => None,
+            Reference::Analytic { column, law } => analytic_error(&c.dir, column, law),
+            Reference::Uhlmann(d) => crate::dkt::analyse(&c.dir, Some(&plan.study.relative(&plan.file, d)))
+                .ok()
+                .and_then(|(r, _, _)| r.rms_position_error_over_d),
+            Reference::Finest { compare, .. } | Reference::Baseline { compare, .. } => refs[k]
+                .filter(|&r| usable(&rows[r].status))
+                .and_then(|r| compare_runs(&c.dir, &plan.runs[r].dir, compare)),
+        };
+    }
+    rows
+}
+
+/// The header of `results.csv` for this study.
+pub fn header(study: &Study) -> Vec<String> {
+    let mut h: Vec<String> = study.axes.iter().map(|a| a.name.clone()).collect();
+    for c in [
+        "status",
+        "reason",
+        "wall_seconds",
+        "steps",
+        "error",
+        "max_divergence",
+        "max_volume_fraction_error",
+        "energy_drift",
+    ] {
+        h.push(c.into());
+    }
+    h.extend(metric_columns(&study.metrics));
+    h.push("directory".into());
+    h
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\"").replace(['\n', '\r'], " "))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Writes `results.csv` (atomically) and returns its rows.
+pub fn write_results(plan: &Plan) -> Result<Vec<Row>, Error> {
+    let rows = rows(plan);
+    let mut text = header(&plan.study).join(",") + "\n";
+    let x = |v: Option<Real>| v.map(run::number).unwrap_or_default();
+    for (c, r) in plan.runs.iter().zip(&rows) {
+        let mut f: Vec<String> = c.labels.iter().map(|l| field(l)).collect();
+        f.push(r.status.clone());
+        f.push(field(&r.reason));
+        for v in [r.wall_seconds, r.steps, r.error, r.max_divergence, r.max_volume_fraction_error, r.energy_drift] {
+            f.push(x(v));
+        }
+        f.extend(r.metrics.iter().map(|v| x(*v)));
+        let dir = c.dir.strip_prefix(&plan.out).unwrap_or(&c.dir);
+        f.push(field(&dir.display().to_string()));
+        text.push_str(&f.join(","));
+        text.push('\n');
+    }
+    crate::output::write_atomically(&plan.out.join("results.csv"), text.as_bytes())?;
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_are_short_and_ranges_hit_their_ends() {
+        assert_eq!(short(0.1 + 0.2), "0.3");
+        assert_eq!(short(1e-7), "1e-7");
+        let s = Study::from_ron(
+            r#"(name: "s", base: "x.ron", axes: [(name: "dt", values: Range(path: "time.fixed_dt", from: 0.1, to: 10.0, steps: 3, log: true))])"#,
+            Path::new("s.ron"),
+        )
+        .unwrap();
+        let p = s.points(Path::new("s.ron")).unwrap();
+        let labels: Vec<&str> = p[0].iter().map(|p| p.label.as_str()).collect();
+        assert_eq!(labels, ["0.1", "1", "10"]);
+        assert_eq!(p[0][2].set, ["time.fixed_dt=10"]);
+    }
+
+    #[test]
+    fn csv_fields_with_commas_are_quoted() {
+        assert_eq!(field("a, b \"c\""), "\"a, b \"\"c\"\"\"");
+        assert_eq!(field("plain"), "plain");
+    }
+}

@@ -1,0 +1,319 @@
+//! `multifield study`: a small study end to end (the table, the error against a closed
+//! form computed here independently, a deliberately unstable run, resuming, the charts),
+//! and bad study files rejected up front with exit code 2.
+//!
+//! The scene is the exchange box of tests/multifield_coupling.rs: two interpenetrating
+//! fields (θ = ½ each, ρa = 1, ρb = 2) in a periodic box with a constant K = 4/3, so that the
+//! slip relaxes with τ = 1: the kinetic energy is E(t) = E_cm + (E₀ − E_cm) e^(−2t/τ). A step
+//! multiplies the slip by 1/(1 + Δt/τ) (implicit) or 1 − Δt/τ (explicit), which blows up
+//! for Δt > 2τ.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BOX: &str = r#"(
+    name: "exchange_box", domain: (size: (1.0, 1.0), cells: (8, 8)),
+    boundaries: (left: Periodic, right: Periodic, bottom: Periodic, top: Periodic),
+    time: (end: 40.0, max_dt: 100.0, fixed_dt: Some(0.1)),
+    fields: [
+        (name: "a", density: 1.0, frame: (model: "eulerian"), region: All, volume_fraction: 0.5,
+         velocity: Uniform((1.0, 0.5))),
+        (name: "b", density: 2.0, frame: (model: "eulerian"), region: Rest, velocity: Uniform((-1.0, 0.0))),
+    ],
+    exchange: [(between: ("a", "b"), model: "constant", params: (coefficient: 1.3333333333333333))],
+    pressure: Some((model: "pcg", params: (tolerance: 1e-12))),
+    output: (interval: 0.0, charts: false),
+)
+"#;
+
+/// E₀ and E_cm of the box: masses 0.5 and 1.0, velocities (1, 0.5) and (−1, 0).
+const E0: f64 = 0.5 * 0.5 * (1.0 + 0.25) + 0.5 * 1.0 * 1.0;
+const ECM: f64 = 0.5 * 1.5 * ((1.0 / 3.0) * (1.0 / 3.0) + (1.0 / 6.0) * (1.0 / 6.0));
+
+const STUDY: &str = r#"// a small study: exchange integration × Δt/τ
+(
+    name: "tiny",
+    base: "box.ron",
+    set: ["time.end=40"],
+    axes: [
+        (name: "integration", values: List(path: "exchange.0.integration", values: ["Implicit", "Explicit"])),
+        (name: "dt", values: List(path: "time.fixed_dt", values: [0.1, 0.4, 10.0])),
+    ],
+    metrics: [Final("kinetic_energy"), Summary("pressure_iterations_total")],
+    reference: Analytic(column: "kinetic_energy", law: Exponential(rate: 2.0, floor: 0.10416666666666667)),
+    charts: [
+        AccuracyCost(series: ["integration"]),
+        StabilityMap(x: "dt", y: "integration"),
+    ],
+)
+"#;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn multifield(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_multifield")).args(args).output().expect("the binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+/// results.csv as a list of rows, each a map from column to text.
+fn table(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let t = std::fs::read_to_string(path).unwrap();
+    let mut lines = t.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(str::to_string).collect();
+    lines
+        .map(|l| {
+            // the reason may be quoted (it holds commas): split outside quotes
+            let (mut fields, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+            for c in l.chars() {
+                match c {
+                    '"' => quoted = !quoted,
+                    ',' if !quoted => fields.push(std::mem::take(&mut cur)),
+                    c => cur.push(c),
+                }
+            }
+            fields.push(cur);
+            assert_eq!(fields.len(), header.len(), "row `{l}`");
+            header.iter().cloned().zip(fields).collect()
+        })
+        .collect()
+}
+
+/// The error the study should report, from the discrete amplification factor: the RMS over
+/// the rows of diagnostics.csv of (E_n − E(t_n)) / E₀.
+fn expected_error(run: &Path, explicit: bool) -> f64 {
+    let d = std::fs::read_to_string(run.join("diagnostics.csv")).unwrap();
+    let (mut factor, mut sum, mut n) = (1.0, 0.0, 0.0);
+    for line in d.lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|s| s.parse().unwrap_or(f64::NAN)).collect();
+        let (t, dt) = (f[1], f[2]);
+        factor *= if explicit { (1.0 - dt).powi(2) } else { (1.0 + dt).powi(-2) };
+        let discrete = ECM + (E0 - ECM) * factor;
+        let exact = ECM + (E0 - ECM) * (-2.0 * t).exp();
+        sum += ((discrete - exact) / E0).powi(2);
+        n += 1.0;
+    }
+    (sum / n).sqrt()
+}
+
+fn num(row: &std::collections::HashMap<String, String>, column: &str) -> f64 {
+    row[column].parse().unwrap_or_else(|_| panic!("{column} = `{}` is not a number", row[column]))
+}
+
+#[test]
+fn a_small_study_runs_end_to_end_resumes_and_draws_its_charts() {
+    let dir = scratch("tiny");
+    std::fs::write(dir.join("box.ron"), BOX).unwrap();
+    std::fs::write(dir.join("tiny.ron"), STUDY).unwrap();
+    let study = dir.join("tiny.ron");
+    let out = dir.join("out");
+    let args = ["study", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "2"];
+    let first = multifield(&args);
+    assert!(first.status.success(), "{}", text(&first));
+    assert!(
+        text(&first).contains("6 runs: 5 completed, 1 unstable, 0 failed (6 run now, 0 skipped"),
+        "{}",
+        text(&first)
+    );
+
+    let rows = table(&out.join("results.csv"));
+    assert_eq!(rows.len(), 6, "one row per combination");
+    let header = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert!(header.starts_with(
+        "integration,dt,status,reason,wall_seconds,steps,error,max_divergence,max_volume_fraction_error,\
+         energy_drift,final_kinetic_energy,pressure_iterations_total,directory\n"
+    ));
+    let row = |i: &str, dt: &str| rows.iter().find(|r| r["integration"] == i && r["dt"] == dt).unwrap();
+    for r in &rows {
+        let run = out.join(&r["directory"]);
+        assert!(run.join("summary.json").is_file(), "{}", run.display());
+        for c in ["wall_seconds", "steps", "max_divergence", "max_volume_fraction_error", "energy_drift"] {
+            assert!(num(r, c).is_finite(), "{c} of {:?}", r);
+        }
+        assert!(num(r, "max_volume_fraction_error") < 1e-12, "θa + θb = 1 exactly in this box");
+        if r["status"] == "completed" {
+            let want = expected_error(&run, r["integration"] == "Explicit");
+            let got = num(r, "error");
+            assert!((got - want).abs() <= 1e-6 * want, "{}/{}: error {got} vs {want}", r["integration"], r["dt"]);
+            // the slip is gone by t = 40: the energy left is that of the centre of mass
+            assert!((num(r, "final_kinetic_energy") - ECM).abs() < 1e-8, "{:?}", r);
+            assert!((num(r, "energy_drift") - (ECM - E0) / E0).abs() < 1e-8);
+        }
+    }
+    // finer steps are more accurate (first order: about 4 × smaller for 4 × smaller Δt)
+    let (fine, coarse) = (num(row("Implicit", "0.1"), "error"), num(row("Implicit", "0.4"), "error"));
+    assert!(fine < coarse && coarse / fine > 3.0, "implicit errors {fine} (Δt = 0.1) and {coarse} (Δt = 0.4)");
+    assert_eq!(num(row("Implicit", "0.1"), "steps"), 400.0);
+    // implicit is stable at Δt = 10 τ; explicit is not, and says why
+    assert_eq!(row("Implicit", "10")["status"], "completed");
+    let bad = row("Explicit", "10");
+    assert_eq!(bad["status"], "unstable");
+    assert!(
+        bad["reason"].contains("kinetic energy") && bad["reason"].contains("exceeds the bound"),
+        "{}",
+        bad["reason"]
+    );
+    assert_eq!(bad["error"], "", "an unstable run has no error");
+    assert!(num(bad, "steps") < 5.0);
+
+    // the charts, PNG and SVG, with something drawn
+    for stem in ["accuracy_cost", "stability_dt_integration"] {
+        let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert!(png.len() > 20_000, "{stem}.png: {} bytes", png.len());
+        let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+        assert!(svg.contains("<svg") && svg.len() > 3_000, "{stem}.svg: {} bytes", svg.len());
+    }
+    let svg = std::fs::read_to_string(out.join("accuracy_cost.svg")).unwrap();
+    assert!(svg.contains("integration=Implicit") && svg.contains("Pareto front"));
+    let svg = std::fs::read_to_string(out.join("stability_dt_integration.svg")).unwrap();
+    assert!(svg.contains("stability boundary") && svg.contains("unstable"));
+
+    // a rerun skips every finished run (the unstable one too) and leaves them untouched
+    let mtimes = |rows: &[std::collections::HashMap<String, String>]| -> Vec<std::time::SystemTime> {
+        rows.iter()
+            .map(|r| std::fs::metadata(out.join(&r["directory"]).join("summary.json")).unwrap().modified().unwrap())
+            .collect()
+    };
+    let before = mtimes(&rows);
+    let again = multifield(&args);
+    assert!(again.status.success(), "{}", text(&again));
+    assert!(text(&again).contains("(0 run now, 6 skipped as finished)"), "{}", text(&again));
+    assert_eq!(mtimes(&rows), before);
+    assert_eq!(table(&out.join("results.csv")), rows, "the same table");
+
+    // a run whose summary is gone (killed) is run again, alone
+    let lost = out.join(&row("Implicit", "0.4")["directory"]);
+    std::fs::remove_file(lost.join("summary.json")).unwrap();
+    let third = multifield(&args);
+    assert!(text(&third).contains("(1 run now, 5 skipped as finished)"), "{}", text(&third));
+    assert_eq!(num(&table(&out.join("results.csv"))[1], "steps"), 100.0);
+}
+
+/// Writes the study `text` (and the box) and runs it; returns the output.
+fn study_error(name: &str, text_of_study: &str) -> String {
+    let dir = scratch(name);
+    std::fs::write(dir.join("box.ron"), BOX).unwrap();
+    let file = dir.join("s.ron");
+    std::fs::write(&file, text_of_study).unwrap();
+    let o = multifield(&["study", file.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o));
+    assert!(!dir.join("out").join("runs").exists(), "{name}: nothing is run");
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn an_unknown_key_is_reported_with_its_line_and_column() {
+    let e = study_error("unknown_key", "(\n    name: \"s\",\n    base: \"box.ron\",\n    axis: [],\n)\n");
+    assert!(e.contains("s.ron:4:5") && e.contains("unknown key `axis`") && e.contains("did you mean `axes`?"), "{e}");
+}
+
+#[test]
+fn an_unknown_override_path_names_the_combination() {
+    let e = study_error(
+        "unknown_path",
+        r#"(name: "s", base: "box.ron", axes: [
+            (name: "k", values: List(path: "exchange.0.params.coefficient", values: [1.0])),
+            (name: "cfl", values: List(path: "time.cfll", values: [0.2, 0.4])),
+        ])"#,
+    );
+    assert!(e.contains("the combination k=1, cfl=0.2 (run 1 of 2)"), "{e}");
+    assert!(e.contains("`cfll` is not an entry of `time`") && e.contains("did you mean `cfl`?"), "{e}");
+}
+
+#[test]
+fn a_chart_of_an_unknown_axis_is_refused() {
+    let e = study_error(
+        "unknown_axis",
+        r#"(name: "s", base: "box.ron",
+            axes: [(name: "dt", values: List(path: "time.fixed_dt", values: [0.1]))],
+            charts: [StabilityMap(x: "dt", y: "density_ratio")])"#,
+    );
+    assert!(e.contains("charts.0.y") && e.contains("no axis is named `density_ratio`; axes: dt"), "{e}");
+}
+
+#[test]
+fn a_bad_metric_or_reference_is_refused() {
+    let e = study_error(
+        "bad_metric",
+        r#"(name: "s", base: "box.ron",
+            axes: [(name: "dt", values: List(path: "time.fixed_dt", values: [0.1]))],
+            metrics: [Final("kinetic_enrgy")])"#,
+    );
+    assert!(e.contains("metrics.0") && e.contains("did you mean `kinetic_energy`?"), "{e}");
+    let e = study_error(
+        "bad_baseline",
+        r#"(name: "s", base: "box.ron",
+            axes: [(name: "dt", values: List(path: "time.fixed_dt", values: [0.1, 0.2]))],
+            reference: Baseline(axis: "dt", value: "0.3", compare: Column("kinetic_energy")))"#,
+    );
+    assert!(e.contains("reference.value") && e.contains("labels: 0.1, 0.2"), "{e}");
+}
+
+#[test]
+fn the_shipped_studies_are_valid() {
+    multifield::link_all();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        // study files have axes; the other RON files there are their base cases
+        if path.extension().is_none_or(|e| e != "ron") || !text.contains("axes:") {
+            continue;
+        }
+        // the point series needs the MassPoint representation, which this build may lack
+        let only: Vec<String> =
+            if text.contains("representation=MassPoint") { vec!["representation=resolved".into()] } else { vec![] };
+        let plan = multifield::study::plan(&path, Some(scratch("shipped").join("unused")), &only)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(plan.runs.len() >= 5, "{}: {} runs", path.display(), plan.runs.len());
+        assert!(!plan.study.charts.is_empty(), "{}: no chart", path.display());
+        seen += 1;
+    }
+    assert_eq!(seen, 5, "the five shipped studies");
+}
+
+#[test]
+fn a_baseline_reference_compares_columns_at_the_baselines_times() {
+    let dir = scratch("baseline");
+    std::fs::write(dir.join("box.ron"), BOX).unwrap();
+    let study = dir.join("b.ron");
+    std::fs::write(
+        &study,
+        r#"(name: "b", base: "box.ron",
+            axes: [(name: "dt", values: List(path: "time.fixed_dt", values: [0.1, 0.4]))],
+            reference: Baseline(axis: "dt", value: "0.1", compare: Column("kinetic_energy")),
+            charts: [AccuracyCost(series: [])])"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = multifield(&["study", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rows = table(&out.join("results.csv"));
+    assert_eq!(num(&rows[0], "error"), 0.0, "the baseline against itself");
+    // independently: implicit steps multiply E − E_cm by (1 + Δt)^−2; the Δt = 0.4 run is
+    // interpolated linearly at the baseline's times t = 0.1 k inside its own rows (t ≥ 0.4;
+    // its last row, at 40 − 8e-14 by round-off, counts as t = 40)
+    let e = |dt: f64, n: f64| ECM + (E0 - ECM) * (1.0 + dt).powf(-2.0 * n);
+    let scale = e(0.1, 1.0);
+    let (mut sum, mut count) = (0.0, 0.0);
+    for k in 4..=400 {
+        let t = 0.1 * k as f64;
+        let j = (t / 0.4 + 1e-9).floor();
+        let w = t / 0.4 - j;
+        let coarse = if w < 1e-9 { e(0.4, j) } else { (1.0 - w) * e(0.4, j) + w * e(0.4, j + 1.0) };
+        sum += (coarse - e(0.1, k as f64)).powi(2);
+        count += 1.0;
+    }
+    let want = (sum / count).sqrt() / scale;
+    let got = num(&rows[1], "error");
+    assert!((got - want).abs() < 1e-6 * want, "error {got} vs {want}");
+}
