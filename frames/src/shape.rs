@@ -68,6 +68,18 @@ impl Shape {
     }
 }
 
+/// ⌊x⌋ for |x| < 2⁶³, inlined: without SSE4.1 (the x86-64 baseline) `f64::floor` is a call
+/// into libm, 4 % of a particle step.
+#[inline(always)]
+fn floor(x: Real) -> Real {
+    let t = x as i64 as Real;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,17 +100,5 @@ mod tests {
                 assert!((dfirst - 1.0).abs() < 1e-13);
             }
         }
-    }
-}
-
-/// ⌊x⌋ for |x| < 2⁶³, inlined: without SSE4.1 (the x86-64 baseline) `f64::floor` is a call
-/// into libm, 4 % of a particle step.
-#[inline(always)]
-fn floor(x: Real) -> Real {
-    let t = x as i64 as Real;
-    if t > x {
-        t - 1.0
-    } else {
-        t
     }
 }
