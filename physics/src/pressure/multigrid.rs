@@ -93,30 +93,143 @@ fn weights(a: impl Fn(usize) -> Real, n: usize, i: usize, periodic: bool, dirich
     }
 }
 
-/// A raw pointer shared by the threads of a colour pass: each writes only cells of one
-/// colour and reads only cells it or no other thread writes.
+/// Precision of the V-cycle: the preconditioner need not be exact, and f32 halves the bytes
+/// it moves; the outer iteration (CG, or the residual of the stationary solver) stays f64.
+type F = f32;
+
+/// Values per chunk of the deterministic f32 sums (as [`sum`]).
+const CHUNK: usize = 2048;
+
+/// Deterministic sum of f32 values in f64 (fixed chunks: the same bits for any thread count).
+fn sum32(a: &[F]) -> Real {
+    let partial: Vec<Real> = a.par_chunks(CHUNK).map(|x| x.iter().map(|&v| Real::from(v)).sum::<Real>()).collect();
+    partial.iter().sum()
+}
+
+/// A level operator in f32 (from the f64 [`Stencil`]): couplings, diagonal, 1/diagonal.
+#[derive(Clone, Debug, Default)]
+struct Op32 {
+    nx: usize,
+    ny: usize,
+    periodic: [bool; 2],
+    ax: Vec<F>,
+    ay: Vec<F>,
+    diag: Vec<F>,
+    inv: Vec<F>,
+}
+
+/// dst = src rounded to f32, in parallel for big arrays.
+fn to_f32(src: &[Real], dst: &mut Vec<F>) {
+    dst.resize(src.len(), 0.0);
+    let body = |(d, s): (&mut [F], &[Real])| d.iter_mut().zip(s).for_each(|(d, &s)| *d = s as F);
+    if src.len() >= PARALLEL_CELLS {
+        dst.par_chunks_mut(CHUNK).zip(src.par_chunks(CHUNK)).for_each(body);
+    } else {
+        body((dst, src));
+    }
+}
+
+impl Op32 {
+    fn assign(&mut self, op: &Stencil) {
+        (self.nx, self.ny, self.periodic) = (op.nx, op.ny, op.periodic);
+        to_f32(&op.ax, &mut self.ax);
+        to_f32(&op.ay, &mut self.ay);
+        to_f32(&op.diag, &mut self.diag);
+        to_f32(&op.inv_diag, &mut self.inv);
+    }
+    fn len(&self) -> usize {
+        self.nx * self.ny
+    }
+    #[inline(always)]
+    fn south(&self, j: usize) -> usize {
+        if j > 0 {
+            j - 1
+        } else if self.periodic[1] {
+            self.ny - 1
+        } else {
+            0
+        }
+    }
+    #[inline(always)]
+    fn north(&self, j: usize) -> usize {
+        if j + 1 < self.ny {
+            j + 1
+        } else if self.periodic[1] {
+            0
+        } else {
+            j
+        }
+    }
+    #[inline(always)]
+    fn west_east(&self) -> (usize, usize) {
+        if self.periodic[0] {
+            (self.nx - 1, 0)
+        } else {
+            (0, self.nx - 1)
+        }
+    }
+
+    /// out = b − A x on row `j`.
+    #[inline]
+    fn residual_row(&self, j: usize, x: &[F], b: &[F], out: &mut [F]) {
+        let nx = self.nx;
+        let row = j * nx;
+        let (s, n) = (self.south(j) * nx, self.north(j) * nx);
+        let aw = &self.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
+        let (a_s, a_n) = (&self.ay[row..row + nx], &self.ay[row + nx..row + 2 * nx]);
+        let (xc, xs, xn) = (&x[row..row + nx], &x[s..s + nx], &x[n..n + nx]);
+        let (d, b) = (&self.diag[row..row + nx], &b[row..row + nx]);
+        let out = &mut out[..nx];
+        for (o, ((((a_s, a_n), xs), xn), (b, (d, xc)))) in
+            out.iter_mut().zip(a_s.iter().zip(a_n).zip(xs).zip(xn).zip(b.iter().zip(d.iter().zip(xc))))
+        {
+            *o = (b - d * xc) + (a_s * xs + a_n * xn);
+        }
+        for (o, (a, x)) in out[1..].iter_mut().zip(aw[1..nx].iter().zip(&xc[..nx - 1])) {
+            *o += a * x;
+        }
+        for (o, (a, x)) in out[..nx - 1].iter_mut().zip(aw[1..nx].iter().zip(&xc[1..])) {
+            *o += a * x;
+        }
+        let (w, e) = self.west_east();
+        out[0] += aw[0] * xc[w];
+        out[nx - 1] += aw[nx] * xc[e];
+    }
+}
+
+/// A raw pointer shared by the threads of a smoothing sweep: each writes only cells that no
+/// other thread reads or writes at the same time (see [`sweep`]).
 #[derive(Clone, Copy)]
-struct Shared(*mut Real);
+struct Shared(*mut F);
 unsafe impl Send for Shared {}
 unsafe impl Sync for Shared {}
 
-/// Gauss–Seidel on the cells of `colour` ((i + j) mod 2) in row `j`.
+/// Gauss–Seidel on the cells of `colour` ((i + j) mod 2) in row `j`; from zero (`zero`) the
+/// neighbours are not read: x = b / d.
 ///
 /// # Safety
-/// `x` points to `op.len()` values; no other thread writes a cell this row reads.
-unsafe fn relax_row(op: &Stencil, b: &[Real], x: Shared, colour: usize, j: usize) {
+/// `x` points to `op.len()` values; no other thread writes a cell this row reads or writes.
+#[inline]
+unsafe fn relax_row(op: &Op32, b: &[F], x: Shared, colour: usize, j: usize, zero: bool) {
     let nx = op.nx;
     let row = j * nx;
+    let (inv, b) = (&op.inv[row..row + nx], &b[row..row + nx]);
+    let xc = unsafe { x.0.add(row) };
+    let mut i = (colour + j) % 2;
+    if zero {
+        while i < nx {
+            // SAFETY: i < nx.
+            unsafe { *xc.add(i) = b.get_unchecked(i) * inv.get_unchecked(i) };
+            i += 2;
+        }
+        return;
+    }
     let aw = &op.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
     let (a_s, a_n) = (&op.ay[row..row + nx], &op.ay[row + nx..row + 2 * nx]);
-    let (inv, b) = (&op.inv_diag[row..row + nx], &b[row..row + nx]);
-    let (xc, xs, xn) = unsafe { (x.0.add(row), x.0.add(op.south(j) * nx), x.0.add(op.north(j) * nx)) };
-    let (west, east) = (op.west(0), op.east(nx - 1));
-    let mut i = (colour + j) % 2;
-    while i < nx {
-        let wi = if i == 0 { west } else { i - 1 };
-        let ei = if i + 1 == nx { east } else { i + 1 };
-        // SAFETY: i, wi, ei < nx; the rows are rows of x (see `relax`).
+    let (xs, xn) = unsafe { (x.0.add(op.south(j) * nx), x.0.add(op.north(j) * nx)) };
+    let (west, east) = op.west_east();
+    let cell = |i: usize, wi: usize, ei: usize| {
+        // SAFETY: i, wi, ei < nx; the rows are rows of x (see `sweep`).
         unsafe {
             let s = aw.get_unchecked(i) * *xc.add(wi)
                 + aw.get_unchecked(i + 1) * *xc.add(ei)
@@ -124,27 +237,68 @@ unsafe fn relax_row(op: &Stencil, b: &[Real], x: Shared, colour: usize, j: usize
                 + a_n.get_unchecked(i) * *xn.add(i);
             *xc.add(i) = (b.get_unchecked(i) + s) * inv.get_unchecked(i);
         }
+    };
+    if i == 0 {
+        cell(0, west, if nx > 1 { 1 } else { east });
+        i = 2;
+    }
+    while i + 1 < nx {
+        cell(i, i - 1, i + 1);
         i += 2;
+    }
+    if i + 1 == nx {
+        cell(i, i - 1, east);
     }
 }
 
-/// One colour pass over the level, rows in parallel. Smoothed levels have even sizes (see
-/// [`Hierarchy`]), so the red-black colouring holds across periodic wraps too.
-fn relax(op: &Stencil, b: &[Real], x: &mut [Real], colour: usize) {
-    assert!(x.len() == op.len() && op.nx & 1 == 0 && op.ny & 1 == 0);
+/// Rows per block of a parallel sweep (at least).
+const BLOCK_ROWS: usize = 16;
+
+/// One red-black Gauss–Seidel sweep: colour `first` on every row, then the other colour.
+/// The two colours go in one pass over memory: the second colour of row j − 1 right after
+/// the first colour of row j (all its neighbours are then final). Rows are split in blocks
+/// (in parallel for big levels); the second colour of a block's first and last rows, whose
+/// neighbours belong to other blocks, is done after all blocks. Every cell sees the same
+/// neighbour values as with two full colour passes, so the result is the same to the bit
+/// for any blocking and thread count. `zero`: x starts at 0 (its values are not read).
+fn sweep(op: &Op32, b: &[F], x: &mut [F], first: usize, zero: bool) {
+    let (nx, ny) = (op.nx, op.ny);
+    assert!(x.len() == op.len() && b.len() == op.len() && nx & 1 == 0 && ny & 1 == 0);
     let ptr = Shared(x.as_mut_ptr());
-    // SAFETY: a row updates only its own cells of `colour`; their neighbours have the other
-    // colour, which nobody writes during this pass.
-    let row = |j: usize| unsafe { relax_row(op, b, ptr, colour, j) };
-    if op.len() >= PARALLEL_CELLS {
-        (0..op.ny).into_par_iter().with_min_len(4).for_each(row);
+    let second = 1 - first;
+    let blocks = if op.len() >= PARALLEL_CELLS { (4 * rayon::current_num_threads()).min(ny / BLOCK_ROWS).max(1) } else { 1 };
+    let range = |k: usize| (k * ny / blocks, (k + 1) * ny / blocks);
+    // SAFETY: in the first stage a block writes its rows' first colour and the second colour
+    // of its inner rows; those read only the block's rows and the other colour of the
+    // neighbouring blocks' edge rows, which no one writes in that stage. In the second stage
+    // blocks write the second colour of their edge rows and read only the first colour.
+    let inner = |k: usize| {
+        let (a, e) = range(k);
+        for j in a..e {
+            unsafe { relax_row(op, b, ptr, first, j, zero) };
+            if j >= a + 2 {
+                unsafe { relax_row(op, b, ptr, second, j - 1, false) };
+            }
+        }
+    };
+    let edges = |k: usize| {
+        let (a, e) = range(k);
+        unsafe { relax_row(op, b, ptr, second, a, false) };
+        if e - 1 > a {
+            unsafe { relax_row(op, b, ptr, second, e - 1, false) };
+        }
+    };
+    if blocks > 1 {
+        (0..blocks).into_par_iter().for_each(inner);
+        (0..blocks).into_par_iter().for_each(edges);
     } else {
-        (0..op.ny).for_each(row);
+        inner(0);
+        edges(0);
     }
 }
 
 /// A row of x-weights and a row of y-weights.
-type WeightRows<'a> = (&'a mut [[Real; 2]], &'a mut [[Real; 2]]);
+type WeightRows<'a> = (&'a mut [[F; 2]], &'a mut [[F; 2]]);
 
 /// One level of the hierarchy with its scratch and the transfers to the next coarser one.
 #[derive(Clone, Debug, Default)]
@@ -152,10 +306,9 @@ struct Level {
     /// Cells of the fine level.
     nx: usize,
     ny: usize,
-    r: Vec<Real>,
     /// Right-hand side and solution of the next coarser level.
-    bc: Vec<Real>,
-    xc: Vec<Real>,
+    bc: Vec<F>,
+    xc: Vec<F>,
     /// Coarse parents along x and y of each fine column and row.
     px: Vec<[usize; 2]>,
     py: Vec<[usize; 2]>,
@@ -163,10 +316,10 @@ struct Level {
     kx: Vec<[(usize, usize); 4]>,
     ky: Vec<[(usize, usize); 4]>,
     /// Interpolation weights per fine cell along x and y: (own, other) parent.
-    wx: Vec<[Real; 2]>,
-    wy: Vec<[Real; 2]>,
+    wx: Vec<[F; 2]>,
+    wy: Vec<[F; 2]>,
     /// Residual restricted along x, weighted for the own and the other y-parent: (nx/2) × ny.
-    u: [Vec<Real>; 2],
+    u: [Vec<F>; 2],
 }
 
 impl Level {
@@ -174,30 +327,33 @@ impl Level {
     fn update_weights(&mut self, op: &Stencil) {
         let (nx, ny) = (op.nx, op.ny);
         let d = op.dirichlet;
+        let f32s = |[a, b]: [Real; 2]| [a as F, b as F];
         let body = |(j, (wx, wy)): (usize, WeightRows)| {
             let row = &op.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
             for i in 0..nx {
-                wx[i] = weights(|f| row[f], nx, i, op.periodic[0], [d[0], d[1]]);
-                wy[i] = weights(|f| op.ay[i + f * nx], ny, j, op.periodic[1], [d[2], d[3]]);
+                wx[i] = f32s(weights(|f| row[f], nx, i, op.periodic[0], [d[0], d[1]]));
+                wy[i] = f32s(weights(|f| op.ay[i + f * nx], ny, j, op.periodic[1], [d[2], d[3]]));
             }
         };
         let rows = self.wx.par_chunks_mut(nx).zip(self.wy.par_chunks_mut(nx));
         rows.enumerate().for_each(body);
     }
 
-    /// b_c = Pᵀ r, along x (into `u`, one array per y-parent slot), then along y.
-    fn restrict(&mut self) {
+    /// b_c = Pᵀ (b − A x): the residual row by row (not stored), restricted along x (into
+    /// `u`, one array per y-parent slot), then along y.
+    fn restrict_residual(&mut self, op: &Op32, x: &[F], b: &[F]) {
         let (nx, ncx) = (self.nx, self.nx / 2);
         let big = self.nx * self.ny >= PARALLEL_CELLS;
-        let (r, kx, ky, wx, wy) = (&self.r, &self.kx, &self.ky, &self.wx, &self.wy);
-        let along_x = |(j, (u0, u1)): (usize, (&mut [Real], &mut [Real]))| {
+        let (kx, ky, wx, wy) = (&self.kx, &self.ky, &self.wx, &self.wy);
+        let along_x = |r: &mut Vec<F>, (j, (u0, u1)): (usize, (&mut [F], &mut [F]))| {
+            op.residual_row(j, x, b, r);
+            let (wx, wy) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx]);
             for ((u0, u1), kxi) in u0.iter_mut().zip(u1.iter_mut()).zip(kx) {
                 let (mut s0, mut s1) = (0.0, 0.0);
                 for &(i, sx) in kxi {
-                    let k = i + j * nx;
-                    let v = wx[k][sx] * r[k];
-                    s0 += v * wy[k][0];
-                    s1 += v * wy[k][1];
+                    let v = wx[i][sx] * r[i];
+                    s0 += v * wy[i][0];
+                    s1 += v * wy[i][1];
                 }
                 *u0 = s0;
                 *u1 = s1;
@@ -205,12 +361,14 @@ impl Level {
         };
         let [u0, u1] = &mut self.u;
         if big {
-            u0.par_chunks_mut(ncx).zip(u1.par_chunks_mut(ncx)).enumerate().for_each(along_x);
+            let rows = u0.par_chunks_mut(ncx).zip(u1.par_chunks_mut(ncx)).enumerate().with_min_len(4);
+            rows.for_each_init(|| vec![0.0; nx], along_x);
         } else {
-            u0.chunks_mut(ncx).zip(u1.chunks_mut(ncx)).enumerate().for_each(along_x);
+            let mut r = vec![0.0; nx];
+            u0.chunks_mut(ncx).zip(u1.chunks_mut(ncx)).enumerate().for_each(|row| along_x(&mut r, row));
         }
         let u = &self.u;
-        let along_y = |(jc, row): (usize, &mut [Real])| {
+        let along_y = |(jc, row): (usize, &mut [F])| {
             let [(j0, s0), (j1, s1), (j2, s2), (j3, s3)] = ky[jc];
             let rows = [&u[s0][j0 * ncx..], &u[s1][j1 * ncx..], &u[s2][j2 * ncx..], &u[s3][j3 * ncx..]];
             for (ic, out) in row.iter_mut().enumerate() {
@@ -225,10 +383,10 @@ impl Level {
     }
 
     /// x += P x_c.
-    fn prolong_add(&self, x: &mut [Real]) {
+    fn prolong_add(&self, x: &mut [F]) {
         let (nx, ncx) = (self.nx, self.nx / 2);
         let (xc, px, py, wx, wy) = (&self.xc, &self.px, &self.py, &self.wx, &self.wy);
-        let body = |(j, row): (usize, &mut [Real])| {
+        let body = |(j, row): (usize, &mut [F])| {
             let [js, jo] = py[j];
             let (rs, ro) = (&xc[js * ncx..(js + 1) * ncx], &xc[jo * ncx..(jo + 1) * ncx]);
             for (i, v) in row.iter_mut().enumerate() {
@@ -259,7 +417,14 @@ pub struct Hierarchy {
 #[derive(Debug, Default)]
 struct Cycle {
     levels: Vec<Level>,
+    /// The smoothed levels' operators in f32 (all but the coarsest).
+    ops: Vec<Op32>,
     coarse: SparseLlt,
+    /// Right-hand side and solution of the coarsest level in f64.
+    coarse_x: Vec<Real>,
+    /// The finest level's right-hand side and solution in f32.
+    b: Vec<F>,
+    x: Vec<F>,
     /// The finest level has cells with no coupling (set to 0 in the output).
     has_dead: bool,
     sweeps: usize,
@@ -296,6 +461,7 @@ impl Hierarchy {
     fn build(&mut self, nx: usize, ny: usize, periodic: [bool; 2], dirichlet: [bool; 4]) {
         self.ops.clear();
         self.cycle.levels.clear();
+        self.cycle.ops.clear();
         let (mut nx, mut ny) = (nx, ny);
         loop {
             let mut op = Stencil::default();
@@ -306,10 +472,10 @@ impl Hierarchy {
             }
             let px = parents(nx, periodic[0]);
             let py = parents(ny, periodic[1]);
+            self.cycle.ops.push(Op32::default());
             self.cycle.levels.push(Level {
                 nx,
                 ny,
-                r: vec![0.0; nx * ny],
                 bc: vec![0.0; nx * ny / 4],
                 xc: vec![0.0; nx * ny / 4],
                 kx: children(&px),
@@ -338,6 +504,7 @@ impl Hierarchy {
         for l in 1..self.ops.len() {
             let (fine, coarse) = self.ops.split_at_mut(l);
             self.cycle.levels[l - 1].update_weights(&fine[l - 1]);
+            self.cycle.ops[l - 1].assign(&fine[l - 1]);
             coarse[0].coarsen_from(&fine[l - 1]);
         }
         self.cycle.coarse.factor(self.ops.last().expect("at least one level"))
@@ -357,54 +524,65 @@ impl Hierarchy {
 
 impl Cycle {
     fn run(&mut self, ops: &[Stencil], r: &[Real], z: &mut [Real]) {
-        cycle(ops, &mut self.levels, &mut self.coarse, self.sweeps, r, z);
-        if self.has_dead {
-            z.par_iter_mut().zip(ops[0].inv_diag.par_iter()).for_each(|(z, &d)| {
-                if d == 0.0 {
-                    *z = 0.0
-                }
-            });
+        let n = r.len();
+        let (mut b, mut x) = (std::mem::take(&mut self.b), std::mem::take(&mut self.x));
+        to_f32(r, &mut b);
+        x.resize(n, 0.0);
+        self.run32(ops, &b, &mut x);
+        let inv = &ops[0].inv_diag;
+        let dead = self.has_dead;
+        let body = |((z, x), d): ((&mut [Real], &[F]), &[Real])| {
+            for ((z, &x), &d) in z.iter_mut().zip(x).zip(d) {
+                *z = if dead && d == 0.0 { 0.0 } else { Real::from(x) };
+            }
+        };
+        if n >= PARALLEL_CELLS {
+            z.par_chunks_mut(CHUNK).zip(x.par_chunks(CHUNK)).zip(inv.par_chunks(CHUNK)).for_each(body);
+        } else {
+            body(((z, &x), inv));
         }
+        (self.b, self.x) = (b, x);
+    }
+
+    /// The V-cycle in f32 on the finest level: x = M b.
+    fn run32(&mut self, ops: &[Stencil], b: &[F], x: &mut [F]) {
+        cycle(&self.ops, &mut self.levels, &mut self.coarse, &mut self.coarse_x, ops[0].is_singular(), self.sweeps, b, x);
     }
 }
 
 /// The V-cycle on `ops` (finest first) for A x = b, from x = 0.
-fn cycle(ops: &[Stencil], levels: &mut [Level], coarse: &mut SparseLlt, sweeps: usize, b: &[Real], x: &mut [Real]) {
+#[allow(clippy::too_many_arguments)]
+fn cycle(
+    ops: &[Op32],
+    levels: &mut [Level],
+    coarse: &mut SparseLlt,
+    coarse_x: &mut Vec<Real>,
+    singular: bool,
+    sweeps: usize,
+    b: &[F],
+    x: &mut [F],
+) {
     let Some((level, rest)) = levels.split_first_mut() else {
-        x.copy_from_slice(b);
-        coarse.solve(x);
+        coarse_x.clear();
+        coarse_x.extend(b.iter().map(|&v| Real::from(v)));
+        coarse.solve(coarse_x);
+        x.iter_mut().zip(coarse_x.iter()).for_each(|(x, &v)| *x = v as F);
         return;
     };
     let op = &ops[0];
-    // first red pass from x = 0: the neighbours are zero
-    let nx = op.nx;
-    let first = |(j, row): (usize, &mut [Real])| {
-        let (b, inv) = (&b[j * nx..(j + 1) * nx], &op.inv_diag[j * nx..(j + 1) * nx]);
-        for (i, ((x, b), d)) in row.iter_mut().zip(b).zip(inv).enumerate() {
-            *x = if (i + j) % 2 == 0 { b * d } else { 0.0 };
-        }
-    };
-    if op.len() >= PARALLEL_CELLS {
-        x.par_chunks_mut(nx).enumerate().for_each(first);
-    } else {
-        x.chunks_mut(nx).enumerate().for_each(first);
-    }
-    relax(op, b, x, 1);
+    sweep(op, b, x, 0, true);
     for _ in 1..sweeps {
-        relax(op, b, x, 0);
-        relax(op, b, x, 1);
+        sweep(op, b, x, 0, false);
     }
-    op.residual(x, b, &mut level.r);
-    level.restrict();
-    if op.is_singular() {
-        let mean = sum(&level.bc) / level.bc.len() as Real;
+    level.restrict_residual(op, x, b);
+    if singular {
+        let mean = (sum32(&level.bc) / level.bc.len() as Real) as F;
         level.bc.iter_mut().for_each(|v| *v -= mean);
     }
-    cycle(&ops[1..], rest, coarse, sweeps, &level.bc, &mut level.xc);
+    cycle(&ops[1..], rest, coarse, coarse_x, singular, sweeps, &level.bc, &mut level.xc);
     level.prolong_add(x);
     for _ in 0..sweeps {
-        relax(op, b, x, 1);
-        relax(op, b, x, 0);
+        sweep(op, b, x, 1, false);
     }
 }
 
