@@ -251,8 +251,112 @@ unsafe fn relax_row(op: &Op32, b: &[F], x: Shared, colour: usize, j: usize, zero
     }
 }
 
+/// Gauss–Seidel on the cells of `colour` in row `j`, vectorisable: the update of every cell
+/// of the row into `t` (those of the other colour are dropped), then the colour's cells
+/// copied to x. Each cell gets the same arithmetic, in the same order, as in [`relax_row`],
+/// so the two give the same bits.
+///
+/// # Safety
+/// `x` points to `op.len()` values; no other thread writes rows j − 1, j, j + 1 meanwhile.
+#[inline(always)]
+unsafe fn relax_row_vec(op: &Op32, b: &[F], x: Shared, colour: usize, j: usize, zero: bool, t: &mut [F]) {
+    let nx = op.nx;
+    let row = j * nx;
+    let (inv, b, t) = (&op.inv[row..row + nx], &b[row..row + nx], &mut t[..nx]);
+    if zero {
+        t.iter_mut().zip(b.iter().zip(inv)).for_each(|(t, (b, d))| *t = b * d);
+    } else {
+        // SAFETY: rows of x that nobody writes while these slices live (see above).
+        let (xc, xs, xn) = unsafe {
+            (
+                std::slice::from_raw_parts(x.0.add(row), nx),
+                std::slice::from_raw_parts(x.0.add(op.south(j) * nx), nx),
+                std::slice::from_raw_parts(x.0.add(op.north(j) * nx), nx),
+            )
+        };
+        let aw = &op.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
+        let (a_s, a_n) = (&op.ay[row..row + nx], &op.ay[row + nx..row + 2 * nx]);
+        let (west, east) = op.west_east();
+        let cell = |i: usize, wi: usize, ei: usize| {
+            let s = aw[i] * xc[wi] + aw[i + 1] * xc[ei] + a_s[i] * xs[i] + a_n[i] * xn[i];
+            (b[i] + s) * inv[i]
+        };
+        t[0] = cell(0, west, 1);
+        t[nx - 1] = cell(nx - 1, nx - 2, east);
+        let m = nx - 2;
+        let (tt, ww, we, xw, xe) = (&mut t[1..nx - 1], &aw[1..nx - 1], &aw[2..nx], &xc[..m], &xc[2..]);
+        let (a_s, xs, a_n, xn, b, inv) = (&a_s[1..][..m], &xs[1..][..m], &a_n[1..][..m], &xn[1..][..m], &b[1..][..m], &inv[1..][..m]);
+        let (tt, ww, we, xw, xe) = (&mut tt[..m], &ww[..m], &we[..m], &xw[..m], &xe[..m]);
+        for k in 0..m {
+            let s = ww[k] * xw[k] + we[k] * xe[k] + a_s[k] * xs[k] + a_n[k] * xn[k];
+            tt[k] = (b[k] + s) * inv[k];
+        }
+    }
+    // SAFETY: row j of x (see above); the slices above are gone.
+    let xc = unsafe { std::slice::from_raw_parts_mut(x.0.add(row), nx) };
+    let p = (colour + j) % 2;
+    for (x, t) in xc.chunks_exact_mut(2).zip(t.chunks_exact(2)) {
+        x[p] = t[p];
+    }
+}
+
 /// Rows per block of a parallel sweep (at least).
 const BLOCK_ROWS: usize = 16;
+
+/// The first stage of a sweep on the rows a..e (see [`sweep`]); `alone`: no other thread
+/// runs meanwhile, so the edge rows may use the vector path too.
+///
+/// # Safety
+/// As in [`sweep`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_body(op: &Op32, b: &[F], x: Shared, first: usize, a: usize, e: usize, zero: bool, alone: bool) {
+    let mut t = vec![0.0; op.nx];
+    for j in a..e {
+        unsafe {
+            if alone || (j > a && j + 1 < e) {
+                relax_row_vec(op, b, x, first, j, zero, &mut t);
+            } else {
+                relax_row(op, b, x, first, j, zero);
+            }
+            if j >= a + 2 {
+                relax_row_vec(op, b, x, 1 - first, j - 1, false, &mut t);
+            }
+        }
+    }
+    if alone {
+        unsafe {
+            relax_row_vec(op, b, x, 1 - first, a, false, &mut t);
+            if e - 1 > a {
+                relax_row_vec(op, b, x, 1 - first, e - 1, false, &mut t);
+            }
+        }
+    }
+}
+
+/// [`block_body`] compiled for AVX2 (no FMA: the same bits as without).
+///
+/// # Safety
+/// As in [`sweep`]; the CPU has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_body_avx2(op: &Op32, b: &[F], x: Shared, first: usize, a: usize, e: usize, zero: bool, alone: bool) {
+    unsafe { block_body(op, b, x, first, a, e, zero, alone) }
+}
+
+/// [`block_body`] with the widest vectors the CPU has.
+///
+/// # Safety
+/// As in [`sweep`].
+#[allow(clippy::too_many_arguments)]
+unsafe fn block(op: &Op32, b: &[F], x: Shared, first: usize, a: usize, e: usize, zero: bool, alone: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        return unsafe { block_body_avx2(op, b, x, first, a, e, zero, alone) };
+    }
+    unsafe { block_body(op, b, x, first, a, e, zero, alone) }
+}
 
 /// One red-black Gauss–Seidel sweep: colour `first` on every row, then the other colour.
 /// The two colours go in one pass over memory: the second colour of row j − 1 right after
@@ -263,38 +367,30 @@ const BLOCK_ROWS: usize = 16;
 /// for any blocking and thread count. `zero`: x starts at 0 (its values are not read).
 fn sweep(op: &Op32, b: &[F], x: &mut [F], first: usize, zero: bool) {
     let (nx, ny) = (op.nx, op.ny);
-    assert!(x.len() == op.len() && b.len() == op.len() && nx & 1 == 0 && ny & 1 == 0);
+    assert!(x.len() == op.len() && b.len() == op.len() && nx & 1 == 0 && ny & 1 == 0 && nx >= 4);
     let ptr = Shared(x.as_mut_ptr());
     let second = 1 - first;
     let blocks = if op.len() >= PARALLEL_CELLS { (4 * rayon::current_num_threads()).min(ny / BLOCK_ROWS).max(1) } else { 1 };
     let range = |k: usize| (k * ny / blocks, (k + 1) * ny / blocks);
     // SAFETY: in the first stage a block writes its rows' first colour and the second colour
-    // of its inner rows; those read only the block's rows and the other colour of the
-    // neighbouring blocks' edge rows, which no one writes in that stage. In the second stage
-    // blocks write the second colour of their edge rows and read only the first colour.
-    let inner = |k: usize| {
+    // of its inner rows, reading its own rows and only the other colour of the neighbouring
+    // blocks' edge rows (by `relax_row`), which no one writes in that stage. In the second
+    // stage blocks write the second colour of their edge rows and read only the first colour.
+    if blocks == 1 {
+        unsafe { block(op, b, ptr, first, 0, ny, zero, true) };
+        return;
+    }
+    (0..blocks).into_par_iter().for_each(|k| {
         let (a, e) = range(k);
-        for j in a..e {
-            unsafe { relax_row(op, b, ptr, first, j, zero) };
-            if j >= a + 2 {
-                unsafe { relax_row(op, b, ptr, second, j - 1, false) };
-            }
-        }
-    };
-    let edges = |k: usize| {
+        unsafe { block(op, b, ptr, first, a, e, zero, false) };
+    });
+    (0..blocks).into_par_iter().for_each(|k| {
         let (a, e) = range(k);
         unsafe { relax_row(op, b, ptr, second, a, false) };
         if e - 1 > a {
             unsafe { relax_row(op, b, ptr, second, e - 1, false) };
         }
-    };
-    if blocks > 1 {
-        (0..blocks).into_par_iter().for_each(inner);
-        (0..blocks).into_par_iter().for_each(edges);
-    } else {
-        inner(0);
-        edges(0);
-    }
+    });
 }
 
 /// A row of x-weights and a row of y-weights.
@@ -347,16 +443,33 @@ impl Level {
         let (kx, ky, wx, wy) = (&self.kx, &self.ky, &self.wx, &self.wy);
         let along_x = |r: &mut Vec<F>, (j, (u0, u1)): (usize, (&mut [F], &mut [F]))| {
             op.residual_row(j, x, b, r);
-            let (wx, wy) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx]);
-            for ((u0, u1), kxi) in u0.iter_mut().zip(u1.iter_mut()).zip(kx) {
+            let (wx, wy, r) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx], &r[..nx]);
+            let generic = |ic: usize| {
                 let (mut s0, mut s1) = (0.0, 0.0);
-                for &(i, sx) in kxi {
+                for &(i, sx) in &kx[ic] {
                     let v = wx[i][sx] * r[i];
                     s0 += v * wy[i][0];
                     s1 += v * wy[i][1];
                 }
-                *u0 = s0;
-                *u1 = s1;
+                (s0, s1)
+            };
+            let ends = [0, ncx - 1];
+            for ic in ends {
+                (u0[ic], u1[ic]) = generic(ic);
+            }
+            // inside: the children of ic are 2ic − 1 (other), 2ic, 2ic + 1 (own), 2ic + 2 (other)
+            let m = ncx - 2;
+            let (u0, u1) = (&mut u0[1..][..m], &mut u1[1..][..m]);
+            for k in 0..m {
+                let i = 2 * k + 1;
+                let (mut s0, mut s1) = (0.0, 0.0);
+                for (i, sx) in [(i, 1), (i + 1, 0), (i + 2, 0), (i + 3, 1)] {
+                    let v = wx[i][sx] * r[i];
+                    s0 += v * wy[i][0];
+                    s1 += v * wy[i][1];
+                }
+                u0[k] = s0;
+                u1[k] = s1;
             }
         };
         let [u0, u1] = &mut self.u;
@@ -389,9 +502,19 @@ impl Level {
         let body = |(j, row): (usize, &mut [F])| {
             let [js, jo] = py[j];
             let (rs, ro) = (&xc[js * ncx..(js + 1) * ncx], &xc[jo * ncx..(jo + 1) * ncx]);
-            for (i, v) in row.iter_mut().enumerate() {
-                let ([is, io], [ws, wo], [vs, vo]) = (px[i], wx[i + j * nx], wy[i + j * nx]);
+            let (wx, wy) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx]);
+            let add = |v: &mut F, i: usize, [is, io]: [usize; 2]| {
+                let ([ws, wo], [vs, vo]) = (wx[i], wy[i]);
                 *v += vs * (ws * rs[is] + wo * rs[io]) + vo * (ws * ro[is] + wo * ro[io]);
+            };
+            for i in [0, 1, nx - 2, nx - 1] {
+                add(&mut row[i], i, px[i]);
+            }
+            // inside: the parents of 2ic are (ic, ic − 1), of 2ic + 1 (ic, ic + 1)
+            for (k, pair) in row[2..nx - 2].chunks_exact_mut(2).enumerate() {
+                let ic = k + 1;
+                add(&mut pair[0], 2 * ic, [ic, ic - 1]);
+                add(&mut pair[1], 2 * ic + 1, [ic, ic + 1]);
             }
         };
         if self.nx * self.ny >= PARALLEL_CELLS {
