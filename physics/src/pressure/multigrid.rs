@@ -95,10 +95,10 @@ fn weights(a: impl Fn(usize) -> Real, n: usize, i: usize, periodic: bool, dirich
 
 /// Precision of the V-cycle: the preconditioner need not be exact, and f32 halves the bytes
 /// it moves; the outer iteration (CG, or the residual of the stationary solver) stays f64.
-type F = f32;
+pub(crate) type F = f32;
 
 /// Values per chunk of the deterministic f32 sums (as [`sum`]).
-const CHUNK: usize = 2048;
+pub(crate) const CHUNK: usize = 2048;
 
 /// Deterministic sum of f32 values in f64 (fixed chunks: the same bits for any thread count).
 fn sum32(a: &[F]) -> Real {
@@ -119,7 +119,7 @@ struct Op32 {
 }
 
 /// dst = src rounded to f32, in parallel for big arrays.
-fn to_f32(src: &[Real], dst: &mut Vec<F>) {
+pub(crate) fn to_f32(src: &[Real], dst: &mut Vec<F>) {
     dst.resize(src.len(), 0.0);
     let body = |(d, s): (&mut [F], &[Real])| d.iter_mut().zip(s).for_each(|(d, &s)| *d = s as F);
     if src.len() >= PARALLEL_CELLS {
@@ -636,6 +636,14 @@ impl Hierarchy {
     /// z = M r: one V-cycle from z = 0 (a symmetric positive definite approximation of A⁻¹).
     pub fn precondition(&mut self, r: &[Real], z: &mut [Real]) {
         self.cycle.run(&self.ops, r, z);
+    }
+
+    /// The finest operator and the preconditioner in f32 (`z = M r`, one V-cycle from 0),
+    /// to use side by side. Cells with no coupling come out 0: the last sweep sets them to
+    /// (b + 0)·0.
+    pub(crate) fn split32(&mut self) -> (&Stencil, impl FnMut(&[F], &mut [F]) + '_) {
+        let (ops, cycle) = (&self.ops, &mut self.cycle);
+        (&ops[0], move |r: &[F], z: &mut [F]| cycle.run32(ops, r, z))
     }
 
     /// The finest operator and the preconditioner, to use side by side.

@@ -14,6 +14,20 @@ use rayon::prelude::*;
 /// Rows below this many cells are processed on one thread (the result is the same).
 pub(crate) const PARALLEL_CELLS: usize = 16_384;
 
+/// a · b with eight partial sums (vectorisable; a fixed order, so deterministic).
+#[inline]
+pub(crate) fn dot_lanes(a: &[Real], b: &[Real]) -> Real {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: Real = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in ca.zip(cb) {
+        for l in 0..8 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+}
+
 /// A 5-point operator on an `nx × ny` cell grid.
 #[derive(Clone, Debug, Default)]
 pub struct Stencil {
@@ -235,6 +249,26 @@ impl Stencil {
         } else {
             r.chunks_mut(nx).enumerate().for_each(body);
         }
+    }
+
+    /// y = A x, and returns x · y (per-row partial sums added in row order: the same bits
+    /// for any number of threads).
+    pub fn apply_dot(&self, x: &[Real], y: &mut [Real]) -> Real {
+        let nx = self.nx;
+        let body = |(j, row): (usize, &mut [Real])| {
+            self.offdiag_row(j, x, row);
+            let k = j * nx;
+            for ((y, d), x) in row.iter_mut().zip(&self.diag[k..k + nx]).zip(&x[k..k + nx]) {
+                *y = d * x - *y;
+            }
+            dot_lanes(row, &x[k..k + nx])
+        };
+        let partial: Vec<Real> = if self.len() >= PARALLEL_CELLS {
+            y.par_chunks_mut(nx).enumerate().map(body).collect()
+        } else {
+            y.chunks_mut(nx).enumerate().map(body).collect()
+        };
+        partial.iter().sum()
     }
 
     /// y = A x.
