@@ -441,44 +441,60 @@ impl Level {
         let (nx, ncx) = (self.nx, self.nx / 2);
         let big = self.nx * self.ny >= PARALLEL_CELLS;
         let (kx, ky, wx, wy) = (&self.kx, &self.ky, &self.wx, &self.wy);
-        let along_x = |r: &mut Vec<F>, (j, (u0, u1)): (usize, (&mut [F], &mut [F]))| {
+        let along_x = |buf: &mut Vec<F>, (j, (u0, u1)): (usize, (&mut [F], &mut [F]))| {
+            buf.resize(nx + 6 * ncx, 0.0);
+            let (r, t) = buf.split_at_mut(nx);
             op.residual_row(j, x, b, r);
-            let (wx, wy, r) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx], &r[..nx]);
-            let generic = |ic: usize| {
-                let (mut s0, mut s1) = (0.0, 0.0);
-                for &(i, sx) in &kx[ic] {
-                    let v = wx[i][sx] * r[i];
-                    s0 += v * wy[i][0];
-                    s1 += v * wy[i][1];
-                }
-                (s0, s1)
-            };
-            let ends = [0, ncx - 1];
-            for ic in ends {
-                (u0[ic], u1[ic]) = generic(ic);
+            let (po0, t) = t.split_at_mut(ncx);
+            let (po1, t) = t.split_at_mut(ncx);
+            let (tl0, t) = t.split_at_mut(ncx);
+            let (tl1, t) = t.split_at_mut(ncx);
+            let (tr0, tr1) = t.split_at_mut(ncx);
+            let (tr1, u0, u1) = (&mut tr1[..ncx], &mut u0[..ncx], &mut u1[..ncx]);
+            let (wx2, wy2, r2) = (
+                &wx[j * nx..(j + 1) * nx].as_chunks::<2>().0[..ncx],
+                &wy[j * nx..(j + 1) * nx].as_chunks::<2>().0[..ncx],
+                &r.as_chunks::<2>().0[..ncx],
+            );
+            // per pair of fine cells 2ic, 2ic + 1: the part for their own coarse column ic
+            // (po), the part of 2ic for its other parent (tl: ic − 1, or ic at a wall) and the
+            // part of 2ic + 1 for its other parent (tr: ic + 1, or ic), for both y-parent slots
+            for ic in 0..ncx {
+                let ([[xo0, xt0], [xo1, xt1]], [[yo0, yt0], [yo1, yt1]], [r0, r1]) = (wx2[ic], wy2[ic], r2[ic]);
+                let (a0, b0, a1, b1) = (r0 * yo0, r0 * yt0, r1 * yo1, r1 * yt1);
+                po0[ic] = xo0 * a0 + xo1 * a1;
+                po1[ic] = xo0 * b0 + xo1 * b1;
+                tl0[ic] = xt0 * a0;
+                tl1[ic] = xt0 * b0;
+                tr0[ic] = xt1 * a1;
+                tr1[ic] = xt1 * b1;
             }
-            // inside: the children of ic are 2ic − 1 (other), 2ic, 2ic + 1 (own), 2ic + 2 (other)
-            let m = ncx - 2;
-            let (u0, u1) = (&mut u0[1..][..m], &mut u1[1..][..m]);
-            for k in 0..m {
-                let i = 2 * k + 1;
-                let (mut s0, mut s1) = (0.0, 0.0);
-                for (i, sx) in [(i, 1), (i + 1, 0), (i + 2, 0), (i + 3, 1)] {
-                    let v = wx[i][sx] * r[i];
-                    s0 += v * wy[i][0];
-                    s1 += v * wy[i][1];
+            for ic in [0, ncx - 1] {
+                let (mut s0, mut s1) = (po0[ic], po1[ic]);
+                for &(i, sx) in &kx[ic] {
+                    if sx == 1 {
+                        let (t0, t1) = if i % 2 == 0 { (tl0[i / 2], tl1[i / 2]) } else { (tr0[i / 2], tr1[i / 2]) };
+                        s0 += t0;
+                        s1 += t1;
+                    }
                 }
-                u0[k] = s0;
-                u1[k] = s1;
+                (u0[ic], u1[ic]) = (s0, s1);
+            }
+            // inside: ic gathers 2ic − 1 (tr of ic − 1), its own pair and 2ic + 2 (tl of ic + 1)
+            let m = ncx - 2;
+            for (u, p, l, r) in [(&mut u0[1..], &po0[1..], &tl0[2..], &tr0[..]), (&mut u1[1..], &po1[1..], &tl1[2..], &tr1[..])] {
+                for (((u, p), l), r) in u[..m].iter_mut().zip(&p[..m]).zip(&l[..m]).zip(&r[..m]) {
+                    *u = (r + p) + l;
+                }
             }
         };
         let [u0, u1] = &mut self.u;
         if big {
             let rows = u0.par_chunks_mut(ncx).zip(u1.par_chunks_mut(ncx)).enumerate().with_min_len(4);
-            rows.for_each_init(|| vec![0.0; nx], along_x);
+            rows.for_each_init(Vec::new, along_x);
         } else {
-            let mut r = vec![0.0; nx];
-            u0.chunks_mut(ncx).zip(u1.chunks_mut(ncx)).enumerate().for_each(|row| along_x(&mut r, row));
+            let mut buf = Vec::new();
+            u0.chunks_mut(ncx).zip(u1.chunks_mut(ncx)).enumerate().for_each(|row| along_x(&mut buf, row));
         }
         let u = &self.u;
         let along_y = |(jc, row): (usize, &mut [F])| {
@@ -511,10 +527,17 @@ impl Level {
                 add(&mut row[i], i, px[i]);
             }
             // inside: the parents of 2ic are (ic, ic − 1), of 2ic + 1 (ic, ic + 1)
-            for (k, pair) in row[2..nx - 2].chunks_exact_mut(2).enumerate() {
-                let ic = k + 1;
-                add(&mut pair[0], 2 * ic, [ic, ic - 1]);
-                add(&mut pair[1], 2 * ic + 1, [ic, ic + 1]);
+            let m = ncx - 2;
+            let (row2, wx2, wy2) = (
+                &mut row.as_chunks_mut::<2>().0[1..][..m],
+                &wx.as_chunks::<2>().0[1..][..m],
+                &wy.as_chunks::<2>().0[1..][..m],
+            );
+            for ((((v, [[xo0, xt0], [xo1, xt1]]), [[yo0, yt0], [yo1, yt1]]), s), o) in
+                row2.iter_mut().zip(wx2).zip(wy2).zip(rs.windows(3)).zip(ro.windows(3))
+            {
+                v[0] += yo0 * (xo0 * s[1] + xt0 * s[0]) + yt0 * (xo0 * o[1] + xt0 * o[0]);
+                v[1] += yo1 * (xo1 * s[1] + xt1 * s[2]) + yt1 * (xo1 * o[1] + xt1 * o[2]);
             }
         };
         if self.nx * self.ny >= PARALLEL_CELLS {
