@@ -393,6 +393,29 @@ fn sweep(op: &Op32, b: &[F], x: &mut [F], first: usize, zero: bool) {
     });
 }
 
+/// Fine rows restricted along x kept by a block of coarse rows (at least the 4 children
+/// of one coarse row plus the 2 it shares with the next one).
+const SLOTS: usize = 6;
+
+/// Coarse rows per parallel block of the restriction.
+const COARSE_ROWS: usize = 16;
+
+/// The last [`SLOTS`] fine rows restricted along x (for the own and the other y-parent),
+/// oldest replaced first, and a scratch row.
+#[derive(Debug)]
+struct RowCache {
+    rows: [usize; SLOTS],
+    u: Vec<F>,
+    next: usize,
+    buf: Vec<F>,
+}
+
+impl Default for RowCache {
+    fn default() -> Self {
+        Self { rows: [usize::MAX; SLOTS], u: Vec::new(), next: 0, buf: Vec::new() }
+    }
+}
+
 /// A row of x-weights and a row of y-weights.
 type WeightRows<'a> = (&'a mut [[F; 2]], &'a mut [[F; 2]]);
 
@@ -414,8 +437,6 @@ struct Level {
     /// Interpolation weights per fine cell along x and y: (own, other) parent.
     wx: Vec<[F; 2]>,
     wy: Vec<[F; 2]>,
-    /// Residual restricted along x, weighted for the own and the other y-parent: (nx/2) × ny.
-    u: [Vec<F>; 2],
 }
 
 impl Level {
@@ -435,8 +456,8 @@ impl Level {
         rows.enumerate().for_each(body);
     }
 
-    /// b_c = Pᵀ (b − A x): the residual row by row (not stored), restricted along x (into
-    /// `u`, one array per y-parent slot), then along y.
+    /// b_c = Pᵀ (b − A x): the residual row by row (not stored), restricted along x (for
+    /// each y-parent slot), then along y, a few rows at a time.
     fn restrict_residual(&mut self, op: &Op32, x: &[F], b: &[F]) {
         let (nx, ncx) = (self.nx, self.nx / 2);
         let big = self.nx * self.ny >= PARALLEL_CELLS;
@@ -488,26 +509,38 @@ impl Level {
                 }
             }
         };
-        let [u0, u1] = &mut self.u;
-        if big {
-            let rows = u0.par_chunks_mut(ncx).zip(u1.par_chunks_mut(ncx)).enumerate().with_min_len(4);
-            rows.for_each_init(Vec::new, along_x);
-        } else {
-            let mut buf = Vec::new();
-            u0.chunks_mut(ncx).zip(u1.chunks_mut(ncx)).enumerate().for_each(|row| along_x(&mut buf, row));
-        }
-        let u = &self.u;
-        let along_y = |(jc, row): (usize, &mut [F])| {
-            let [(j0, s0), (j1, s1), (j2, s2), (j3, s3)] = ky[jc];
-            let rows = [&u[s0][j0 * ncx..], &u[s1][j1 * ncx..], &u[s2][j2 * ncx..], &u[s3][j3 * ncx..]];
-            for (ic, out) in row.iter_mut().enumerate() {
-                *out = (rows[0][ic] + rows[1][ic]) + (rows[2][ic] + rows[3][ic]);
+        // coarse row jc gathers the rows restricted along x of its fine children in y
+        // (ky[jc], ascending); a block of coarse rows keeps the last few of them, so each
+        // is computed once per block (twice at block edges)
+        let along_y = |cache: &mut RowCache, (block, out): (usize, &mut [F])| {
+            for (k, row) in out.chunks_mut(ncx).enumerate() {
+                let kids = ky[block * COARSE_ROWS + k];
+                let mut at = [0; 4];
+                for (n, &(j, _)) in kids.iter().enumerate() {
+                    at[n] = match cache.rows.iter().position(|&r| r == j) {
+                        Some(p) => p,
+                        None => {
+                            let p = cache.next;
+                            cache.next = (p + 1) % SLOTS;
+                            cache.rows[p] = j;
+                            cache.u.resize(SLOTS * 2 * ncx, 0.0);
+                            let (u0, u1) = cache.u[p * 2 * ncx..(p + 1) * 2 * ncx].split_at_mut(ncx);
+                            along_x(&mut cache.buf, (j, (u0, u1)));
+                            p
+                        }
+                    };
+                }
+                let u = |n: usize| &cache.u[(2 * at[n] + kids[n].1) * ncx..][..ncx];
+                let (u0, u1, u2, u3) = (u(0), u(1), u(2), u(3));
+                for ((((out, a), b), c), d) in row.iter_mut().zip(u0).zip(u1).zip(u2).zip(u3) {
+                    *out = (a + b) + (c + d);
+                }
             }
         };
         if big {
-            self.bc.par_chunks_mut(ncx).enumerate().for_each(along_y);
+            self.bc.par_chunks_mut(ncx * COARSE_ROWS).enumerate().for_each_init(RowCache::default, along_y);
         } else {
-            self.bc.chunks_mut(ncx).enumerate().for_each(along_y);
+            along_y(&mut RowCache::default(), (0, &mut self.bc));
         }
     }
 
@@ -630,7 +663,6 @@ impl Hierarchy {
                 py,
                 wx: vec![[1.0, 0.0]; nx * ny],
                 wy: vec![[1.0, 0.0]; nx * ny],
-                u: [vec![0.0; nx / 2 * ny], vec![0.0; nx / 2 * ny]],
             });
             nx /= 2;
             ny /= 2;
