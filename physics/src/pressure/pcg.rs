@@ -61,8 +61,8 @@ struct Scratch {
 }
 
 /// Runs PCG with one f32 multigrid V-cycle as preconditioner (see [`pcg`]), with the vector
-/// passes fused: A p with p · q; the updates of x and r with r · r and the f32 copy of r;
-/// r · z and p = z + β p read z in f32. Reductions go by fixed chunks or rows: the result is
+/// passes fused: A p with p · q; the update of r with r · r and the f32 copy of r; x += α p
+/// with the next p = z + β p (z read in f32). Reductions go by fixed chunks or rows: the result is
 /// the same to the bit for any number of threads.
 fn pcg_multigrid(
     problem: &PoissonProblem,
@@ -109,18 +109,25 @@ fn pcg_multigrid(
             break;
         }
         let alpha = rz / pq;
-        let rr = update(x, r, r32, p, q, alpha);
+        let rr = update(r, r32, q, alpha);
         rnorm = rr.sqrt();
         history.push(rnorm / bnorm);
         if rnorm / bnorm <= tolerance {
+            x.par_chunks_mut(CHUNK).zip(p.par_chunks(CHUNK)).for_each(|(x, p)| {
+                x.iter_mut().zip(p).for_each(|(x, p)| *x += alpha * p);
+            });
             return Ok(stats(it, rnorm / bnorm));
         }
         precondition(r32, z32);
         let rz_new = dot_mixed(r, z32);
         let beta = rz_new / rz;
         rz = rz_new;
-        p.par_chunks_mut(CHUNK).zip(z32.par_chunks(CHUNK)).for_each(|(p, z)| {
-            p.iter_mut().zip(z).for_each(|(p, &z)| *p = Real::from(z) + beta * *p);
+        // x += α p with the p of this iteration, then the next p = z + β p
+        x.par_chunks_mut(CHUNK).zip(p.par_chunks_mut(CHUNK)).zip(z32.par_chunks(CHUNK)).for_each(|((x, p), z)| {
+            x.iter_mut().zip(p.iter_mut()).zip(z).for_each(|((x, p), &z)| {
+                *x += alpha * *p;
+                *p = Real::from(z) + beta * *p;
+            });
         });
     }
     Err(Error::SolverDiverged {
@@ -152,15 +159,13 @@ fn dot_mixed(r: &[Real], z: &[F]) -> Real {
     partial.iter().sum()
 }
 
-/// x += α p, r −= α q, r32 = r in f32; returns r · r (by fixed chunks).
-fn update(x: &mut [Real], r: &mut [Real], r32: &mut [F], p: &[Real], q: &[Real], alpha: Real) -> Real {
-    let partial: Vec<Real> = x
+/// r −= α q, r32 = r in f32; returns r · r (by fixed chunks).
+fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
+    let partial: Vec<Real> = r
         .par_chunks_mut(CHUNK)
-        .zip(r.par_chunks_mut(CHUNK))
         .zip(r32.par_chunks_mut(CHUNK))
-        .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK)))
-        .map(|(((x, r), r32), (p, q))| {
-            x.iter_mut().zip(p).for_each(|(x, p)| *x += alpha * p);
+        .zip(q.par_chunks(CHUNK))
+        .map(|((r, r32), q)| {
             r.iter_mut().zip(q).zip(r32.iter_mut()).for_each(|((r, q), r32)| {
                 *r -= alpha * q;
                 *r32 = *r as F;
