@@ -417,7 +417,7 @@ impl Default for RowCache {
 }
 
 /// A row of x-weights and a row of y-weights.
-type WeightRows<'a> = (&'a mut [[F; 2]], &'a mut [[F; 2]]);
+type WeightRows<'a> = (&'a mut [F], &'a mut [F]);
 
 /// One level of the hierarchy with its scratch and the transfers to the next coarser one.
 #[derive(Clone, Debug, Default)]
@@ -434,22 +434,38 @@ struct Level {
     /// Fine children of each coarse column and row.
     kx: Vec<[(usize, usize); 4]>,
     ky: Vec<[(usize, usize); 4]>,
-    /// Interpolation weights per fine cell along x and y: (own, other) parent.
-    wx: Vec<[F; 2]>,
-    wy: Vec<[F; 2]>,
+    /// Interpolation weight of the own parent per fine cell along x and y; the other
+    /// parent's is 1 − own (0 on the outer side of a non-periodic axis, see [`Level::other`]).
+    wx: Vec<F>,
+    wy: Vec<F>,
+    /// Periodic along (x, y).
+    periodic: [bool; 2],
+}
+
+/// Whether fine index i is on the outer side of a non-periodic axis of n cells (its other
+/// parent would lie outside: its weight is 0).
+#[inline]
+fn outside(n: usize, i: usize, periodic: bool) -> bool {
+    !periodic && if i % 2 == 1 { i + 1 >= n } else { i == 0 }
 }
 
 impl Level {
+    /// The weights (own, other) of fine index i along an axis of n cells from the own one.
+    #[inline]
+    fn pair(own: F, n: usize, i: usize, periodic: bool) -> [F; 2] {
+        [own, if outside(n, i, periodic) { 0.0 } else { 1.0 - own }]
+    }
+
     /// Recomputes the operator-dependent interpolation weights from `op`.
     fn update_weights(&mut self, op: &Stencil) {
         let (nx, ny) = (op.nx, op.ny);
         let d = op.dirichlet;
-        let f32s = |[a, b]: [Real; 2]| [a as F, b as F];
+        // the two weights add up to 1 but on the outer side of an axis, where the other is 0
         let body = |(j, (wx, wy)): (usize, WeightRows)| {
             let row = &op.ax[j * (nx + 1)..(j + 1) * (nx + 1)];
             for i in 0..nx {
-                wx[i] = f32s(weights(|f| row[f], nx, i, op.periodic[0], [d[0], d[1]]));
-                wy[i] = f32s(weights(|f| op.ay[i + f * nx], ny, j, op.periodic[1], [d[2], d[3]]));
+                wx[i] = weights(|f| row[f], nx, i, op.periodic[0], [d[0], d[1]])[0] as F;
+                wy[i] = weights(|f| op.ay[i + f * nx], ny, j, op.periodic[1], [d[2], d[3]])[0] as F;
             }
         };
         let rows = self.wx.par_chunks_mut(nx).zip(self.wy.par_chunks_mut(nx));
@@ -461,7 +477,8 @@ impl Level {
     fn restrict_residual(&mut self, op: &Op32, x: &[F], b: &[F]) {
         let (nx, ncx) = (self.nx, self.nx / 2);
         let big = self.nx * self.ny >= PARALLEL_CELLS;
-        let (kx, ky, wx, wy) = (&self.kx, &self.ky, &self.wx, &self.wy);
+        let (kx, ky, wx, wy, [px_, py_]) = (&self.kx, &self.ky, &self.wx, &self.wy, self.periodic);
+        let ny = self.ny;
         let along_x = |buf: &mut Vec<F>, (j, (u0, u1)): (usize, (&mut [F], &mut [F]))| {
             buf.resize(nx + 6 * ncx, 0.0);
             let (r, t) = buf.split_at_mut(nx);
@@ -472,16 +489,16 @@ impl Level {
             let (tl1, t) = t.split_at_mut(ncx);
             let (tr0, tr1) = t.split_at_mut(ncx);
             let (tr1, u0, u1) = (&mut tr1[..ncx], &mut u0[..ncx], &mut u1[..ncx]);
-            let (wx2, wy2, r2) = (
-                &wx[j * nx..(j + 1) * nx].as_chunks::<2>().0[..ncx],
-                &wy[j * nx..(j + 1) * nx].as_chunks::<2>().0[..ncx],
-                &r.as_chunks::<2>().0[..ncx],
-            );
+            let (wx, wy) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx]);
+            let (wx2, wy2, r2) =
+                (&wx.as_chunks::<2>().0[..ncx], &wy.as_chunks::<2>().0[..ncx], &r.as_chunks::<2>().0[..ncx]);
+            let y_in: F = if outside(ny, j, py_) { 0.0 } else { 1.0 };
             // per pair of fine cells 2ic, 2ic + 1: the part for their own coarse column ic
             // (po), the part of 2ic for its other parent (tl: ic − 1, or ic at a wall) and the
             // part of 2ic + 1 for its other parent (tr: ic + 1, or ic), for both y-parent slots
             for ic in 0..ncx {
-                let ([[xo0, xt0], [xo1, xt1]], [[yo0, yt0], [yo1, yt1]], [r0, r1]) = (wx2[ic], wy2[ic], r2[ic]);
+                let ([xo0, xo1], [yo0, yo1], [r0, r1]) = (wx2[ic], wy2[ic], r2[ic]);
+                let (xt0, xt1, yt0, yt1) = (1.0 - xo0, 1.0 - xo1, (1.0 - yo0) * y_in, (1.0 - yo1) * y_in);
                 let (a0, b0, a1, b1) = (r0 * yo0, r0 * yt0, r1 * yo1, r1 * yt1);
                 po0[ic] = xo0 * a0 + xo1 * a1;
                 po1[ic] = xo0 * b0 + xo1 * b1;
@@ -489,6 +506,17 @@ impl Level {
                 tl1[ic] = xt0 * b0;
                 tr0[ic] = xt1 * a1;
                 tr1[ic] = xt1 * b1;
+            }
+            // the outer columns of a non-periodic axis have no other parent
+            for i in [0, nx - 1] {
+                if outside(nx, i, px_) {
+                    let ic = i / 2;
+                    if i % 2 == 0 {
+                        (tl0[ic], tl1[ic]) = (0.0, 0.0);
+                    } else {
+                        (tr0[ic], tr1[ic]) = (0.0, 0.0);
+                    }
+                }
             }
             for ic in [0, ncx - 1] {
                 let (mut s0, mut s1) = (po0[ic], po1[ic]);
@@ -548,12 +576,14 @@ impl Level {
     fn prolong_add(&self, x: &mut [F]) {
         let (nx, ncx) = (self.nx, self.nx / 2);
         let (xc, px, py, wx, wy) = (&self.xc, &self.px, &self.py, &self.wx, &self.wy);
+        let (ny, [px_, py_]) = (self.ny, self.periodic);
         let body = |(j, row): (usize, &mut [F])| {
             let [js, jo] = py[j];
             let (rs, ro) = (&xc[js * ncx..(js + 1) * ncx], &xc[jo * ncx..(jo + 1) * ncx]);
             let (wx, wy) = (&wx[j * nx..(j + 1) * nx], &wy[j * nx..(j + 1) * nx]);
+            let y_in: F = if outside(ny, j, py_) { 0.0 } else { 1.0 };
             let add = |v: &mut F, i: usize, [is, io]: [usize; 2]| {
-                let ([ws, wo], [vs, vo]) = (wx[i], wy[i]);
+                let ([ws, wo], [vs, vo]) = (Self::pair(wx[i], nx, i, px_), Self::pair(wy[i], ny, j, py_));
                 *v += vs * (ws * rs[is] + wo * rs[io]) + vo * (ws * ro[is] + wo * ro[io]);
             };
             for i in [0, 1, nx - 2, nx - 1] {
@@ -566,9 +596,10 @@ impl Level {
                 &wx.as_chunks::<2>().0[1..][..m],
                 &wy.as_chunks::<2>().0[1..][..m],
             );
-            for ((((v, [[xo0, xt0], [xo1, xt1]]), [[yo0, yt0], [yo1, yt1]]), s), o) in
+            for ((((v, [xo0, xo1]), [yo0, yo1]), s), o) in
                 row2.iter_mut().zip(wx2).zip(wy2).zip(rs.windows(3)).zip(ro.windows(3))
             {
+                let (xt0, xt1, yt0, yt1) = (1.0 - xo0, 1.0 - xo1, (1.0 - yo0) * y_in, (1.0 - yo1) * y_in);
                 v[0] += yo0 * (xo0 * s[1] + xt0 * s[0]) + yt0 * (xo0 * o[1] + xt0 * o[0]);
                 v[1] += yo1 * (xo1 * s[1] + xt1 * s[2]) + yt1 * (xo1 * o[1] + xt1 * o[2]);
             }
@@ -661,8 +692,9 @@ impl Hierarchy {
                 ky: children(&py),
                 px,
                 py,
-                wx: vec![[1.0, 0.0]; nx * ny],
-                wy: vec![[1.0, 0.0]; nx * ny],
+                wx: vec![1.0; nx * ny],
+                wy: vec![1.0; nx * ny],
+                periodic,
             });
             nx /= 2;
             ny /= 2;
