@@ -285,7 +285,8 @@ unsafe fn relax_row_vec(op: &Op32, b: &[F], x: Shared, colour: usize, j: usize, 
         t[nx - 1] = cell(nx - 1, nx - 2, east);
         let m = nx - 2;
         let (tt, ww, we, xw, xe) = (&mut t[1..nx - 1], &aw[1..nx - 1], &aw[2..nx], &xc[..m], &xc[2..]);
-        let (a_s, xs, a_n, xn, b, inv) = (&a_s[1..][..m], &xs[1..][..m], &a_n[1..][..m], &xn[1..][..m], &b[1..][..m], &inv[1..][..m]);
+        let (a_s, xs, a_n, xn, b, inv) =
+            (&a_s[1..][..m], &xs[1..][..m], &a_n[1..][..m], &xn[1..][..m], &b[1..][..m], &inv[1..][..m]);
         let (tt, ww, we, xw, xe) = (&mut tt[..m], &ww[..m], &we[..m], &xw[..m], &xe[..m]);
         for k in 0..m {
             let s = ww[k] * xw[k] + we[k] * xe[k] + a_s[k] * xs[k] + a_n[k] * xn[k];
@@ -370,7 +371,8 @@ fn sweep(op: &Op32, b: &[F], x: &mut [F], first: usize, zero: bool) {
     assert!(x.len() == op.len() && b.len() == op.len() && nx & 1 == 0 && ny & 1 == 0 && nx >= 4);
     let ptr = Shared(x.as_mut_ptr());
     let second = 1 - first;
-    let blocks = if op.len() >= PARALLEL_CELLS { (4 * rayon::current_num_threads()).min(ny / BLOCK_ROWS).max(1) } else { 1 };
+    let blocks =
+        if op.len() >= PARALLEL_CELLS { (4 * rayon::current_num_threads()).min(ny / BLOCK_ROWS).max(1) } else { 1 };
     let range = |k: usize| (k * ny / blocks, (k + 1) * ny / blocks);
     // SAFETY: in the first stage a block writes its rows' first colour and the second colour
     // of its inner rows, reading its own rows and only the other colour of the neighbouring
@@ -531,7 +533,9 @@ impl Level {
             }
             // inside: ic gathers 2ic − 1 (tr of ic − 1), its own pair and 2ic + 2 (tl of ic + 1)
             let m = ncx - 2;
-            for (u, p, l, r) in [(&mut u0[1..], &po0[1..], &tl0[2..], &tr0[..]), (&mut u1[1..], &po1[1..], &tl1[2..], &tr1[..])] {
+            for (u, p, l, r) in
+                [(&mut u0[1..], &po0[1..], &tl0[2..], &tr0[..]), (&mut u1[1..], &po1[1..], &tl1[2..], &tr1[..])]
+            {
                 for (((u, p), l), r) in u[..m].iter_mut().zip(&p[..m]).zip(&l[..m]).zip(&r[..m]) {
                     *u = (r + p) + l;
                 }
@@ -764,7 +768,16 @@ impl Cycle {
 
     /// The V-cycle in f32 on the finest level: x = M b.
     fn run32(&mut self, ops: &[Stencil], b: &[F], x: &mut [F]) {
-        cycle(&self.ops, &mut self.levels, &mut self.coarse, &mut self.coarse_x, ops[0].is_singular(), self.sweeps, b, x);
+        cycle(
+            &self.ops,
+            &mut self.levels,
+            &mut self.coarse,
+            &mut self.coarse_x,
+            ops[0].is_singular(),
+            self.sweeps,
+            b,
+            x,
+        );
     }
 }
 

@@ -265,7 +265,9 @@ impl Stencil {
                 // bits without the Dirichlet terms): one array less to read
                 let (aw, ae) = (&self.ax[k + j..k + j + nx], &self.ax[k + j + 1..k + j + 1 + nx]);
                 let (a_s, a_n) = (&self.ay[k..k + nx], &self.ay[k + nx..k + 2 * nx]);
-                for (((y, x), (aw, ae)), (a_s, a_n)) in row.iter_mut().zip(x).zip(aw.iter().zip(ae)).zip(a_s.iter().zip(a_n)) {
+                for (((y, x), (aw, ae)), (a_s, a_n)) in
+                    row.iter_mut().zip(x).zip(aw.iter().zip(ae)).zip(a_s.iter().zip(a_n))
+                {
                     *y = (aw + ae + a_s + a_n) * x - *y;
                 }
             } else {
