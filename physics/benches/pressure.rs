@@ -8,7 +8,9 @@
 //! a line `solve <solver> rho <ρ> n <n> threads <t> iterations <k> cpu_ms <c> wall_ms <w>`
 //! goes to stderr: the median over a few solves of the process CPU time (all threads) and of
 //! the wall time. On a shared machine the CPU time is the robust figure: it does not count
-//! the time other processes hold the cores. `PRESSURE_SIZES=64,128` limits the sizes.
+//! the time other processes hold the cores. `PRESSURE_SIZES=64,128` limits the sizes,
+//! `PRESSURE_SOLVERS=mg_pcg,cholesky` the solvers, `PRESSURE_THREADS=1` the thread counts;
+//! `PRESSURE_NO_CAP=1` lifts the per-solver size caps (Cholesky at 1024², ~1.3 s a solve).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use multifield_core::boundary::Boundaries;
@@ -85,7 +87,13 @@ fn bench(c: &mut Criterion) {
     let sizes: Vec<usize> = std::env::var("PRESSURE_SIZES")
         .map(|s| s.split(',').map(|v| v.parse().expect("PRESSURE_SIZES=64,128")).collect())
         .unwrap_or_else(|_| vec![64, 128, 256, 512, 1024]);
-    for threads in [1, 2] {
+    let wanted: Option<Vec<String>> =
+        std::env::var("PRESSURE_SOLVERS").ok().map(|s| s.split(',').map(str::to_string).collect());
+    let no_cap = std::env::var("PRESSURE_NO_CAP").is_ok_and(|v| v == "1");
+    let thread_counts: Vec<usize> = std::env::var("PRESSURE_THREADS")
+        .map(|s| s.split(',').map(|v| v.parse().expect("PRESSURE_THREADS=1,2")).collect())
+        .unwrap_or_else(|_| vec![1, 2]);
+    for threads in thread_counts {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
         for rho in [1.5, 1000.0] {
             let mut group = c.benchmark_group(format!("pressure/rho{rho}/threads{threads}"));
@@ -94,7 +102,7 @@ fn bench(c: &mut Criterion) {
                 let problem = dkt(n, rho);
                 group.throughput(Throughput::Elements((n * n) as u64));
                 for (name, make, max_n) in solvers() {
-                    if n > max_n {
+                    if (n > max_n && !no_cap) || wanted.as_ref().is_some_and(|w| !w.iter().any(|s| s == name)) {
                         continue;
                     }
                     let mut solver = make();

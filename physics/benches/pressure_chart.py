@@ -40,7 +40,7 @@ def chart(times, rho, out):
     y0, y1 = math.floor(math.log10(min(ys))), math.ceil(math.log10(max(ys)))
     px = lambda x: left + (math.log10(x) - x0) / (x1 - x0) * (w - left - right)
     py = lambda y: h - bottom - (math.log10(y) - y0) / (y1 - y0) * (h - top - bottom)
-    colors = {"mg_pcg": "#1f77b4", "multigrid": "#2ca02c", "cholesky": "#d62728", "jacobi_pcg": "#7f7f7f"}
+    colors = {"mg_pcg": "#1f77b4", "mg_pcg_before": "#9ecae1", "multigrid": "#2ca02c", "cholesky": "#d62728", "jacobi_pcg": "#7f7f7f"}
     svg = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
            f'<rect width="{w}" height="{h}" fill="white"/>',
            f'<text x="{w / 2 - 60}" y="20" font-size="14">Pressure solve time, ρ disk = {rho}, tol 1e-8</text>']

@@ -4,8 +4,8 @@
 //! is bit-identical for any number of threads. Not converging is an error that carries
 //! the residual history.
 
-use super::multigrid::{default_sweeps, Hierarchy};
-use super::stencil::Stencil;
+use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
+use super::stencil::{dot_lanes, Stencil};
 use multifield_core::math::Real;
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
@@ -45,6 +45,135 @@ pub struct Pcg {
     /// The operator (without multigrid), kept across solves.
     #[serde(skip)]
     stencil: Stencil,
+    /// Vectors of the multigrid-preconditioned iteration, kept across solves.
+    #[serde(skip)]
+    scratch: Scratch,
+}
+
+/// CG vectors in f64 (r, p, q) and the V-cycle's input and output in f32.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    r: Vec<Real>,
+    p: Vec<Real>,
+    q: Vec<Real>,
+    r32: Vec<F>,
+    z32: Vec<F>,
+}
+
+/// Runs PCG with one f32 multigrid V-cycle as preconditioner (see [`pcg`]), with the vector
+/// passes fused: A p with p · q; the update of r with r · r and the f32 copy of r; x += α p
+/// with the next p = z + β p (z read in f32). Reductions go by fixed chunks or rows: the result is
+/// the same to the bit for any number of threads.
+fn pcg_multigrid(
+    problem: &PoissonProblem,
+    x: &mut [Real],
+    tolerance: Real,
+    max_iterations: usize,
+    mg: &mut Hierarchy,
+    s: &mut Scratch,
+) -> Result<SolveStats> {
+    let n = x.len();
+    let b = &problem.rhs;
+    let bnorm = dot(b, b).sqrt();
+    let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
+    if bnorm == 0.0 {
+        x.fill(0.0);
+        return Ok(stats(0, 0.0));
+    }
+    for v in [&mut s.r, &mut s.p, &mut s.q] {
+        v.resize(n, 0.0);
+    }
+    s.z32.resize(n, 0.0);
+    let Scratch { r, p, q, r32, z32 } = s;
+    let (op, mut precondition) = mg.split32();
+    op.residual(x, b, r);
+    if problem.is_singular() {
+        // keep the residual in the range of A (round-off drift of the constant)
+        let mean = multifield_core::poisson::sum(r) / n as Real;
+        r.par_iter_mut().for_each(|v| *v -= mean);
+    }
+    let mut rnorm = dot(r, r).sqrt();
+    let mut history = vec![rnorm / bnorm];
+    if rnorm / bnorm <= tolerance {
+        return Ok(stats(0, rnorm / bnorm));
+    }
+    to_f32(r, r32);
+    precondition(r32, z32);
+    let mut rz = dot_mixed(r, z32);
+    p.par_chunks_mut(CHUNK).zip(z32.par_chunks(CHUNK)).for_each(|(p, z)| {
+        p.iter_mut().zip(z).for_each(|(p, &z)| *p = Real::from(z));
+    });
+    for it in 1..=max_iterations {
+        let pq = op.apply_dot(p, q);
+        if pq.is_nan() || pq <= 0.0 {
+            break;
+        }
+        let alpha = rz / pq;
+        let rr = update(r, r32, q, alpha);
+        rnorm = rr.sqrt();
+        history.push(rnorm / bnorm);
+        if rnorm / bnorm <= tolerance {
+            x.par_chunks_mut(CHUNK).zip(p.par_chunks(CHUNK)).for_each(|(x, p)| {
+                x.iter_mut().zip(p).for_each(|(x, p)| *x += alpha * p);
+            });
+            return Ok(stats(it, rnorm / bnorm));
+        }
+        precondition(r32, z32);
+        let rz_new = dot_mixed(r, z32);
+        let beta = rz_new / rz;
+        rz = rz_new;
+        // x += α p with the p of this iteration, then the next p = z + β p
+        x.par_chunks_mut(CHUNK).zip(p.par_chunks_mut(CHUNK)).zip(z32.par_chunks(CHUNK)).for_each(|((x, p), z)| {
+            x.iter_mut().zip(p.iter_mut()).zip(z).for_each(|((x, p), &z)| {
+                *x += alpha * *p;
+                *p = Real::from(z) + beta * *p;
+            });
+        });
+    }
+    Err(Error::SolverDiverged {
+        solver: "pcg".to_string(),
+        tolerance,
+        iterations: history.len() - 1,
+        residual: *history.last().unwrap_or(&Real::NAN),
+        history: history.iter().step_by(10).map(|h| format!("{h:.2e}")).collect::<Vec<_>>().join(" "),
+    })
+}
+
+/// r · z with z in f32, by fixed chunks.
+fn dot_mixed(r: &[Real], z: &[F]) -> Real {
+    let partial: Vec<Real> = r
+        .par_chunks(CHUNK)
+        .zip(z.par_chunks(CHUNK))
+        .map(|(r, z)| {
+            let mut acc = [0.0; 8];
+            let (cr, cz) = (r.chunks_exact(8), z.chunks_exact(8));
+            let tail: Real = cr.remainder().iter().zip(cz.remainder()).map(|(r, &z)| r * Real::from(z)).sum();
+            for (r, z) in cr.zip(cz) {
+                for l in 0..8 {
+                    acc[l] += r[l] * Real::from(z[l]);
+                }
+            }
+            ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+        })
+        .collect();
+    partial.iter().sum()
+}
+
+/// r −= α q, r32 = r in f32; returns r · r (by fixed chunks).
+fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
+    let partial: Vec<Real> = r
+        .par_chunks_mut(CHUNK)
+        .zip(r32.par_chunks_mut(CHUNK))
+        .zip(q.par_chunks(CHUNK))
+        .map(|((r, r32), q)| {
+            r.iter_mut().zip(q).zip(r32.iter_mut()).for_each(|((r, q), r32)| {
+                *r -= alpha * q;
+                *r32 = *r as F;
+            });
+            dot_lanes(r, r)
+        })
+        .collect();
+    partial.iter().sum()
 }
 
 fn default_pre() -> PreconditionerKind {
@@ -66,6 +195,7 @@ impl Pcg {
             max_iterations,
             multigrid: Hierarchy::new(default_sweeps()),
             stencil: Stencil::default(),
+            scratch: Scratch::default(),
         }
     }
 
@@ -187,8 +317,7 @@ impl PressureSolver for Pcg {
         let (tol, cap) = (self.tolerance, self.max_iterations);
         if self.preconditioner == PreconditionerKind::Multigrid {
             self.multigrid.setup(problem).map_err(Error::Model)?;
-            let (op, mg) = self.multigrid.split();
-            return pcg("pcg", problem, x, tol, cap, |x, y| op.apply(x, y), mg);
+            return pcg_multigrid(problem, x, tol, cap, &mut self.multigrid, &mut self.scratch);
         }
         self.stencil.assign(problem);
         let op = &self.stencil;

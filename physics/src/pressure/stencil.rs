@@ -14,6 +14,20 @@ use rayon::prelude::*;
 /// Rows below this many cells are processed on one thread (the result is the same).
 pub(crate) const PARALLEL_CELLS: usize = 16_384;
 
+/// a · b with eight partial sums (vectorisable; a fixed order, so deterministic).
+#[inline]
+pub(crate) fn dot_lanes(a: &[Real], b: &[Real]) -> Real {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: Real = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in ca.zip(cb) {
+        for l in 0..8 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+}
+
 /// A 5-point operator on an `nx × ny` cell grid.
 #[derive(Clone, Debug, Default)]
 pub struct Stencil {
@@ -235,6 +249,40 @@ impl Stencil {
         } else {
             r.chunks_mut(nx).enumerate().for_each(body);
         }
+    }
+
+    /// y = A x, and returns x · y (per-row partial sums added in row order: the same bits
+    /// for any number of threads).
+    pub fn apply_dot(&self, x: &[Real], y: &mut [Real]) -> Real {
+        let nx = self.nx;
+        let no_extra = self.dirichlet.iter().all(|&d| !d);
+        let body = |(j, row): (usize, &mut [Real])| {
+            self.offdiag_row(j, x, row);
+            let k = j * nx;
+            let x = &x[k..k + nx];
+            if no_extra {
+                // the diagonal from the couplings, added as in `update_diagonal` (the same
+                // bits without the Dirichlet terms): one array less to read
+                let (aw, ae) = (&self.ax[k + j..k + j + nx], &self.ax[k + j + 1..k + j + 1 + nx]);
+                let (a_s, a_n) = (&self.ay[k..k + nx], &self.ay[k + nx..k + 2 * nx]);
+                for (((y, x), (aw, ae)), (a_s, a_n)) in
+                    row.iter_mut().zip(x).zip(aw.iter().zip(ae)).zip(a_s.iter().zip(a_n))
+                {
+                    *y = (aw + ae + a_s + a_n) * x - *y;
+                }
+            } else {
+                for ((y, d), x) in row.iter_mut().zip(&self.diag[k..k + nx]).zip(x) {
+                    *y = d * x - *y;
+                }
+            }
+            dot_lanes(row, x)
+        };
+        let partial: Vec<Real> = if self.len() >= PARALLEL_CELLS {
+            y.par_chunks_mut(nx).enumerate().map(body).collect()
+        } else {
+            y.chunks_mut(nx).enumerate().map(body).collect()
+        };
+        partial.iter().sum()
     }
 
     /// y = A x.
