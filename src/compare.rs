@@ -93,14 +93,6 @@ pub fn with_representation(case: &Case, rep: Representation) -> Result<Case, Err
     Ok(c)
 }
 
-fn along_axis(case: &Case) -> (usize, Real, Real) {
-    let g = case.gravity;
-    let axis = if g[1].abs() >= g[0].abs() { 1 } else { 0 };
-    let sign = if g[axis] < 0.0 { -1.0 } else { 1.0 };
-    let wall = if sign < 0.0 { case.domain.origin[axis] + case.domain.size[axis] } else { case.domain.origin[axis] };
-    (axis, sign, wall)
-}
-
 fn figures(dir: &Path, label: &str, reference: Option<&Path>) -> Result<(RunFigures, BTreeMap<String, Track>), Error> {
     let text = std::fs::read_to_string(dir.join("case.ron"))
         .map_err(|source| Error::Io { path: dir.join("case.ron"), source })?;
@@ -110,7 +102,7 @@ fn figures(dir: &Path, label: &str, reference: Option<&Path>) -> Result<(RunFigu
         .and_then(|t| serde_json::from_str(&t).ok())
         .unwrap_or_default();
     let tracks = dkt::read_bodies(&dir.join("bodies.csv"))?;
-    let (axis, sign, wall) = along_axis(&case);
+    let fr = dkt::Frame::new(&case);
     let mut diameter: Real = 0.0;
     for f in &case.fields {
         if let Region::Bodies(b) = &f.region {
@@ -124,13 +116,13 @@ fn figures(dir: &Path, label: &str, reference: Option<&Path>) -> Result<(RunFigu
     let bodies = tracks
         .iter()
         .map(|(name, tr)| {
-            let v = if axis == 1 { &tr.vy } else { &tr.vx };
-            let p = if axis == 1 { &tr.y } else { &tr.x };
+            let v = if fr.axis == 1 { &tr.vy } else { &tr.vx };
+            let n = tr.t.len();
             BodyFigures {
                 body: name.clone(),
-                final_settling_speed: v.last().map_or(0.0, |v| sign * v),
-                max_settling_speed: v.iter().map(|v| sign * v).fold(0.0, Real::max),
-                final_position: p.last().map_or(0.0, |p| sign * (p - wall)),
+                final_settling_speed: v.last().map_or(0.0, |v| fr.sign * v),
+                max_settling_speed: v.iter().map(|v| fr.sign * v).fold(0.0, Real::max),
+                final_position: if n > 0 { fr.along(tr.x[n - 1], tr.y[n - 1]) } else { 0.0 },
             }
         })
         .collect();
@@ -228,23 +220,22 @@ pub fn compare(
     }
     std::fs::write(out.join("comparison.csv"), csv).map_err(|e| io(out.join("comparison.csv"), e))?;
     // overlays: every body of both runs, along gravity and its speed
-    let (axis, sign, wall) = along_axis(case);
+    let fr = dkt::Frame::new(case);
     let mut pos = Vec::new();
     let mut vel = Vec::new();
     for (k, (label, tracks)) in [("resolved", &r_tracks), ("point", &p_tracks)].into_iter().enumerate() {
         for (b, (name, tr)) in tracks.iter().enumerate() {
-            let p = if axis == 1 { &tr.y } else { &tr.x };
-            let v = if axis == 1 { &tr.vy } else { &tr.vx };
+            let v = if fr.axis == 1 { &tr.vy } else { &tr.vx };
             let color = 2 * b + k;
             pos.push(Series {
                 label: format!("{name}, {label}"),
-                points: tr.t.iter().zip(p).map(|(t, p)| (*t, sign * (p - wall))).collect(),
+                points: (0..tr.t.len()).map(|i| (tr.t[i], fr.along(tr.x[i], tr.y[i]))).collect(),
                 color,
                 markers: false,
             });
             vel.push(Series {
                 label: format!("{name}, {label}"),
-                points: tr.t.iter().zip(v).map(|(t, v)| (*t, sign * v)).collect(),
+                points: tr.t.iter().zip(v).map(|(t, v)| (*t, fr.sign * v)).collect(),
                 color,
                 markers: false,
             });

@@ -107,15 +107,18 @@ pub struct Report {
 }
 
 /// Along-gravity coordinate measured from the upstream wall, for gravity along ±x or ±y.
-struct Frame {
-    axis: usize,
-    sign: Real,
+pub(crate) struct Frame {
+    /// 0 for gravity along x, 1 along y.
+    pub(crate) axis: usize,
+    /// −1 when gravity points to −axis.
+    pub(crate) sign: Real,
     wall: Real,
     center: Real,
 }
 
 impl Frame {
-    fn new(case: &Case) -> Self {
+    /// The frame of `case`'s gravity and domain.
+    pub(crate) fn new(case: &Case) -> Self {
         let g = case.gravity;
         let axis = if g[1].abs() >= g[0].abs() { 1 } else { 0 };
         let sign = if g[axis] < 0.0 { -1.0 } else { 1.0 };
@@ -126,7 +129,7 @@ impl Frame {
         Self { axis, sign, wall, center }
     }
     /// Distance from the upstream wall along gravity.
-    fn along(&self, x: Real, y: Real) -> Real {
+    pub(crate) fn along(&self, x: Real, y: Real) -> Real {
         let p = if self.axis == 1 { y } else { x };
         self.sign * (p - self.wall)
     }

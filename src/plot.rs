@@ -263,7 +263,7 @@ where
 
 /// Draws `stem.png` and `stem.svg` with `png` and `svg` (each given its file), under
 /// temporary names renamed at the end.
-fn write_both(
+pub(crate) fn write_both(
     stem: &Path,
     png: impl Fn(&Path) -> Result<(), String>,
     svg: impl Fn(&Path) -> Result<(), String>,

@@ -10,7 +10,7 @@
 
 use crate::core::error::Error;
 use crate::core::math::Real;
-use crate::plot::{register_font, PALETTE};
+use crate::plot::{register_font, write_both, PALETTE};
 use crate::study::{ChartSpec, Plan, Row};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -30,7 +30,7 @@ pub fn write(plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, Error> {
                 let size = (1000, 700);
                 let png = |p: &Path| draw_accuracy(&BitMapBackend::new(p, size).into_drawing_area(), &data);
                 let svg = |p: &Path| draw_accuracy(&SVGBackend::new(p, size).into_drawing_area(), &data);
-                save(&stem, png, svg)?;
+                write_both(&stem, png, svg)?;
             }
             ChartSpec::StabilityMap { x, y, .. } => {
                 let map = stability_data(plan, rows, x, y);
@@ -39,31 +39,12 @@ pub fn write(plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, Error> {
                 let size = (40 + 540 * cols as u32, 50 + 470 * lines as u32);
                 let png = |p: &Path| draw_stability(&BitMapBackend::new(p, size).into_drawing_area(), &map);
                 let svg = |p: &Path| draw_stability(&SVGBackend::new(p, size).into_drawing_area(), &map);
-                save(&stem, png, svg)?;
+                write_both(&stem, png, svg)?;
             }
         }
         written.push(stem.with_extension("png"));
     }
     Ok(written)
-}
-
-/// Writes `stem.png` and `stem.svg` under temporary names, then renames them.
-fn save(
-    stem: &Path,
-    png: impl Fn(&Path) -> Result<(), String>,
-    svg: impl Fn(&Path) -> Result<(), String>,
-) -> Result<(), Error> {
-    for ext in ["png", "svg"] {
-        let path = stem.with_extension(ext);
-        let tmp = stem.with_extension(format!("partial.{ext}"));
-        let result = if ext == "png" { png(&tmp) } else { svg(&tmp) };
-        if let Err(m) = result {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(Error::Model(format!("cannot draw {}: {m}", path.display())));
-        }
-        std::fs::rename(&tmp, &path).map_err(|source| Error::Io { path: path.clone(), source })?;
-    }
-    Ok(())
 }
 
 /// The points of one method: (wall time, error, label).

@@ -795,12 +795,7 @@ impl Simulation {
                     loc.u_old[k] = u0;
                     loc.material_density[k] = densities[k];
                 }
-                let mut added_mass: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
-                for ([a, b], c) in &added {
-                    let am = c * loc.theta[*b];
-                    added_mass[*a][*b] = am;
-                    added_mass[*b][*a] = am;
-                }
+
                 let mut implicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
                 let mut explicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
                 let mut any_explicit = false;
@@ -819,7 +814,17 @@ impl Simulation {
                 if any_explicit {
                     exchange::explicit(&mut loc, &explicit, dt);
                 }
-                exchange::solve_with_added_mass(&mut loc, &implicit, &added_mass, dt);
+                if added.is_empty() {
+                    exchange::solve(&mut loc, &implicit, dt);
+                } else {
+                    let mut added_mass: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
+                    for ([a, b], c) in &added {
+                        let am = c * loc.theta[*b];
+                        added_mass[*a][*b] = am;
+                        added_mass[*b][*a] = am;
+                    }
+                    exchange::solve_with_added_mass(&mut loc, &implicit, &added_mass, dt);
+                }
                 for (k, f) in self.fields.iter_mut().enumerate() {
                     let s = &mut f.state;
                     if lattice == 0 {

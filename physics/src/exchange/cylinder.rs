@@ -35,7 +35,7 @@
 use super::drag::{fill_drag, validate_particle};
 use multifield_core::math::Real;
 use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
-use multifield_core::registry::{params_value, ParamDoc};
+use multifield_core::registry::params_value;
 use serde::{Deserialize, Serialize};
 
 /// Euler's constant γ.
@@ -114,19 +114,9 @@ multifield_core::register!(
     Cylinder,
     "drag on 2D cylinders (fluid = first field): Lamb below Re 0.5, White CD = 1 + 10Re^(-2/3) above 1",
     &[
-        ParamDoc { name: "diameter", unit: "length", default: "required", doc: "cylinder diameter d" },
-        ParamDoc {
-            name: "viscosity",
-            unit: "mass/(length·time)",
-            default: "required",
-            doc: "dynamic viscosity μ of the fluid (first field of `between`)",
-        },
-        ParamDoc {
-            name: "di_felice",
-            unit: "-",
-            default: "false",
-            doc: "Di Felice (1994) dense-suspension factor θf^(−χ) at the superficial slip",
-        },
+        super::drag::PARTICLE_PARAMS[0],
+        super::drag::PARTICLE_PARAMS[1],
+        super::drag::DI_FELICE_PARAM,
         super::drag::POINT_PARAMS[0],
         super::drag::POINT_PARAMS[1],
     ]

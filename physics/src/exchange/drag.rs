@@ -60,6 +60,30 @@ pub fn validate_particle(diameter: Real, viscosity: Real) -> Result<(), String> 
     Ok(())
 }
 
+/// The particle diameter and the fluid's viscosity, which every drag law takes.
+pub const PARTICLE_PARAMS: [ParamDoc; 2] = [
+    ParamDoc {
+        name: "diameter",
+        unit: "length",
+        default: "required (mass points: the bodies')",
+        doc: "particle diameter d",
+    },
+    ParamDoc {
+        name: "viscosity",
+        unit: "mass/(length·time)",
+        default: "required (mass points: the fluid's newtonian)",
+        doc: "dynamic viscosity μ of the fluid (first field of `between`)",
+    },
+];
+
+/// Di Felice's dense-suspension option of the slip-dependent laws.
+pub const DI_FELICE_PARAM: ParamDoc = ParamDoc {
+    name: "di_felice",
+    unit: "-",
+    default: "false",
+    doc: "Di Felice (1994) dense-suspension factor θf^(−χ) at the superficial slip",
+};
+
 /// The options every drag law offers point particles (`representation: MassPoint`).
 pub const POINT_PARAMS: [ParamDoc; 2] = [
     ParamDoc {

@@ -28,7 +28,7 @@
 use super::drag::{fill_drag, validate_particle};
 use multifield_core::math::Real;
 use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
-use multifield_core::registry::{params_value, ParamDoc};
+use multifield_core::registry::params_value;
 use serde::{Deserialize, Serialize};
 
 /// Reynolds number above which C_D = 0.44.
@@ -80,19 +80,9 @@ multifield_core::register!(
     SchillerNaumann,
     "Schiller–Naumann drag on spheres (fluid = first field): CD = 24/Re(1 + 0.15Re^0.687), 0.44 above Re 1000",
     &[
-        ParamDoc { name: "diameter", unit: "length", default: "required", doc: "particle diameter d" },
-        ParamDoc {
-            name: "viscosity",
-            unit: "mass/(length·time)",
-            default: "required",
-            doc: "dynamic viscosity μ of the fluid (first field of `between`)",
-        },
-        ParamDoc {
-            name: "di_felice",
-            unit: "-",
-            default: "false",
-            doc: "Di Felice (1994) dense-suspension factor θf^(−χ) at the superficial slip",
-        },
+        super::drag::PARTICLE_PARAMS[0],
+        super::drag::PARTICLE_PARAMS[1],
+        super::drag::DI_FELICE_PARAM,
         super::drag::POINT_PARAMS[0],
         super::drag::POINT_PARAMS[1],
     ]

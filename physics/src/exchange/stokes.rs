@@ -13,7 +13,7 @@
 
 use multifield_core::math::Real;
 use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
-use multifield_core::registry::{params_value, ParamDoc};
+use multifield_core::registry::params_value;
 use serde::{Deserialize, Serialize};
 
 use super::drag::{validate_particle, THETA_FLOOR};
@@ -52,13 +52,8 @@ multifield_core::register!(
     Stokes,
     "Stokes drag on spheres (fluid = first field): K = 18μ/(d²θf)",
     &[
-        ParamDoc { name: "diameter", unit: "length", default: "required", doc: "particle diameter d" },
-        ParamDoc {
-            name: "viscosity",
-            unit: "mass/(length·time)",
-            default: "required",
-            doc: "dynamic viscosity μ of the fluid (first field of `between`)",
-        },
+        super::drag::PARTICLE_PARAMS[0],
+        super::drag::PARTICLE_PARAMS[1],
         super::drag::POINT_PARAMS[0],
         super::drag::POINT_PARAMS[1],
     ]
