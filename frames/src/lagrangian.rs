@@ -337,7 +337,9 @@ impl Lagrangian {
     /// velocities are projected back to the grid, `u_i = Σ m_p S_ip v_p / Σ m_p S_ip`, and
     /// `∇v_p = Σ u_i ∇S_ip`, `F ← (I + Δt ∇v) F` at the positions of the step's start. The plain
     /// grid velocity `(mu + Δt f)/m` is unbounded on a face that a point barely reaches
-    /// (m ∝ S, f ∝ ∇S), which blows F up when a point crosses into an empty cell.
+    /// (m ∝ S, f ∝ ∇S), which blows F up when a point crosses into an empty cell. Not used for a
+    /// fluid of `volumetric_only` models on the quadratic B-spline (J from the transfer's ∇v,
+    /// see `from_grid`).
     fn update_deformation_musl(&mut self, g: &Grid, bc: &Boundaries, dt: Real, x_start: &[Vector]) {
         let (shape, h) = (self.shape, g.h);
         let ns = shape.support();
@@ -683,12 +685,22 @@ impl Frame for Lagrangian {
         let (shape, transfer, alpha, dt, h) = (self.shape, self.transfer, self.flip_blend, ctx.dt, g.h);
         let ns = shape.support();
         let dinv = shape.apic_d_inverse(h);
-        let track_f = self.has_point_stress;
+        // Solids: ∇v and F from the re-projected velocities (MUSL, below). A fluid whose stress
+        // depends on F only through J, on the quadratic B-spline: J from ∇v of this gather, the
+        // gradient of the new grid velocity (one scatter and one gather per step, as mpm88).
+        // MUSL guards against u = (mu + Δt f)/m on a face a point barely reaches, m ∝ S, f ∝ ∇S;
+        // that face enters the point's own ∇v weighted by ∇S, so as |∇S|²/S, which is at most
+        // 2/h² for the B-spline (w'²/w = 2 on its outer pieces, ≤ 2 inside) but 1/(h² w) for
+        // the tent: a linear-shape fluid keeps MUSL. (mpm88's tr C, C the APIC matrix, in place
+        // of this ∇v, which is the gradient the internal force −V σ ∇S pairs with, made
+        // examples/mpm88.ron go unstable near step 1,440.)
+        let grid_j = self.has_point_stress && self.volumetric_only && shape == Shape::Quadratic;
+        let musl = self.has_point_stress && !grid_j;
         let rigid = ctx.stress.iter().any(|m| m.is_rigid()) && !self.bodies.is_empty();
         if !self.bodies.is_empty() {
             self.x_old.clone_from(&self.points.x);
         }
-        let x_start = track_f.then(|| self.points.x.clone());
+        let x_start = musl.then(|| self.points.x.clone());
         let pts = &mut self.points;
         let lo = g.origin;
         let hi = g.origin + g.size();
@@ -698,7 +710,7 @@ impl Frame for Lagrangian {
             .zip(pts.v.par_iter_mut())
             .zip(pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()))
             .zip(pts.c_u.par_iter_mut().zip(pts.c_v.par_iter_mut()))
-            .for_each(|(((x, v), (_f, gv)), (cu, cv))| {
+            .for_each(|(((x, v), (f, gv)), (cu, cv))| {
                 let w = point_weights(shape, g, *x);
                 let (mut upic, mut du) = (Vector::zeros(), Vector::zeros());
                 let (mut gu, mut gvv) = (Vector::zeros(), Vector::zeros());
@@ -751,9 +763,15 @@ impl Frame for Lagrangian {
                         }
                     }
                 }
-                // with point stresses, ∇v and F come from the re-projected velocities (MUSL, below)
-                if !track_f {
+                if !musl {
                     *gv = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
+                }
+                if grid_j {
+                    // F = diag(J, 1): J ← det((I + Δt ∇v) F) = J det(I + Δt ∇v), the volume
+                    // change of the step's own kinematic update (the same as tracking the full
+                    // F and taking its determinant); mpm88's J (1 + Δt tr C) drops the Δt² det ∇v
+                    let l = Matrix::identity() + dt * *gv;
+                    *f = Matrix::new(f.determinant() * l.determinant(), 0.0, 0.0, 1.0);
                 }
                 *x += dt * upic;
                 // keep points in the domain: wrap periodic sides, stop at walls
