@@ -551,31 +551,41 @@ fn gather_lattice<const NS: usize>(
     let (ni, nj) = if x_faces { (g.nx + 1, g.ny) } else { (g.nx, g.ny + 1) };
     let (ox, oy) = if x_faces { (0.0, 0.5) } else { (0.5, 0.0) };
     let inside = wx.base >= 0 && wy.base >= 0 && wx.base as usize + NS <= ni && wy.base as usize + NS <= nj;
-    let row = |arr: &[Real], b: usize| -> [Real; NS] {
+    // the stencil's values, rows along y
+    let values = |arr: &[Real]| -> [[Real; NS]; NS] {
         if inside {
-            let start = wx.base as usize + (wy.base as usize + b) * ni;
-            let mut r = [0.0; NS];
-            r.copy_from_slice(&arr[start..start + NS]);
-            r
+            let mut v = [[0.0; NS]; NS];
+            for (b, row) in v.iter_mut().enumerate() {
+                let start = wx.base as usize + (wy.base as usize + b) * ni;
+                row.copy_from_slice(&arr[start..start + NS]);
+            }
+            v
         } else {
-            std::array::from_fn(|a| sample(g, bc, arr, x_faces, wx.base + a as isize, wy.base + b as isize))
+            std::array::from_fn(|b| {
+                std::array::from_fn(|a| sample(g, bc, arr, x_faces, wx.base + a as isize, wy.base + b as isize))
+            })
         }
     };
+    let un = values(new);
+    let uo = if want.delta { values(old) } else { un };
     let dx: [Real; NS] = std::array::from_fn(|a| (wx.base + a as isize) as Real + ox - xi.x);
+    // the tensor-product sums, along x first: S = wx wy, ∇S = (wx' wy, wx wy')
     let mut r = Gathered::default();
     for b in 0..NS {
-        let un = row(new, b);
-        let uo = if want.delta { row(old, b) } else { un };
-        let (wyb, dwyb) = (wy.w[b], wy.dw[b]);
-        let dy = (wy.base + b as isize) as Real + oy - xi.y;
+        let (mut sw, mut sdw, mut sd, mut sdel) = (0.0, 0.0, 0.0, 0.0);
         for a in 0..NS {
-            let sw = wx.w[a] * wyb;
-            r.pic += sw * un[a];
-            r.delta += sw * (un[a] - uo[a]);
-            r.grad += un[a] * Vector::new(wx.dw[a] * wyb, wx.w[a] * dwyb);
-            if want.affine {
-                r.affine += sw * un[a] * Vector::new(dx[a], dy);
-            }
+            sw += wx.w[a] * un[b][a];
+            sdw += wx.dw[a] * un[b][a];
+            sd += wx.w[a] * dx[a] * un[b][a];
+            sdel += wx.w[a] * (un[b][a] - uo[b][a]);
+        }
+        let (wyb, dwyb) = (wy.w[b], wy.dw[b]);
+        r.pic += wyb * sw;
+        r.delta += wyb * sdel;
+        r.grad += Vector::new(wyb * sdw, dwyb * sw);
+        if want.affine {
+            let dy = (wy.base + b as isize) as Real + oy - xi.y;
+            r.affine += wyb * Vector::new(sd, sw * dy);
         }
     }
     r.grad /= g.h;

@@ -133,7 +133,8 @@ impl Scatter {
         // stable counting sort by stripe
         let h = grid.h;
         let stripe_of = |x: &Vector| {
-            let j = (((x.y - grid.origin.y) / h).floor().max(0.0) as usize).min(grid.ny - 1);
+            // `as usize` truncates toward zero and saturates below at 0: ⌊·⌋ clamped at 0
+            let j = (((x.y - grid.origin.y) / h) as usize).min(grid.ny - 1);
             j / self.rows_per_stripe
         };
         self.start.iter_mut().for_each(|s| *s = 0);
@@ -289,6 +290,8 @@ fn scatter_point<const NS: usize>(
         |wx: &Weights1, wy: &Weights1, ox: Real, oy: Real, vel: Real, c: Vector, chans: [usize; 3], k: usize| {
             let dx: [Real; NS] = std::array::from_fn(|a| ((wx.base + a as isize) as Real + ox - w.xi.x) * h);
             let mx: [Real; NS] = std::array::from_fn(|a| m * wx.w[a]);
+            let mxd: [Real; NS] = std::array::from_fn(|a| mx[a] * c.x * dx[a]);
+            let (f0, f1) = sigma.map_or((0.0, 0.0), |sg| (vol * sg[(k, 0)] / h, vol * sg[(k, 1)] / h));
             for b in 0..NS {
                 let j = wy.base + b as isize;
                 let o = brow(j) + col(wx.base);
@@ -301,14 +304,14 @@ fn scatter_point<const NS: usize>(
                 }
                 let mom = &mut buf[chans[1] * plane + o..chans[1] * plane + o + NS];
                 for a in 0..NS {
-                    mom[a] += mx[a] * wyb * (mom0 + c.x * dx[a]);
+                    mom[a] += wyb * (mx[a] * mom0 + mxd[a]);
                 }
-                if let Some(sg) = sigma {
-                    let (s0, s1) = (sg[(k, 0)], sg[(k, 1)]);
+                if sigma.is_some() {
+                    // −V σ_k· ∇S with ∇S = (wx' wy, wx wy')/h
+                    let (s0, s1) = (f0 * wyb, f1 * wy.dw[b]);
                     let force = &mut buf[chans[2] * plane + o..chans[2] * plane + o + NS];
                     for a in 0..NS {
-                        let (gx, gy) = (wx.dw[a] * wyb, wx.w[a] * wy.dw[b]);
-                        force[a] -= vol * (s0 * gx + s1 * gy) / h;
+                        force[a] -= s0 * wx.dw[a] + s1 * wx.w[a];
                     }
                 }
             }
