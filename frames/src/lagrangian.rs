@@ -536,6 +536,7 @@ fn gather_point<const NS: usize>(
 /// `NS` × `NS` stencil of weights `wx`, `wy` at lattice position `xi`. A stencil inside the
 /// lattice is read row by row directly; one that reaches a ghost node goes through `sample`.
 #[allow(clippy::too_many_arguments)]
+#[allow(clippy::needless_range_loop)] // indexes weights and values by the same node
 #[inline(always)]
 fn gather_lattice<const NS: usize>(
     g: &Grid,

@@ -267,6 +267,7 @@ impl Scatter {
 /// in the buffer (two ghost columns and rows on each side): direct row-wise indexing.
 /// Returns the buffer columns [c0, c1) written.
 #[allow(clippy::too_many_arguments)]
+#[allow(clippy::needless_range_loop)] // indexes weights and buffer rows by the same node
 #[inline(always)]
 fn scatter_point<const NS: usize>(
     buf: &mut [Real],
