@@ -552,21 +552,7 @@ fn gather_lattice<const NS: usize>(
     let (ni, nj) = if x_faces { (g.nx + 1, g.ny) } else { (g.nx, g.ny + 1) };
     let (ox, oy) = if x_faces { (0.0, 0.5) } else { (0.5, 0.0) };
     let inside = wx.base >= 0 && wy.base >= 0 && wx.base as usize + NS <= ni && wy.base as usize + NS <= nj;
-    // the stencil's values, rows along y
-    let values = |arr: &[Real]| -> [[Real; NS]; NS] {
-        if inside {
-            let mut v = [[0.0; NS]; NS];
-            for (b, row) in v.iter_mut().enumerate() {
-                let start = wx.base as usize + (wy.base as usize + b) * ni;
-                row.copy_from_slice(&arr[start..start + NS]);
-            }
-            v
-        } else {
-            std::array::from_fn(|b| {
-                std::array::from_fn(|a| sample(g, bc, arr, x_faces, wx.base + a as isize, wy.base + b as isize))
-            })
-        }
-    };
+    let values = |arr: &[Real]| stencil_values::<NS>(g, bc, x_faces, wx.base, wy.base, inside, arr);
     let un = values(new);
     let uo = if want.delta { values(old) } else { un };
     let dx: [Real; NS] = std::array::from_fn(|a| (wx.base + a as isize) as Real + ox - xi.x);
@@ -592,6 +578,31 @@ fn gather_lattice<const NS: usize>(
     r.grad /= g.h;
     r.affine *= g.h;
     r
+}
+
+/// The `NS` × `NS` values of lattice `arr` from node (i0, j0), rows along y: read directly
+/// when `inside` the lattice, else through `sample` (ghost nodes).
+#[inline(always)]
+fn stencil_values<const NS: usize>(
+    g: &Grid,
+    bc: &Boundaries,
+    x_faces: bool,
+    i0: isize,
+    j0: isize,
+    inside: bool,
+    arr: &[Real],
+) -> [[Real; NS]; NS] {
+    if inside {
+        let ni = if x_faces { g.nx + 1 } else { g.nx };
+        let mut v = [[0.0; NS]; NS];
+        for (b, row) in v.iter_mut().enumerate() {
+            let start = i0 as usize + (j0 as usize + b) * ni;
+            row.copy_from_slice(&arr[start..start + NS]);
+        }
+        v
+    } else {
+        std::array::from_fn(|b| std::array::from_fn(|a| sample(g, bc, arr, x_faces, i0 + a as isize, j0 + b as isize)))
+    }
 }
 
 impl Frame for Lagrangian {

@@ -224,10 +224,9 @@ impl Scatter {
             let pad = PAD as isize;
             for jg in -pad..(ny + 1 + pad) {
                 let row_outside = jg < 0 || jg >= nj;
-                for ig in -pad..(nx + 1 + pad) {
-                    if !row_outside && ig >= 0 && ig < ni {
-                        continue;
-                    }
+                // a ghost row whole, else its ghost columns only (in the same order)
+                let (left, right) = if row_outside { (nx + 1 + pad, nx + 1 + pad) } else { (0, ni) };
+                for ig in (-pad..left).chain(right..(nx + 1 + pad)) {
                     let val = self.at(c, ig, jg);
                     if val == 0.0 {
                         continue;
@@ -286,40 +285,12 @@ fn scatter_point<const NS: usize>(
     let sigma = pts.stress.map(|s| s[p]);
     let col = |i: isize| (i + PAD as isize) as usize;
     let brow = |j: isize| (j - row0) as usize * nxp;
-    // one face lattice: mass, momentum (with the APIC term c·(x_i − x_p)), and force −V σ_k· ∇S
-    let mut lattice =
-        |wx: &Weights1, wy: &Weights1, ox: Real, oy: Real, vel: Real, c: Vector, chans: [usize; 3], k: usize| {
-            let dx: [Real; NS] = std::array::from_fn(|a| ((wx.base + a as isize) as Real + ox - w.xi.x) * h);
-            let mx: [Real; NS] = std::array::from_fn(|a| m * wx.w[a]);
-            let mxd: [Real; NS] = std::array::from_fn(|a| mx[a] * c.x * dx[a]);
-            let (f0, f1) = sigma.map_or((0.0, 0.0), |sg| (vol * sg[(k, 0)] / h, vol * sg[(k, 1)] / h));
-            for b in 0..NS {
-                let j = wy.base + b as isize;
-                let o = brow(j) + col(wx.base);
-                let dy = (j as Real + oy - w.xi.y) * h;
-                let mom0 = vel + c.y * dy;
-                let wyb = wy.w[b];
-                let mass = &mut buf[chans[0] * plane + o..chans[0] * plane + o + NS];
-                for a in 0..NS {
-                    mass[a] += mx[a] * wyb;
-                }
-                let mom = &mut buf[chans[1] * plane + o..chans[1] * plane + o + NS];
-                for a in 0..NS {
-                    mom[a] += wyb * (mx[a] * mom0 + mxd[a]);
-                }
-                if sigma.is_some() {
-                    // −V σ_k· ∇S with ∇S = (wx' wy, wx wy')/h
-                    let (s0, s1) = (f0 * wyb, f1 * wy.dw[b]);
-                    let force = &mut buf[chans[2] * plane + o..chans[2] * plane + o + NS];
-                    for a in 0..NS {
-                        force[a] -= s0 * wx.dw[a] + s1 * wx.w[a];
-                    }
-                }
-            }
-        };
+    let lay = Layout { plane, nxp, row0, h, xi: w.xi, m };
+    // −V σ_k· ∇S with ∇S = (wx' wy, wx wy')/h: the factors V σ_k0/h, V σ_k1/h
+    let force = |k: usize| sigma.map(|sg| (vol * sg[(k, 0)] / h, vol * sg[(k, 1)] / h));
     // x-faces: x at integer nodes, y at half nodes; y-faces: x at half nodes, y at integer nodes
-    lattice(&w.xf, &w.yc, 0.0, 0.5, v.x, cu, [MASS_U, MOM_U, FORCE_U], 0);
-    lattice(&w.xc, &w.yf, 0.5, 0.0, v.y, cv, [MASS_V, MOM_V, FORCE_V], 1);
+    scatter_lattice::<NS>(buf, &lay, &w.xf, &w.yc, Vector::new(0.0, 0.5), v.x, cu, [MASS_U, MOM_U, FORCE_U], force(0));
+    scatter_lattice::<NS>(buf, &lay, &w.xc, &w.yf, Vector::new(0.5, 0.0), v.y, cv, [MASS_V, MOM_V, FORCE_V], force(1));
     // cells
     for b in 0..NS {
         let o = VOLUME * plane + brow(w.yc.base + b as isize) + col(w.xc.base);
@@ -331,6 +302,60 @@ fn scatter_point<const NS: usize>(
     }
     let lo = col(w.xf.base.min(w.xc.base));
     (lo, col(w.xf.base.max(w.xc.base)) + NS)
+}
+
+/// Where a point's stencil goes in a stripe buffer, and the point's mass.
+struct Layout {
+    plane: usize,
+    nxp: usize,
+    row0: isize,
+    h: Real,
+    xi: Vector,
+    m: Real,
+}
+
+/// One face lattice of a point's scatter (nodes at `off` + integers): mass, momentum with
+/// the APIC term c·(x_i − x_p), and the force −(f0 wx' wy + f1 wx wy') when `force`.
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::needless_range_loop)] // indexes weights and buffer rows by the same node
+#[inline(always)]
+fn scatter_lattice<const NS: usize>(
+    buf: &mut [Real],
+    lay: &Layout,
+    wx: &Weights1,
+    wy: &Weights1,
+    off: Vector,
+    vel: Real,
+    c: Vector,
+    chans: [usize; 3],
+    force: Option<(Real, Real)>,
+) {
+    let (h, m) = (lay.h, lay.m);
+    let dx: [Real; NS] = std::array::from_fn(|a| ((wx.base + a as isize) as Real + off.x - lay.xi.x) * h);
+    let mx: [Real; NS] = std::array::from_fn(|a| m * wx.w[a]);
+    let mxd: [Real; NS] = std::array::from_fn(|a| mx[a] * c.x * dx[a]);
+    for b in 0..NS {
+        let j = wy.base + b as isize;
+        let o = (j - lay.row0) as usize * lay.nxp + (wx.base + PAD as isize) as usize;
+        let dy = (j as Real + off.y - lay.xi.y) * h;
+        let mom0 = vel + c.y * dy;
+        let wyb = wy.w[b];
+        let mass = &mut buf[chans[0] * lay.plane + o..chans[0] * lay.plane + o + NS];
+        for a in 0..NS {
+            mass[a] += mx[a] * wyb;
+        }
+        let mom = &mut buf[chans[1] * lay.plane + o..chans[1] * lay.plane + o + NS];
+        for a in 0..NS {
+            mom[a] += wyb * (mx[a] * mom0 + mxd[a]);
+        }
+        if let Some((f0, f1)) = force {
+            let (s0, s1) = (f0 * wyb, f1 * wy.dw[b]);
+            let f = &mut buf[chans[2] * lay.plane + o..chans[2] * lay.plane + o + NS];
+            for a in 0..NS {
+                f[a] -= s0 * wx.dw[a] + s1 * wx.w[a];
+            }
+        }
+    }
 }
 
 /// Maps a ghost node index along one axis into the domain: `(index, mirrored)`.
