@@ -22,9 +22,11 @@
  * N threads (OpenMP; each thread scatters its points into its own grid, the grids are then
  * summed node by node, which also zeroes them for the next step; two barriers a step):
  *   gcc -O3 -march=native -fopenmp -o /tmp/mpm88_bare_omp benches/taichi/mpm88_bare.c -lm
- *   OMP_WAIT_POLICY=passive /tmp/mpm88_bare_omp --threads 2 --repeat 3
- * (passive: a thread waiting at a barrier sleeps instead of spinning; on a shared machine a
- * spinning thread takes the core its partner needs, and the run was 5× slower.)
+ *   GOMP_SPINCOUNT=10000 /tmp/mpm88_bare_omp --threads 2 --repeat 3
+ * (a thread waiting at a barrier spins 10,000 times, then sleeps. libgomp's default spins
+ * 300,000 times: on the shared machine at load 3 a spinning thread took the core its
+ * partner needed and the run was 5× slower; never spinning, OMP_WAIT_POLICY=passive, was
+ * 30 % slower than GOMP_SPINCOUNT=10000 at load 1.1, 48.7 against 69.2 M particle-steps/s.)
  * benches/taichi/compare.py compiles and runs both. */
 #include <math.h>
 #include <stdio.h>
