@@ -19,8 +19,8 @@ Speed: particle-steps per second (8,192 points × steps / seconds) of
 - bare C: benches/taichi/mpm88_bare.c, mpm88's algorithm in plain C (f32, the same lattice,
   2,000 steps, all timed), compiled here with `gcc -O3 -march=native` (one thread) and with
   `-fopenmp` added (more threads; per-thread grids summed node by node; run with
-  GOMP_SPINCOUNT=10000 unless it or OMP_WAIT_POLICY is set): what this machine allows for the algorithm with no
-  framework around it. `--no-bare` skips it.
+  GOMP_SPINCOUNT=10000 unless it or OMP_WAIT_POLICY is set): what this machine allows
+  for the algorithm with no framework around it. `--no-bare` skips it.
 With `--repeat R` each is run R times, interleaved, and the best rate is kept (the machine
 is shared); the load average before each run is printed. The bare kernel's checksum (kinetic
 energy and mean height every 500 steps) is compared with Taichi's one-thread history.
@@ -214,7 +214,8 @@ def main():
         for s_, (ke, y) in sorted(b["checks"].items()):
             if s_ in ref:
                 ke_t, y_t = float(ref[s_]["kinetic_energy"]), float(ref[s_]["mean_y"])
-                print(f"| {s_} | {ke:.5f} | {ke_t:.5f} | {100 * (ke / ke_t - 1):+.2f} % | {y:.5f} | {y_t:.5f} | {100 * (y / y_t - 1):+.2f} % |")
+                dke, dy = 100 * (ke / ke_t - 1), 100 * (y / y_t - 1)
+                print(f"| {s_} | {ke:.5f} | {ke_t:.5f} | {dke:+.2f} % | {y:.5f} | {y_t:.5f} | {dy:+.2f} % |")
     else:
         print("| threads | ours (particle-steps/s) | Taichi 1.7 CPU, f32 (particle-steps/s) | Taichi / ours |")
         print("|---:|---:|---:|---:|")
