@@ -289,8 +289,18 @@ fn scatter_point<const NS: usize>(
     // −V σ_k· ∇S with ∇S = (wx' wy, wx wy')/h: the factors V σ_k0/h, V σ_k1/h
     let force = |k: usize| sigma.map(|sg| (vol * sg[(k, 0)] / h, vol * sg[(k, 1)] / h));
     // x-faces: x at integer nodes, y at half nodes; y-faces: x at half nodes, y at integer nodes
-    scatter_lattice::<NS>(buf, &lay, &w.xf, &w.yc, Vector::new(0.0, 0.5), v.x, cu, [MASS_U, MOM_U, FORCE_U], force(0));
-    scatter_lattice::<NS>(buf, &lay, &w.xc, &w.yf, Vector::new(0.5, 0.0), v.y, cv, [MASS_V, MOM_V, FORCE_V], force(1));
+    let (xo, yo) = (Vector::new(0.0, 0.5), Vector::new(0.5, 0.0));
+    let (xc, yc) = ([MASS_U, MOM_U, FORCE_U], [MASS_V, MOM_V, FORCE_V]);
+    match (force(0), force(1)) {
+        (Some(fx), Some(fy)) => {
+            scatter_lattice::<NS, true>(buf, &lay, &w.xf, &w.yc, xo, v.x, cu, xc, fx);
+            scatter_lattice::<NS, true>(buf, &lay, &w.xc, &w.yf, yo, v.y, cv, yc, fy);
+        }
+        _ => {
+            scatter_lattice::<NS, false>(buf, &lay, &w.xf, &w.yc, xo, v.x, cu, xc, (0.0, 0.0));
+            scatter_lattice::<NS, false>(buf, &lay, &w.xc, &w.yf, yo, v.y, cv, yc, (0.0, 0.0));
+        }
+    }
     // cells
     for b in 0..NS {
         let o = VOLUME * plane + brow(w.yc.base + b as isize) + col(w.xc.base);
@@ -315,11 +325,12 @@ struct Layout {
 }
 
 /// One face lattice of a point's scatter (nodes at `off` + integers): mass, momentum with
-/// the APIC term c·(x_i − x_p), and the force −(f0 wx' wy + f1 wx wy') when `force`.
+/// the APIC term c·(x_i − x_p), and with `FORCE` the force −(f0 wx' wy + f1 wx wy'),
+/// `force` = (f0, f1).
 #[allow(clippy::too_many_arguments)]
 #[allow(clippy::needless_range_loop)] // indexes weights and buffer rows by the same node
 #[inline(always)]
-fn scatter_lattice<const NS: usize>(
+fn scatter_lattice<const NS: usize, const FORCE: bool>(
     buf: &mut [Real],
     lay: &Layout,
     wx: &Weights1,
@@ -328,7 +339,7 @@ fn scatter_lattice<const NS: usize>(
     vel: Real,
     c: Vector,
     chans: [usize; 3],
-    force: Option<(Real, Real)>,
+    force: (Real, Real),
 ) {
     let (h, m) = (lay.h, lay.m);
     let dx: [Real; NS] = std::array::from_fn(|a| ((wx.base + a as isize) as Real + off.x - lay.xi.x) * h);
@@ -348,8 +359,8 @@ fn scatter_lattice<const NS: usize>(
         for a in 0..NS {
             mom[a] += wyb * (mx[a] * mom0 + mxd[a]);
         }
-        if let Some((f0, f1)) = force {
-            let (s0, s1) = (f0 * wyb, f1 * wy.dw[b]);
+        if FORCE {
+            let (s0, s1) = (force.0 * wyb, force.1 * wy.dw[b]);
             let f = &mut buf[chans[2] * lay.plane + o..chans[2] * lay.plane + o + NS];
             for a in 0..NS {
                 f[a] -= s0 * wx.dw[a] + s1 * wx.w[a];
