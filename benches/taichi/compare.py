@@ -7,6 +7,7 @@ Needs a release build and Taichi 1.7 (this script installs nothing):
     pip install "taichi==1.7.*"
     python3 benches/taichi/compare.py                      # 1 and 2 threads, one run each
     python3 benches/taichi/compare.py --repeat 3 --threads 1 2
+    MULTIFIELD_BIN=/other/target/release/multifield python3 benches/taichi/compare.py  # another build
 
 Speed: particle-steps per second (8,192 points × steps / seconds) of
 - ours: `multifield run examples/mpm88.ron --threads N --quiet --set output.interval=0`,
@@ -15,8 +16,14 @@ Speed: particle-steps per second (8,192 points × steps / seconds) of
   step (the mean height below needs them); that costs well under 1 % of the run.
 - Taichi: `benches/taichi/mpm88.py --threads N` (mpm88 itself, 128² nodes, f32 as shipped),
   the 1,990 steps after a 10-step warm-up that includes the JIT compilation.
-With `--repeat R` each is run R times and the best rate is kept (the machine is shared);
-the load average before each run is printed.
+- bare C: benches/taichi/mpm88_bare.c, mpm88's algorithm in plain C (f32, the same lattice,
+  2,000 steps, all timed), compiled here with `gcc -O3 -march=native` (one thread) and with
+  `-fopenmp` added (more threads; per-thread grids summed node by node; run with
+  GOMP_SPINCOUNT=10000 unless it or OMP_WAIT_POLICY is set): what this machine allows
+  for the algorithm with no framework around it. `--no-bare` skips it.
+With `--repeat R` each is run R times, interleaved, and the best rate is kept (the machine
+is shared); the load average before each run is printed. The bare kernel's checksum (kinetic
+energy and mean height every 500 steps) is compared with Taichi's one-thread history.
 
 Physics: ours (1 thread) against `mpm88.py --walls-at-unit-square --threads 1`, the same
 kernel on 132² nodes with the points moved by 2 dx, so that mpm88's effective walls (its
@@ -75,6 +82,40 @@ def run_taichi(script, threads, history=None, extra=()):
     return dict(rate=float(m.group(3)), steps=int(m.group(1)), seconds=float(m.group(2)), load=before, cmd=" ".join(cmd))
 
 
+def build_bare(cc, out):
+    """Compiles mpm88_bare.c without and with OpenMP: {1: serial, 2: openmp} binaries."""
+    src = ROOT / "benches/taichi/mpm88_bare.c"
+    bins = {}
+    for name, extra in (("serial", []), ("openmp", ["-fopenmp"])):
+        exe = out / f"mpm88_bare_{name}"
+        cmd = [cc, "-O3", "-march=native", *extra, "-o", str(exe), str(src), "-lm"]
+        p = subprocess.run(cmd, capture_output=True, text=True)
+        if p.returncode != 0:
+            sys.exit(f"{' '.join(cmd)} failed:\n{p.stderr}")
+        bins[name] = exe
+    return bins
+
+
+def run_bare(bins, threads):
+    exe = bins["serial"] if threads == 1 else bins["openmp"]
+    cmd = [str(exe), "--threads", str(threads), "--repeat", "1"]
+    env = dict(os.environ)
+    if "OMP_WAIT_POLICY" not in env:
+        env.setdefault("GOMP_SPINCOUNT", "10000")  # see mpm88_bare.c: barriers on a shared machine
+    before = load()
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    m = re.search(r"bare mpm88 .* steps (\d+) threads \d+ seconds ([0-9.]+) particle_steps_per_s ([0-9.e+]+)", p.stdout)
+    if p.returncode != 0 or not m:
+        sys.exit(f"bare kernel failed ({' '.join(cmd)}):\n{p.stdout}\n{p.stderr}")
+    checks = {
+        int(c.group(1)): (float(c.group(2)), float(c.group(3)))
+        for c in re.finditer(r"checksum step (\d+) kinetic_energy ([0-9.e+-]+) mean_y ([0-9.e+-]+)", p.stdout)
+    }
+    return dict(
+        rate=float(m.group(3)), steps=int(m.group(1)), seconds=float(m.group(2)), load=before, cmd=" ".join(cmd), checks=checks
+    )
+
+
 def read_csv(path):
     with open(path) as f:
         return list(csv.DictReader(f))
@@ -108,6 +149,8 @@ def main():
     ap.add_argument("--repeat", type=int, default=1, help="runs per configuration; the best rate is kept")
     ap.add_argument("--out", default=None, help="directory for the runs (default: a temporary one)")
     ap.add_argument("--impact", type=float, default=0.12, help="time that splits 'before impact' from 'after'")
+    ap.add_argument("--no-bare", action="store_true", help="skip the bare C kernel (benches/taichi/mpm88_bare.c)")
+    ap.add_argument("--cc", default="gcc", help="C compiler for the bare kernel (default gcc)")
     args = ap.parse_args()
 
     binary = Path(args.bin)
@@ -122,28 +165,62 @@ def main():
     script = ROOT / "benches/taichi/mpm88.py"
     print(f"runs in {out}; {os.cpu_count()} cores; load average (1, 5, 15 min) now {load()}")
 
+    bins = None if args.no_bare else build_bare(args.cc, out)
+    best = lambda a, b: b if a is None or b["rate"] > a["rate"] else a  # noqa: E731
     results = {}
     for threads in args.threads:
-        best_o, best_t = None, None
+        best_o, best_t, best_b = None, None, None
         for k in range(args.repeat):
             o = run_ours(binary, args.case, out / f"ours_t{threads}_{k}", threads)
-            t = run_taichi(script, threads)
-            print(
+            t = run_taichi(script, threads, history=out / f"taichi_t{threads}_{k}.csv")
+            line = (
                 f"  threads {threads} run {k + 1}: ours {o['rate']:.3e} p-steps/s ({o['steps']} steps, "
                 f"{o['seconds']:.2f} s, load {o['load']}); taichi {t['rate']:.3e} ({t['steps']} steps, "
                 f"{t['seconds']:.2f} s, load {t['load']})"
             )
-            if best_o is None or o["rate"] > best_o["rate"]:
-                best_o = o
-            if best_t is None or t["rate"] > best_t["rate"]:
-                best_t = t
-        results[threads] = (best_o, best_t)
+            if bins:
+                b = run_bare(bins, threads)
+                line += f"; bare C {b['rate']:.3e} ({b['steps']} steps, {b['seconds']:.2f} s, load {b['load']})"
+                best_b = best(best_b, b)
+            print(line)
+            best_o, best_t = best(best_o, o), best(best_t, t)
+        results[threads] = (best_o, best_t, best_b)
 
     print()
-    print("| threads | ours (particle-steps/s) | Taichi 1.7 CPU, f32 (particle-steps/s) | Taichi / ours |")
-    print("|---:|---:|---:|---:|")
-    for threads, (o, t) in results.items():
-        print(f"| {threads} | {o['rate']:.3e} | {t['rate']:.3e} | {t['rate'] / o['rate']:.1f} |")
+    if bins:
+        print(
+            "| threads | ours (particle-steps/s) | Taichi 1.7 CPU, f32 | bare C, f32 | Taichi / ours | bare C / Taichi "
+            "| bare C / ours | 5 × Taichi |"
+        )
+        print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for threads, (o, t, b) in results.items():
+            print(
+                f"| {threads} | {o['rate']:.3e} | {t['rate']:.3e} | {b['rate']:.3e} | {t['rate'] / o['rate']:.2f} "
+                f"| {b['rate'] / t['rate']:.2f} | {b['rate'] / o['rate']:.2f} | {5 * t['rate']:.3e} |"
+            )
+        print()
+        for threads, (o, t, b) in results.items():
+            verdict = "reaches" if b["rate"] >= 5 * t["rate"] else "does not reach"
+            print(
+                f"{threads} thread(s): the bare C kernel {verdict} 5 × Taichi ({b['rate']:.3e} against "
+                f"{5 * t['rate']:.3e} particle-steps/s; it is {b['rate'] / t['rate']:.2f} × Taichi)"
+            )
+        # the bare kernel computes what mpm88 computes: its checksums against Taichi's history
+        ref = {int(r["step"]): r for r in read_csv(out / f"taichi_t{min(results)}_0.csv")}
+        b = results[min(results)][2]
+        print("\nbare C against Taichi (same kernel, same lattice, both f32):")
+        print("| step | KE bare C | KE Taichi | ΔKE/KE | ȳ bare C | ȳ Taichi | Δȳ/ȳ |")
+        print("|---:|---:|---:|---:|---:|---:|---:|")
+        for s_, (ke, y) in sorted(b["checks"].items()):
+            if s_ in ref:
+                ke_t, y_t = float(ref[s_]["kinetic_energy"]), float(ref[s_]["mean_y"])
+                dke, dy = 100 * (ke / ke_t - 1), 100 * (y / y_t - 1)
+                print(f"| {s_} | {ke:.5f} | {ke_t:.5f} | {dke:+.2f} % | {y:.5f} | {y_t:.5f} | {dy:+.2f} % |")
+    else:
+        print("| threads | ours (particle-steps/s) | Taichi 1.7 CPU, f32 (particle-steps/s) | Taichi / ours |")
+        print("|---:|---:|---:|---:|")
+        for threads, (o, t, _) in results.items():
+            print(f"| {threads} | {o['rate']:.3e} | {t['rate']:.3e} | {t['rate'] / o['rate']:.1f} |")
     print()
 
     # physics: ours at 1 thread (any thread count gives the same bits) against the walls-matched mpm88

@@ -12,7 +12,7 @@
 //! `shape`), not solver types.
 
 use crate::scatter::{self, point_weights, PointsIn, Scatter};
-use crate::shape::Shape;
+use crate::shape::{Shape, Weights1};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
@@ -337,10 +337,11 @@ impl Lagrangian {
     /// velocities are projected back to the grid, `u_i = Σ m_p S_ip v_p / Σ m_p S_ip`, and
     /// `∇v_p = Σ u_i ∇S_ip`, `F ← (I + Δt ∇v) F` at the positions of the step's start. The plain
     /// grid velocity `(mu + Δt f)/m` is unbounded on a face that a point barely reaches
-    /// (m ∝ S, f ∝ ∇S), which blows F up when a point crosses into an empty cell.
+    /// (m ∝ S, f ∝ ∇S), which blows F up when a point crosses into an empty cell. Not used for a
+    /// fluid of `volumetric_only` models on the quadratic B-spline (J from the transfer's ∇v,
+    /// see `from_grid`).
     fn update_deformation_musl(&mut self, g: &Grid, bc: &Boundaries, dt: Real, x_start: &[Vector]) {
-        let (shape, h) = (self.shape, g.h);
-        let ns = shape.support();
+        let shape = self.shape;
         let volumetric_only = self.volumetric_only;
         let pts = &mut self.points;
         let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
@@ -376,17 +377,12 @@ impl Lagrangian {
         bc.enforce(g, &mut vel);
         pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()).zip(x_start.par_iter()).for_each(|((f, gv), x)| {
             let w = point_weights(shape, g, *x);
-            let (mut gu, mut gvv) = (Vector::zeros(), Vector::zeros());
-            for b in 0..ns {
-                for a in 0..ns {
-                    let (i, j) = (w.xf.base + a as isize, w.yc.base + b as isize);
-                    let un = sample(g, bc, &vel.u, true, i, j);
-                    gu += un * Vector::new(w.xf.dw[a] * w.yc.w[b], w.xf.w[a] * w.yc.dw[b]) / h;
-                    let (i, j) = (w.xc.base + a as isize, w.yf.base + b as isize);
-                    let vn = sample(g, bc, &vel.v, false, i, j);
-                    gvv += vn * Vector::new(w.xc.dw[a] * w.yf.w[b], w.xc.w[a] * w.yf.dw[b]) / h;
-                }
-            }
+            let want = Want { delta: false, affine: false };
+            let (su, sv) = match shape {
+                Shape::Linear => gather_point::<2>(g, bc, &w, &vel, &vel, want),
+                Shape::Quadratic => gather_point::<3>(g, bc, &w, &vel, &vel, want),
+            };
+            let (gu, gvv) = (su.grad, sv.grad);
             let l = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
             *gv = l;
             *f = (Matrix::identity() + dt * l) * *f;
@@ -496,6 +492,117 @@ fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j
         }
     }
     out
+}
+
+/// Sums over a point's stencil on one face lattice.
+#[derive(Clone, Copy, Default)]
+struct Gathered {
+    /// Σ S u.
+    pic: Real,
+    /// Σ S (u − u_old) (only when `Want::delta`).
+    delta: Real,
+    /// Σ u ∇S.
+    grad: Vector,
+    /// Σ S u (x_i − x_p) (only when `Want::affine`).
+    affine: Vector,
+}
+
+/// The optional sums of a gather.
+#[derive(Clone, Copy)]
+struct Want {
+    /// The FLIP increment (reads the old velocities).
+    delta: bool,
+    /// The APIC moment.
+    affine: bool,
+}
+
+/// Gathers the x-face and y-face lattices at a point of weights `w`, shape of `NS` nodes.
+#[inline(always)]
+fn gather_point<const NS: usize>(
+    g: &Grid,
+    bc: &Boundaries,
+    w: &scatter::PointWeights,
+    new: &FaceVelocity,
+    old: &FaceVelocity,
+    want: Want,
+) -> (Gathered, Gathered) {
+    (
+        gather_lattice::<NS>(g, bc, true, &w.xf, &w.yc, w.xi, &new.u, &old.u, want),
+        gather_lattice::<NS>(g, bc, false, &w.xc, &w.yf, w.xi, &new.v, &old.v, want),
+    )
+}
+
+/// Gathers one face lattice (`x_faces`: nodes at (i, j + ½), else at (i + ½, j)) over the
+/// `NS` × `NS` stencil of weights `wx`, `wy` at lattice position `xi`. A stencil inside the
+/// lattice is read row by row directly; one that reaches a ghost node goes through `sample`.
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::needless_range_loop)] // indexes weights and values by the same node
+#[inline(always)]
+fn gather_lattice<const NS: usize>(
+    g: &Grid,
+    bc: &Boundaries,
+    x_faces: bool,
+    wx: &Weights1,
+    wy: &Weights1,
+    xi: Vector,
+    new: &[Real],
+    old: &[Real],
+    want: Want,
+) -> Gathered {
+    let (ni, nj) = if x_faces { (g.nx + 1, g.ny) } else { (g.nx, g.ny + 1) };
+    let (ox, oy) = if x_faces { (0.0, 0.5) } else { (0.5, 0.0) };
+    let inside = wx.base >= 0 && wy.base >= 0 && wx.base as usize + NS <= ni && wy.base as usize + NS <= nj;
+    let values = |arr: &[Real]| stencil_values::<NS>(g, bc, x_faces, wx.base, wy.base, inside, arr);
+    let un = values(new);
+    let uo = if want.delta { values(old) } else { un };
+    let dx: [Real; NS] = std::array::from_fn(|a| (wx.base + a as isize) as Real + ox - xi.x);
+    // the tensor-product sums, along x first: S = wx wy, ∇S = (wx' wy, wx wy')
+    let mut r = Gathered::default();
+    for b in 0..NS {
+        let (mut sw, mut sdw, mut sd, mut sdel) = (0.0, 0.0, 0.0, 0.0);
+        for a in 0..NS {
+            sw += wx.w[a] * un[b][a];
+            sdw += wx.dw[a] * un[b][a];
+            sd += wx.w[a] * dx[a] * un[b][a];
+            sdel += wx.w[a] * (un[b][a] - uo[b][a]);
+        }
+        let (wyb, dwyb) = (wy.w[b], wy.dw[b]);
+        r.pic += wyb * sw;
+        r.delta += wyb * sdel;
+        r.grad += Vector::new(wyb * sdw, dwyb * sw);
+        if want.affine {
+            let dy = (wy.base + b as isize) as Real + oy - xi.y;
+            r.affine += wyb * Vector::new(sd, sw * dy);
+        }
+    }
+    r.grad /= g.h;
+    r.affine *= g.h;
+    r
+}
+
+/// The `NS` × `NS` values of lattice `arr` from node (i0, j0), rows along y: read directly
+/// when `inside` the lattice, else through `sample` (ghost nodes).
+#[inline(always)]
+fn stencil_values<const NS: usize>(
+    g: &Grid,
+    bc: &Boundaries,
+    x_faces: bool,
+    i0: isize,
+    j0: isize,
+    inside: bool,
+    arr: &[Real],
+) -> [[Real; NS]; NS] {
+    if inside {
+        let ni = if x_faces { g.nx + 1 } else { g.nx };
+        let mut v = [[0.0; NS]; NS];
+        for (b, row) in v.iter_mut().enumerate() {
+            let start = i0 as usize + (j0 as usize + b) * ni;
+            row.copy_from_slice(&arr[start..start + NS]);
+        }
+        v
+    } else {
+        std::array::from_fn(|b| std::array::from_fn(|a| sample(g, bc, arr, x_faces, i0 + a as isize, j0 + b as isize)))
+    }
 }
 
 impl Frame for Lagrangian {
@@ -636,40 +743,43 @@ impl Frame for Lagrangian {
         let area = g.cell_area();
         let tiny = 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max);
         for j in 0..g.ny {
-            for i in 0..g.nx {
-                s.theta[g.cell(i, j)] = scatter.at(scatter::VOLUME, i as isize, j as isize) / area;
+            let theta = &mut s.theta[g.cell(0, j)..g.cell(0, j) + g.nx];
+            for (t, vol) in theta.iter_mut().zip(scatter.row(scatter::VOLUME, j, g.nx)) {
+                *t = vol / area;
             }
         }
         let dt = ctx.dt;
-        for j in 0..g.ny {
-            for i in 0..=g.nx {
-                let k = g.xface(i, j);
-                let (ii, jj) = (i as isize, j as isize);
-                let m = scatter.at(scatter::MASS_U, ii, jj);
-                s.mass_u[k] = m;
-                let (u, f) = if m > tiny {
-                    (scatter.at(scatter::MOM_U, ii, jj) / m, scatter.at(scatter::FORCE_U, ii, jj) / m)
-                } else {
-                    (0.0, 0.0)
-                };
-                s.velocity_old.u[k] = u;
-                s.velocity.u[k] = u + dt * f;
+        // per lattice row: mass, old velocity mu/m and provisional velocity (mu + Δt f)/m
+        let faces = |mass: &mut [Real], old: &mut [Real], new: &mut [Real], m: &[Real], mu: &[Real], f: &[Real]| {
+            for k in 0..mass.len() {
+                mass[k] = m[k];
+                let (u, a) = if m[k] > tiny { (mu[k] / m[k], f[k] / m[k]) } else { (0.0, 0.0) };
+                old[k] = u;
+                new[k] = u + dt * a;
             }
+        };
+        let nu = g.nx + 1;
+        for j in 0..g.ny {
+            let r = g.xface(0, j)..g.xface(0, j) + nu;
+            faces(
+                &mut s.mass_u[r.clone()],
+                &mut s.velocity_old.u[r.clone()],
+                &mut s.velocity.u[r],
+                scatter.row(scatter::MASS_U, j, nu),
+                scatter.row(scatter::MOM_U, j, nu),
+                scatter.row(scatter::FORCE_U, j, nu),
+            );
         }
         for j in 0..=g.ny {
-            for i in 0..g.nx {
-                let k = g.yface(i, j);
-                let (ii, jj) = (i as isize, j as isize);
-                let m = scatter.at(scatter::MASS_V, ii, jj);
-                s.mass_v[k] = m;
-                let (v, f) = if m > tiny {
-                    (scatter.at(scatter::MOM_V, ii, jj) / m, scatter.at(scatter::FORCE_V, ii, jj) / m)
-                } else {
-                    (0.0, 0.0)
-                };
-                s.velocity_old.v[k] = v;
-                s.velocity.v[k] = v + dt * f;
-            }
+            let r = g.yface(0, j)..g.yface(0, j) + g.nx;
+            faces(
+                &mut s.mass_v[r.clone()],
+                &mut s.velocity_old.v[r.clone()],
+                &mut s.velocity.v[r],
+                scatter.row(scatter::MASS_V, j, g.nx),
+                scatter.row(scatter::MOM_V, j, g.nx),
+                scatter.row(scatter::FORCE_V, j, g.nx),
+            );
         }
         ctx.boundaries.enforce(g, &mut s.velocity_old);
         ctx.boundaries.enforce(g, &mut s.velocity);
@@ -681,14 +791,24 @@ impl Frame for Lagrangian {
         let bc = ctx.boundaries;
         let s = &*ctx.state;
         let (shape, transfer, alpha, dt, h) = (self.shape, self.transfer, self.flip_blend, ctx.dt, g.h);
-        let ns = shape.support();
         let dinv = shape.apic_d_inverse(h);
-        let track_f = self.has_point_stress;
+        // Solids: ∇v and F from the re-projected velocities (MUSL, below). A fluid whose stress
+        // depends on F only through J, on the quadratic B-spline: J from ∇v of this gather, the
+        // gradient of the new grid velocity (one scatter and one gather per step, as mpm88).
+        // MUSL guards against u = (mu + Δt f)/m on a face a point barely reaches, m ∝ S, f ∝ ∇S;
+        // that face enters the point's own ∇v weighted by ∇S, so as |∇S|²/S, which is at most
+        // 2/h² for the B-spline (w'²/w = 2 on its outer pieces, ≤ 2 inside) but 1/(h² w) for
+        // the tent: a linear-shape fluid keeps MUSL. (mpm88's C, the APIC matrix, in place of
+        // this ∇v, which is the gradient the internal force −V σ ∇S pairs with, made
+        // examples/mpm88.ron go unstable near step 1,400.)
+        let grid_j = self.has_point_stress && self.volumetric_only && shape == Shape::Quadratic;
+        let musl = self.has_point_stress && !grid_j;
         let rigid = ctx.stress.iter().any(|m| m.is_rigid()) && !self.bodies.is_empty();
         if !self.bodies.is_empty() {
             self.x_old.clone_from(&self.points.x);
         }
-        let x_start = track_f.then(|| self.points.x.clone());
+        let x_start = musl.then(|| self.points.x.clone());
+        let want = Want { delta: transfer == Transfer::Flip, affine: transfer == Transfer::Apic && dinv.is_some() };
         let pts = &mut self.points;
         let lo = g.origin;
         let hi = g.origin + g.size();
@@ -698,43 +818,15 @@ impl Frame for Lagrangian {
             .zip(pts.v.par_iter_mut())
             .zip(pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()))
             .zip(pts.c_u.par_iter_mut().zip(pts.c_v.par_iter_mut()))
-            .for_each(|(((x, v), (_f, gv)), (cu, cv))| {
+            .for_each(|(((x, v), (f, gv)), (cu, cv))| {
                 let w = point_weights(shape, g, *x);
-                let (mut upic, mut du) = (Vector::zeros(), Vector::zeros());
-                let (mut gu, mut gvv) = (Vector::zeros(), Vector::zeros());
-                let (mut au, mut av) = (Vector::zeros(), Vector::zeros());
-                for b in 0..ns {
-                    let j = w.yc.base + b as isize;
-                    for a in 0..ns {
-                        let i = w.xf.base + a as isize;
-                        let sw = w.xf.w[a] * w.yc.w[b];
-                        let un = sample(g, bc, &s.velocity.u, true, i, j);
-                        let uo = sample(g, bc, &s.velocity_old.u, true, i, j);
-                        upic.x += sw * un;
-                        du.x += sw * (un - uo);
-                        let grad = Vector::new(w.xf.dw[a] * w.yc.w[b], w.xf.w[a] * w.yc.dw[b]) / h;
-                        gu += un * grad;
-                        if dinv.is_some() {
-                            au += sw * un * Vector::new(i as Real - w.xi.x, j as Real + 0.5 - w.xi.y) * h;
-                        }
-                    }
-                }
-                for b in 0..ns {
-                    let j = w.yf.base + b as isize;
-                    for a in 0..ns {
-                        let i = w.xc.base + a as isize;
-                        let sw = w.xc.w[a] * w.yf.w[b];
-                        let vn = sample(g, bc, &s.velocity.v, false, i, j);
-                        let vo = sample(g, bc, &s.velocity_old.v, false, i, j);
-                        upic.y += sw * vn;
-                        du.y += sw * (vn - vo);
-                        let grad = Vector::new(w.xc.dw[a] * w.yf.w[b], w.xc.w[a] * w.yf.dw[b]) / h;
-                        gvv += vn * grad;
-                        if dinv.is_some() {
-                            av += sw * vn * Vector::new(i as Real + 0.5 - w.xi.x, j as Real - w.xi.y) * h;
-                        }
-                    }
-                }
+                let (su, sv) = match shape {
+                    Shape::Linear => gather_point::<2>(g, bc, &w, &s.velocity, &s.velocity_old, want),
+                    Shape::Quadratic => gather_point::<3>(g, bc, &w, &s.velocity, &s.velocity_old, want),
+                };
+                let upic = Vector::new(su.pic, sv.pic);
+                let du = Vector::new(su.delta, sv.delta);
+                let (gu, gvv, au, av) = (su.grad, sv.grad, su.affine, sv.affine);
                 *v = match transfer {
                     Transfer::Pic | Transfer::Apic => upic,
                     Transfer::Flip => alpha * (*v + du) + (1.0 - alpha) * upic,
@@ -751,9 +843,15 @@ impl Frame for Lagrangian {
                         }
                     }
                 }
-                // with point stresses, ∇v and F come from the re-projected velocities (MUSL, below)
-                if !track_f {
+                if !musl {
                     *gv = Matrix::new(gu.x, gu.y, gvv.x, gvv.y);
+                }
+                if grid_j {
+                    // F = diag(J, 1): J ← det((I + Δt ∇v) F) = J det(I + Δt ∇v), the volume
+                    // change of the step's own kinematic update (the same as tracking the full
+                    // F and taking its determinant); mpm88's J (1 + Δt tr C) drops the Δt² det ∇v
+                    let l = Matrix::identity() + dt * *gv;
+                    *f = Matrix::new(f.determinant() * l.determinant(), 0.0, 0.0, 1.0);
                 }
                 *x += dt * upic;
                 // keep points in the domain: wrap periodic sides, stop at walls

@@ -58,6 +58,9 @@ pub struct Scatter {
     pub padded: Vec<Real>,
     order: Vec<u32>,
     start: Vec<usize>,
+    /// Per stripe, the columns [c0, c1) of its buffer that the last run wrote (all rows,
+    /// all channels); the rest of the buffer is zero.
+    dirty: Vec<(usize, usize)>,
 }
 
 /// The 1D weights of a point on the face and centre lattices.
@@ -104,6 +107,7 @@ impl Scatter {
             padded: vec![0.0; CHANNELS * nxp * nyp],
             order: Vec::new(),
             start: vec![0; stripes + 1],
+            dirty: vec![(0, 0); stripes],
         }
     }
 
@@ -111,6 +115,12 @@ impl Scatter {
     #[inline]
     pub fn at(&self, c: usize, i: isize, j: isize) -> Real {
         self.padded[c * self.nxp * self.nyp + (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.nxp]
+    }
+    /// Channel `c` on lattice row `j` (≥ 0), nodes i = 0..`len`.
+    #[inline]
+    pub fn row(&self, c: usize, j: usize, len: usize) -> &[Real] {
+        let start = c * self.nxp * self.nyp + PAD + (j + PAD) * self.nxp;
+        &self.padded[start..start + len]
     }
     #[inline]
     fn at_mut(&mut self, c: usize, i: isize, j: isize) -> &mut Real {
@@ -123,7 +133,8 @@ impl Scatter {
         // stable counting sort by stripe
         let h = grid.h;
         let stripe_of = |x: &Vector| {
-            let j = (((x.y - grid.origin.y) / h).floor().max(0.0) as usize).min(grid.ny - 1);
+            // `as usize` truncates toward zero and saturates below at 0: ⌊·⌋ clamped at 0
+            let j = (((x.y - grid.origin.y) / h) as usize).min(grid.ny - 1);
             j / self.rows_per_stripe
         };
         self.start.iter_mut().for_each(|s| *s = 0);
@@ -143,72 +154,35 @@ impl Scatter {
         let (nxp, rows) = (self.nxp, self.rows_per_stripe + 2 * PAD);
         let (order, start) = (&self.order, &self.start);
         let rps = self.rows_per_stripe as isize;
-        let dinv = shape.apic_d_inverse(h);
-        self.buffers.par_iter_mut().enumerate().for_each(|(s, buf)| {
-            buf.iter_mut().for_each(|b| *b = 0.0);
-            let row0 = s as isize * rps - PAD as isize; // lattice row of buffer row 0
-            let plane = rows * nxp;
-            let idx =
-                |c: usize, i: isize, j: isize| c * plane + (i + PAD as isize) as usize + (j - row0) as usize * nxp;
-            for &p in &order[start[s]..start[s + 1]] {
-                let p = p as usize;
-                let w = point_weights(shape, grid, pts.x[p]);
-                let (m, v, vol) = (pts.m[p], pts.v[p], pts.vol[p]);
-                let sigma = pts.stress.map(|s| s[p]);
-                let affine = pts.affine.map(|(cu, cv)| (cu[p], cv[p]));
-                let ns = shape.support();
-                // x-faces: x at integer nodes, y at half nodes
-                for b in 0..ns {
-                    let j = w.yc.base + b as isize;
-                    for a in 0..ns {
-                        let i = w.xf.base + a as isize;
-                        let sw = w.xf.w[a] * w.yc.w[b];
-                        let mut mom = v.x;
-                        if let Some((cu, _)) = affine {
-                            let d = Vector::new(i as Real - w.xi.x, j as Real + 0.5 - w.xi.y) * h;
-                            mom += cu.dot(&d);
-                        }
-                        buf[idx(MASS_U, i, j)] += m * sw;
-                        buf[idx(MOM_U, i, j)] += m * sw * mom;
-                        if let Some(sg) = sigma {
-                            let g = Vector::new(w.xf.dw[a] * w.yc.w[b], w.xf.w[a] * w.yc.dw[b]) / h;
-                            buf[idx(FORCE_U, i, j)] -= vol * (sg[(0, 0)] * g.x + sg[(0, 1)] * g.y);
-                        }
-                    }
-                }
-                // y-faces: x at half nodes, y at integer nodes
-                for b in 0..ns {
-                    let j = w.yf.base + b as isize;
-                    for a in 0..ns {
-                        let i = w.xc.base + a as isize;
-                        let sw = w.xc.w[a] * w.yf.w[b];
-                        let mut mom = v.y;
-                        if let Some((_, cv)) = affine {
-                            let d = Vector::new(i as Real + 0.5 - w.xi.x, j as Real - w.xi.y) * h;
-                            mom += cv.dot(&d);
-                        }
-                        buf[idx(MASS_V, i, j)] += m * sw;
-                        buf[idx(MOM_V, i, j)] += m * sw * mom;
-                        if let Some(sg) = sigma {
-                            let g = Vector::new(w.xc.dw[a] * w.yf.w[b], w.xc.w[a] * w.yf.dw[b]) / h;
-                            buf[idx(FORCE_V, i, j)] -= vol * (sg[(1, 0)] * g.x + sg[(1, 1)] * g.y);
-                        }
-                    }
-                }
-                // cells
-                for b in 0..ns {
-                    let j = w.yc.base + b as isize;
-                    for a in 0..ns {
-                        let i = w.xc.base + a as isize;
-                        buf[idx(VOLUME, i, j)] += vol * w.xc.w[a] * w.yc.w[b];
-                    }
+        let plane = rows * nxp;
+        self.buffers.par_iter_mut().zip(self.dirty.par_iter_mut()).enumerate().for_each(|(s, (buf, dirty))| {
+            // zero only the columns the last run wrote
+            let (c0, c1) = *dirty;
+            if c1 > c0 {
+                for row in buf.chunks_exact_mut(nxp) {
+                    row[c0..c1].iter_mut().for_each(|b| *b = 0.0);
                 }
             }
-            let _ = dinv;
+            let pts_s = &order[start[s]..start[s + 1]];
+            *dirty = (0, 0);
+            if pts_s.is_empty() {
+                return;
+            }
+            let row0 = s as isize * rps - PAD as isize; // lattice row of buffer row 0
+            let (mut lo, mut hi) = (usize::MAX, 0);
+            for &p in pts_s {
+                let (l, r) = match shape {
+                    Shape::Linear => scatter_point::<2>(buf, plane, nxp, row0, h, grid, shape, pts, p as usize),
+                    Shape::Quadratic => scatter_point::<3>(buf, plane, nxp, row0, h, grid, shape, pts, p as usize),
+                };
+                lo = lo.min(l);
+                hi = hi.max(r);
+            }
+            *dirty = (lo, hi);
         });
         // reduce stripe buffers into the padded lattices, row by row in stripe order
         let nyp = self.nyp;
-        let buffers = &self.buffers;
+        let (buffers, dirty) = (&self.buffers, &self.dirty);
         let stripes = self.stripes;
         self.padded.par_chunks_mut(nxp).enumerate().for_each(|(k, row)| {
             let (c, jp) = (k / nyp, k % nyp);
@@ -216,11 +190,12 @@ impl Scatter {
             row.iter_mut().for_each(|r| *r = 0.0);
             for (s, buf) in buffers.iter().enumerate().take(stripes) {
                 let row0 = s as isize * rps - PAD as isize;
-                if j < row0 || j >= row0 + rows as isize {
+                let (c0, c1) = dirty[s];
+                if j < row0 || j >= row0 + rows as isize || c1 <= c0 {
                     continue;
                 }
                 let off = c * rows * nxp + (j - row0) as usize * nxp;
-                for (r, b) in row.iter_mut().zip(&buf[off..off + nxp]) {
+                for (r, b) in row[c0..c1].iter_mut().zip(&buf[off + c0..off + c1]) {
                     *r += b;
                 }
             }
@@ -249,10 +224,9 @@ impl Scatter {
             let pad = PAD as isize;
             for jg in -pad..(ny + 1 + pad) {
                 let row_outside = jg < 0 || jg >= nj;
-                for ig in -pad..(nx + 1 + pad) {
-                    if !row_outside && ig >= 0 && ig < ni {
-                        continue;
-                    }
+                // a ghost row whole, else its ghost columns only (in the same order)
+                let (left, right) = if row_outside { (nx + 1 + pad, nx + 1 + pad) } else { (0, ni) };
+                for ig in (-pad..left).chain(right..(nx + 1 + pad)) {
                     let val = self.at(c, ig, jg);
                     if val == 0.0 {
                         continue;
@@ -282,6 +256,114 @@ impl Scatter {
                     *self.at_mut(c, i, 0) += v;
                     *self.at_mut(c, i, ny) = self.at(c, i, 0);
                 }
+            }
+        }
+    }
+}
+
+/// Scatters point `p` into the stripe buffer `buf` (channel planes of `plane` values, rows of
+/// `nxp`, lattice row `row0` at buffer row 0), with a shape of `NS` nodes. Every stencil lies
+/// in the buffer (two ghost columns and rows on each side): direct row-wise indexing.
+/// Returns the buffer columns [c0, c1) written.
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::needless_range_loop)] // indexes weights and buffer rows by the same node
+#[inline(always)]
+fn scatter_point<const NS: usize>(
+    buf: &mut [Real],
+    plane: usize,
+    nxp: usize,
+    row0: isize,
+    h: Real,
+    grid: &Grid,
+    shape: Shape,
+    pts: &PointsIn,
+    p: usize,
+) -> (usize, usize) {
+    let w = point_weights(shape, grid, pts.x[p]);
+    let (m, v, vol) = (pts.m[p], pts.v[p], pts.vol[p]);
+    let (cu, cv) = pts.affine.map_or((Vector::zeros(), Vector::zeros()), |(cu, cv)| (cu[p], cv[p]));
+    let sigma = pts.stress.map(|s| s[p]);
+    let col = |i: isize| (i + PAD as isize) as usize;
+    let brow = |j: isize| (j - row0) as usize * nxp;
+    let lay = Layout { plane, nxp, row0, h, xi: w.xi, m };
+    // −V σ_k· ∇S with ∇S = (wx' wy, wx wy')/h: the factors V σ_k0/h, V σ_k1/h
+    let force = |k: usize| sigma.map(|sg| (vol * sg[(k, 0)] / h, vol * sg[(k, 1)] / h));
+    // x-faces: x at integer nodes, y at half nodes; y-faces: x at half nodes, y at integer nodes
+    let (xo, yo) = (Vector::new(0.0, 0.5), Vector::new(0.5, 0.0));
+    let (xc, yc) = ([MASS_U, MOM_U, FORCE_U], [MASS_V, MOM_V, FORCE_V]);
+    match (force(0), force(1)) {
+        (Some(fx), Some(fy)) => {
+            scatter_lattice::<NS, true>(buf, &lay, &w.xf, &w.yc, xo, v.x, cu, xc, fx);
+            scatter_lattice::<NS, true>(buf, &lay, &w.xc, &w.yf, yo, v.y, cv, yc, fy);
+        }
+        _ => {
+            scatter_lattice::<NS, false>(buf, &lay, &w.xf, &w.yc, xo, v.x, cu, xc, (0.0, 0.0));
+            scatter_lattice::<NS, false>(buf, &lay, &w.xc, &w.yf, yo, v.y, cv, yc, (0.0, 0.0));
+        }
+    }
+    // cells
+    for b in 0..NS {
+        let o = VOLUME * plane + brow(w.yc.base + b as isize) + col(w.xc.base);
+        let vw = vol * w.yc.w[b];
+        let cell = &mut buf[o..o + NS];
+        for a in 0..NS {
+            cell[a] += vw * w.xc.w[a];
+        }
+    }
+    let lo = col(w.xf.base.min(w.xc.base));
+    (lo, col(w.xf.base.max(w.xc.base)) + NS)
+}
+
+/// Where a point's stencil goes in a stripe buffer, and the point's mass.
+struct Layout {
+    plane: usize,
+    nxp: usize,
+    row0: isize,
+    h: Real,
+    xi: Vector,
+    m: Real,
+}
+
+/// One face lattice of a point's scatter (nodes at `off` + integers): mass, momentum with
+/// the APIC term c·(x_i − x_p), and with `FORCE` the force −(f0 wx' wy + f1 wx wy'),
+/// `force` = (f0, f1).
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::needless_range_loop)] // indexes weights and buffer rows by the same node
+#[inline(always)]
+fn scatter_lattice<const NS: usize, const FORCE: bool>(
+    buf: &mut [Real],
+    lay: &Layout,
+    wx: &Weights1,
+    wy: &Weights1,
+    off: Vector,
+    vel: Real,
+    c: Vector,
+    chans: [usize; 3],
+    force: (Real, Real),
+) {
+    let (h, m) = (lay.h, lay.m);
+    let dx: [Real; NS] = std::array::from_fn(|a| ((wx.base + a as isize) as Real + off.x - lay.xi.x) * h);
+    let mx: [Real; NS] = std::array::from_fn(|a| m * wx.w[a]);
+    let mxd: [Real; NS] = std::array::from_fn(|a| mx[a] * c.x * dx[a]);
+    for b in 0..NS {
+        let j = wy.base + b as isize;
+        let o = (j - lay.row0) as usize * lay.nxp + (wx.base + PAD as isize) as usize;
+        let dy = (j as Real + off.y - lay.xi.y) * h;
+        let mom0 = vel + c.y * dy;
+        let wyb = wy.w[b];
+        let mass = &mut buf[chans[0] * lay.plane + o..chans[0] * lay.plane + o + NS];
+        for a in 0..NS {
+            mass[a] += mx[a] * wyb;
+        }
+        let mom = &mut buf[chans[1] * lay.plane + o..chans[1] * lay.plane + o + NS];
+        for a in 0..NS {
+            mom[a] += wyb * (mx[a] * mom0 + mxd[a]);
+        }
+        if FORCE {
+            let (s0, s1) = (force.0 * wyb, force.1 * wy.dw[b]);
+            let f = &mut buf[chans[2] * lay.plane + o..chans[2] * lay.plane + o + NS];
+            for a in 0..NS {
+                f[a] -= s0 * wx.dw[a] + s1 * wx.w[a];
             }
         }
     }

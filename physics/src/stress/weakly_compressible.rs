@@ -20,11 +20,12 @@
 //! (to first order in J − 1 it is also σ = E (J − 1) I).
 //!
 //! The frame tracks F ← (I + Δt ∇v) F, so J ← det(I + Δt ∇v) J = (1 + Δt tr ∇v + Δt² det ∇v) J:
-//! mpm88's `J *= 1 + dt·tr(C)` up to the Δt² term, with ∇v from the frame's re-projection
-//! of the points' new velocities (MUSL) where mpm88 takes C, its APIC matrix of the new grid
-//! velocities. F also records the shear of the flow, which this model ignores but which
-//! grows without bound in a long run (exponentially where the flow stretches), until det F
-//! loses its precision; such a run needs a frame that keeps only J.
+//! mpm88's `J *= 1 + dt·tr(C)` up to the Δt² term. Because this model is `volumetric_only`,
+//! the Lagrangian frame keeps F = diag(J, 1) (F's shear would grow without bound in a long
+//! run, exponentially where the flow stretches, until det F loses its precision), and on the
+//! quadratic B-spline it takes ∇v = Σ u_i ∇S_ip of the new grid velocities in the same
+//! gather that updates the points (one scatter and one gather per step, as mpm88) where
+//! mpm88 takes C, its APIC matrix of those velocities; solids use the MUSL re-projection.
 //!
 //! Explicit MPM is stable for Δt ≤ C h / (c + |v|) with c = sqrt(E/ρ⁰); C is the `cfl`
 //! parameter, 0.5 by default (mpm88 runs at C = 2e-4 · 20 · 128 = 0.51 at rest).
