@@ -2,7 +2,8 @@
 //! `examples/dkt_uhlmann2005.ron`) at a resolution CI can afford, 8 cells per diameter:
 //! the trailing disk drafts in the leading one's wake, the settling speeds follow the
 //! published curves (`../shared/reference/dkt-uhlmann2005`, embedded below at the times
-//! the test reads them), and the pair kisses and tumbles before 0.35 s. Full-resolution
+//! the test reads them), and the pair kisses and tumbles before 0.35 s; and, at the
+//! example's 16 cells per diameter, a lone disk off the axis barely spins. Full-resolution
 //! runs and their figures: `docs/validation.md`.
 
 use multifield::core::case::Case;
@@ -58,7 +59,7 @@ fn the_trailing_disk_drafts_kisses_and_tumbles_and_speeds_follow_uhlmann() {
     // 0.236 s, tumble 0.285 s (published 0.171–0.208 s and 0.261–0.280 s; at 24 cells per
     // diameter 0.210 s and 0.260 s, docs/validation.md)
     let (kiss, tumble) = (kiss.expect("the gap along gravity never fell to d"), tumble.expect("no tumble by 0.35 s"));
-    assert!(kiss < tumble, "kiss at {kiss} s after the tumble at {tumble} s");
+    assert!(kiss < 0.27 && tumble < 0.32, "kiss at {kiss} s, tumble at {tumble} s (measured 0.236 s, 0.285 s)");
     for ((t, l, tr), (tr_, ul, ut)) in speeds.iter().zip(UHLMANN_SPEED) {
         let (el, et) = ((l - ul) / ul, (tr - ut) / ut);
         eprintln!(

@@ -40,7 +40,8 @@ fn the_mpm88_fluid_stays_finite_and_loses_mechanical_energy() {
     }
     eprintln!("steps {}, largest relative gain of KE + PE {worst_gain:e}, J in {j_range:?}", sim.steps);
     assert!(sim.steps >= 1600, "{} steps: past the step (1,471) where the full F broke down", sim.steps);
-    assert!(worst_gain < 1e-3, "mechanical energy grew by {worst_gain:e} of its initial value");
+    // measured: at most −5.2e-7, i.e. below its initial value at every step
+    assert!(worst_gain < 1e-6, "mechanical energy grew by {worst_gain:e} of its initial value");
     // the bulk stays nearly incompressible (c = sqrt(E/ρ) = 20 against speeds of ~1–3);
     // a few points pinned to a wall (sampling zero normal velocity) reach the extremes
     let f = sim.fields[0].frame.as_any().downcast_ref::<Lagrangian>().unwrap();

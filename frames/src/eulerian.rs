@@ -70,7 +70,9 @@ pub enum Limiter {
 }
 
 impl Limiter {
-    /// Limited slope from the backward difference `a` and the forward difference `b`.
+    /// Limited slope from the difference `a` on the upwind side of the cell and `b` on the
+    /// side of the flux point (for a positive velocity, the backward and forward differences).
+    /// Only `third_order` treats the two differently.
     #[inline]
     pub fn slope(self, a: Real, b: Real) -> Real {
         match self {

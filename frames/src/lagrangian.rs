@@ -796,9 +796,9 @@ impl Frame for Lagrangian {
         // depends on F only through J, on the quadratic B-spline: J from ∇v of this gather, the
         // gradient of the new grid velocity (one scatter and one gather per step, as mpm88).
         // MUSL guards against u = (mu + Δt f)/m on a face a point barely reaches, m ∝ S, f ∝ ∇S;
-        // that face enters the point's own ∇v weighted by ∇S, so as |∇S|²/S, which is at most
-        // 2/h² for the B-spline (w'²/w = 2 on its outer pieces, ≤ 2 inside) but 1/(h² w) for
-        // the tent: a linear-shape fluid keeps MUSL. (mpm88's C, the APIC matrix, in place of
+        // that face enters the point's own ∇v weighted by ∇S, so as |∇S|²/S = (w_x'²/w_x w_y +
+        // w_x w_y'²/w_y)/h², which is at most 3/h² for the B-spline (w'²/w ≤ 2, w ≤ ¾) but
+        // grows as 1/(h² w) for the tent: a linear-shape fluid keeps MUSL. (mpm88's C, the APIC matrix, in place of
         // this ∇v, which is the gradient the internal force −V σ ∇S pairs with, made
         // examples/mpm88.ron go unstable near step 1,400.)
         let grid_j = self.has_point_stress && self.volumetric_only && shape == Shape::Quadratic;
