@@ -65,6 +65,16 @@ static double now(void) {
 
 static inline float sq(float a) { return a * a; }
 
+/* quadratic B-spline of a point at x along one axis: base node b, fraction f from it, weights w */
+static inline void weights(float x, int *b, float *f, float w[3]) {
+    float X = x * inv_dx;
+    *b = (int)(X - 0.5f);
+    *f = X - *b;
+    w[0] = 0.5f * sq(1.5f - *f);
+    w[1] = 0.75f - sq(*f - 1.0f);
+    w[2] = 0.5f * sq(*f - 0.5f);
+}
+
 /* the lattice benches/taichi/mpm88.py seeds (its `lattice(0)`), in the same order */
 static void init(void) {
     double c[2 * NG];
@@ -89,11 +99,10 @@ static void init(void) {
 /* particles to grid: points [p0, p1) into g */
 static void p2g(Node *restrict g, int p0, int p1) {
     for (int p = p0; p < p1; p++) {
-        float X0 = x0[p] * inv_dx, X1 = x1[p] * inv_dx;
-        int b0 = (int)(X0 - 0.5f), b1 = (int)(X1 - 0.5f);
-        float f0 = X0 - b0, f1 = X1 - b1;
-        float w0[3] = {0.5f * sq(1.5f - f0), 0.75f - sq(f0 - 1.0f), 0.5f * sq(f0 - 0.5f)};
-        float w1[3] = {0.5f * sq(1.5f - f1), 0.75f - sq(f1 - 1.0f), 0.5f * sq(f1 - 0.5f)};
+        int b0, b1;
+        float f0, f1, w0[3], w1[3];
+        weights(x0[p], &b0, &f0, w0);
+        weights(x1[p], &b1, &f1, w1);
         float stress = -dt * 4.0f * E * p_vol * (J[p] - 1.0f) * inv_dx * inv_dx;
         const float p_mass = p_vol * p_rho;
         float a00 = stress + p_mass * C00[p], a01 = p_mass * C01[p];
@@ -187,11 +196,10 @@ static void g2p(int p0, int p1) {
     for (; p0 + 8 <= p1; p0 += 8) g2p8(p0);
 #endif
     for (int p = p0; p < p1; p++) {
-        float X0 = x0[p] * inv_dx, X1 = x1[p] * inv_dx;
-        int b0 = (int)(X0 - 0.5f), b1 = (int)(X1 - 0.5f);
-        float f0 = X0 - b0, f1 = X1 - b1;
-        float w0[3] = {0.5f * sq(1.5f - f0), 0.75f - sq(f0 - 1.0f), 0.5f * sq(f0 - 0.5f)};
-        float w1[3] = {0.5f * sq(1.5f - f1), 0.75f - sq(f1 - 1.0f), 0.5f * sq(f1 - 0.5f)};
+        int b0, b1;
+        float f0, f1, w0[3], w1[3];
+        weights(x0[p], &b0, &f0, w0);
+        weights(x1[p], &b1, &f1, w1);
         float nv0 = 0, nv1 = 0, c00 = 0, c01 = 0, c10 = 0, c11 = 0;
         for (int i = 0; i < 3; i++) {
             float d0 = (i - f0) * dx;

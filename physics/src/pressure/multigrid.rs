@@ -149,23 +149,11 @@ impl Op32 {
     }
     #[inline(always)]
     fn south(&self, j: usize) -> usize {
-        if j > 0 {
-            j - 1
-        } else if self.periodic[1] {
-            self.ny - 1
-        } else {
-            0
-        }
+        super::stencil::previous(j, self.ny, self.periodic[1])
     }
     #[inline(always)]
     fn north(&self, j: usize) -> usize {
-        if j + 1 < self.ny {
-            j + 1
-        } else if self.periodic[1] {
-            0
-        } else {
-            j
-        }
+        super::stencil::next(j, self.ny, self.periodic[1])
     }
     #[inline(always)]
     fn west_east(&self) -> (usize, usize) {

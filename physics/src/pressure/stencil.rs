@@ -169,46 +169,22 @@ impl Stencil {
     /// Index of the west neighbour of column `i` (itself when there is none; its coupling is 0).
     #[inline(always)]
     pub fn west(&self, i: usize) -> usize {
-        if i > 0 {
-            i - 1
-        } else if self.periodic[0] {
-            self.nx - 1
-        } else {
-            0
-        }
+        previous(i, self.nx, self.periodic[0])
     }
     /// Index of the east neighbour of column `i`.
     #[inline(always)]
     pub fn east(&self, i: usize) -> usize {
-        if i + 1 < self.nx {
-            i + 1
-        } else if self.periodic[0] {
-            0
-        } else {
-            i
-        }
+        next(i, self.nx, self.periodic[0])
     }
     /// Row below row `j` (itself when there is none).
     #[inline(always)]
     pub fn south(&self, j: usize) -> usize {
-        if j > 0 {
-            j - 1
-        } else if self.periodic[1] {
-            self.ny - 1
-        } else {
-            0
-        }
+        previous(j, self.ny, self.periodic[1])
     }
     /// Row above row `j`.
     #[inline(always)]
     pub fn north(&self, j: usize) -> usize {
-        if j + 1 < self.ny {
-            j + 1
-        } else if self.periodic[1] {
-            0
-        } else {
-            j
-        }
+        next(j, self.ny, self.periodic[1])
     }
 
     /// out\[i\] = Σ_faces a_f x_neighbour for the cells of row `j`.
@@ -300,6 +276,31 @@ impl Stencil {
         } else {
             y.chunks_mut(nx).enumerate().for_each(body);
         }
+    }
+}
+
+/// The index before `k` along an axis of `n` cells: `k − 1`, wrapped to `n − 1` on a periodic
+/// axis, and `k` itself at a wall (where the operator's coupling is 0).
+#[inline(always)]
+pub(crate) fn previous(k: usize, n: usize, periodic: bool) -> usize {
+    if k > 0 {
+        k - 1
+    } else if periodic {
+        n - 1
+    } else {
+        k
+    }
+}
+
+/// The index after `k` along an axis of `n` cells (see [`previous`]).
+#[inline(always)]
+pub(crate) fn next(k: usize, n: usize, periodic: bool) -> usize {
+    if k + 1 < n {
+        k + 1
+    } else if periodic {
+        0
+    } else {
+        k
     }
 }
 
