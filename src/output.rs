@@ -19,6 +19,9 @@ pub trait Writer {
     }
     /// After every step; `last` on the run's final step.
     fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error>;
+    /// Whether [`Writer::after_step`] would write now: the runner then brings the fields'
+    /// grid state up to date first ([`Simulation::refresh_grid_state`]).
+    fn due(&self, sim: &Simulation, last: bool) -> bool;
 }
 
 /// The writers the case asks for.
@@ -44,6 +47,10 @@ impl Due {
     /// A schedule whose first write is at `first`.
     pub fn new(first: Real, interval: Real) -> Self {
         Self { next: first, interval }
+    }
+    /// Whether a write is due at time `t`, without moving the schedule.
+    pub fn peek(&self, t: Real) -> bool {
+        t >= self.next - 1e-9 * self.interval
     }
     /// Whether a write is due at time `t`; if so, moves the schedule past `t`.
     pub fn check(&mut self, t: Real) -> bool {

@@ -641,6 +641,9 @@ impl Pictures {
 }
 
 impl Writer for Pictures {
+    fn due(&self, sim: &Simulation, last: bool) -> bool {
+        (self.due.peek(sim.time) || last) && self.last_step != Some(sim.steps)
+    }
     fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
         if self.due.check(sim.time) && !self.resumed {
             self.draw(sim)?;

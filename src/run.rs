@@ -514,6 +514,9 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         }
     };
     let mut writers = crate::output::writers(&sim, dir)?;
+    if !writers.is_empty() {
+        sim.refresh_grid_state()?;
+    }
     for w in &mut writers {
         w.start(&sim)?;
     }
@@ -631,6 +634,9 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         }
         last_row_written = due;
         let last = unstable.is_some() || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+        if sim.grid_state_stale() && writers.iter().any(|w| w.due(&sim, last)) {
+            sim.refresh_grid_state()?;
+        }
         for w in &mut writers {
             w.after_step(&sim, last)?;
         }
@@ -640,6 +646,8 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         }
         if let Some(c) = checkpoints.as_mut() {
             if c.due(sim.time) {
+                // a checkpoint holds the grid state too: the same bits whenever it was written
+                sim.refresh_grid_state()?;
                 let state = runner_state(&summary, next_output, last_row_written, csv.rows);
                 summary.last_checkpoint = Some(c.write(&sim, &state)?.display().to_string());
             }
@@ -668,6 +676,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     // extended with a later time.end; one that blew up keeps its last good one
     if let Some(c) = checkpoints.as_mut() {
         if status == Status::Completed && sim.steps > 0 && c.last_step() != Some(sim.steps) {
+            sim.refresh_grid_state()?;
             summary.last_checkpoint = Some(c.write(&sim, &state)?.display().to_string());
         }
     }

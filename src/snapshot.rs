@@ -700,6 +700,10 @@ impl Snapshots {
 }
 
 impl Writer for Snapshots {
+    fn due(&self, sim: &Simulation, last: bool) -> bool {
+        let done = self.written.last().is_some_and(|e| e.step == sim.steps);
+        (self.due.peek(sim.time) || last) && !done
+    }
     fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
         self.due.check(sim.time);
         self.write(sim)

@@ -112,6 +112,20 @@ pub struct BodyState {
     pub free: bool,
 }
 
+/// The figures of a step of a frame that steps alone ([`Frame::step_alone`]), summed in
+/// its pass over the points.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameFigures {
+    /// Kinetic energy at the end of the step.
+    pub kinetic_energy: Real,
+    /// Linear momentum.
+    pub momentum: Vector,
+    /// Mass.
+    pub mass: Real,
+    /// Largest speed.
+    pub max_speed: Real,
+}
+
 /// A field's frame: where its state lives (grid or material points) and how it is
 /// carried to and from the grid. Implementations live in `multifield-frames`.
 pub trait Frame: Send + Sync {
@@ -135,6 +149,24 @@ pub trait Frame: Send + Sync {
     fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String>;
     /// Step 9: transport of the field's volume with the corrected velocity.
     fn advect(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {
+        Ok(())
+    }
+    /// Whether this frame advances itself in one pass ([`Frame::step_alone`]) in place of
+    /// the multifield phases. The core then requires the field to be the case's only one,
+    /// with no pressure solve, exchange or contact, and no stress model acting on the grid
+    /// ([`StressModel::acts_on_grid`]). Default: false.
+    fn steps_alone(&self) -> bool {
+        false
+    }
+    /// One whole step of a frame that [`Frame::steps_alone`]; `ctx.state` is not written
+    /// (see [`Frame::refresh_grid_state`]). Returns the step's figures.
+    fn step_alone(&mut self, _ctx: &mut FrameContext) -> Result<FrameFigures, String> {
+        Err(format!("frame `{}` does not step alone", self.model()))
+    }
+    /// Writes the field's grid state (θ, face masses and velocities) from the frame's own
+    /// state, for output after [`Frame::step_alone`], which leaves it unwritten. Default:
+    /// nothing.
+    fn refresh_grid_state(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {
         Ok(())
     }
     /// Largest speed, for the CFL limit.
@@ -403,6 +435,12 @@ pub trait StressModel: Send + Sync {
     /// Whether this model needs point stresses (MPM).
     fn acts_on_points(&self) -> bool {
         false
+    }
+    /// Whether [`StressModel::apply_on_grid`] does anything: such a model needs the
+    /// staggered grid state, which a frame that steps alone does not write. Default: the
+    /// opposite of [`StressModel::acts_on_points`]; a model that does both says so.
+    fn acts_on_grid(&self) -> bool {
+        !self.acts_on_points()
     }
     /// Adds this model's Cauchy stress at every point. Default: nothing.
     fn point_stress(&self, _ctx: &mut PointStressContext) {}

@@ -13,7 +13,8 @@ use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
     BodyState, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
-    GridStressContext, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel, TimeStepContext,
+    FrameFigures, GridStressContext, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel,
+    TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -137,6 +138,11 @@ pub struct Simulation {
     pub last: StepDiagnostics,
     /// Kinetic energy at the start.
     pub initial_energy: Real,
+    /// The case's only field steps alone ([`Frame::steps_alone`]).
+    alone: bool,
+    /// The fields' grid state is older than their frames' (a field that steps alone does
+    /// not write it): [`Simulation::refresh_grid_state`] before reading it.
+    grid_state_stale: bool,
 }
 
 /// Fraction of each cell covered by `region`, by 8×8 sub-sampling.
@@ -331,6 +337,10 @@ impl Simulation {
         }
         let initial_energy = fields.iter().map(|f| f.frame.kinetic_energy()).sum();
         let n_fields = fields.len();
+        let alone = fields.iter().any(|f| f.frame.steps_alone());
+        if alone {
+            check_alone(&case, &fields, pressure_solver.is_some())?;
+        }
         Ok(Simulation {
             gravity: vector(case.gravity),
             pressure: vec![0.0; grid.n_cells()],
@@ -347,6 +357,8 @@ impl Simulation {
             steps: 0,
             last: StepDiagnostics::default(),
             initial_energy,
+            alone,
+            grid_state_stale: false,
         })
     }
 
@@ -407,7 +419,9 @@ impl Simulation {
     /// same case (same grid and fields; the time control and output may differ). The
     /// message of an error says which part does not fit.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<()> {
-        self.load_state_inner(bytes).map_err(Error::Model)
+        self.load_state_inner(bytes).map_err(Error::Model)?;
+        self.grid_state_stale = self.alone;
+        Ok(())
     }
 
     fn load_state_inner(&mut self, bytes: &[u8]) -> std::result::Result<(), String> {
@@ -498,6 +512,10 @@ impl Simulation {
 
     /// Largest speed of any field.
     pub fn max_speed(&self) -> Real {
+        if self.alone && self.steps > 0 {
+            // the step's own figure (the same max |v| over the points, summed in its pass)
+            return self.last.max_speed;
+        }
         self.fields.iter().map(|f| f.frame.max_speed()).fold(0.0, Real::max)
     }
 
@@ -584,6 +602,9 @@ impl Simulation {
 
     /// Advances one step of the given Δt.
     pub fn step_with(&mut self, dt: Real, dt_limit: String) -> Result<StepDiagnostics> {
+        if self.alone {
+            return self.step_alone(dt, dt_limit);
+        }
         self.particles_to_grid(dt)?;
         let volume_fraction_error = self.volume_fractions();
         self.predictor(dt)?;
@@ -611,6 +632,52 @@ impl Simulation {
             pressure_residual: residual,
         };
         Ok(self.last.clone())
+    }
+
+    /// A step of the only field, which steps alone: none of the multifield phases (volume
+    /// fractions, exchange, pressure, contact) has anything to do. Σθ is not computed:
+    /// `volume_fraction_error` is NaN.
+    fn step_alone(&mut self, dt: Real, dt_limit: String) -> Result<StepDiagnostics> {
+        let mut figures = FrameFigures::default();
+        self.frame_phase(dt, "step", |fr, ctx| {
+            figures = fr.step_alone(ctx)?;
+            Ok(())
+        })?;
+        self.grid_state_stale = true;
+        self.time += dt;
+        self.steps += 1;
+        self.last = StepDiagnostics {
+            step: self.steps,
+            time: self.time,
+            dt,
+            dt_limit,
+            kinetic_energy: figures.kinetic_energy,
+            momentum: figures.momentum,
+            mass: figures.mass,
+            max_speed: figures.max_speed,
+            max_divergence: 0.0,
+            volume_fraction_error: Real::NAN,
+            pressure_iterations: 0,
+            pressure_residual: 0.0,
+        };
+        Ok(self.last.clone())
+    }
+
+    /// Whether the fields' grid state is older than their frames' state (after a step of a
+    /// field that steps alone, or a restart of one).
+    pub fn grid_state_stale(&self) -> bool {
+        self.grid_state_stale
+    }
+
+    /// Brings the fields' grid state (θ, face masses and velocities) up to their frames'
+    /// state when it is stale ([`Frame::refresh_grid_state`]); output writers read it.
+    /// Changes nothing the next steps depend on.
+    pub fn refresh_grid_state(&mut self) -> Result<()> {
+        if self.grid_state_stale {
+            self.frame_phase(0.0, "grid state for output", |fr, ctx| fr.refresh_grid_state(ctx))?;
+            self.grid_state_stale = false;
+        }
+        Ok(())
     }
 
     fn frame_phase(
@@ -1058,6 +1125,40 @@ pub fn constraint_of(g: &Grid, fields: &[Field], beta: Real, dt: Real) -> Vec<Re
         }
     }
     out
+}
+
+/// A field that steps alone ([`Frame::steps_alone`]) must be the case's only one, with no
+/// pressure solve, exchange or contact, and no stress model that acts on the grid.
+fn check_alone(case: &Case, fields: &[Field], pressure: bool) -> Result<()> {
+    let field = fields.iter().find(|f| f.frame.steps_alone()).expect("a field steps alone");
+    let path = format!("fields.{}.frame", field.name);
+    let fix = "or give the field its coupled grid (for the Lagrangian frame, grid: \"staggered\")";
+    let why = |what: String| {
+        Error::invalid(path.clone(), format!("this frame steps alone (grid \"collocated\"), {what}; {fix}"))
+    };
+    if fields.len() > 1 {
+        let others: Vec<&str> = fields.iter().filter(|f| f.name != field.name).map(|f| f.name.as_str()).collect();
+        return Err(why(format!(
+            "but the case has other fields ({}): remove them",
+            others.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    if pressure {
+        return Err(why("but the case has a pressure solve: set `pressure: None`".into()));
+    }
+    if !case.exchange.is_empty() {
+        return Err(why("but the case has exchanges: remove them".into()));
+    }
+    if case.contact.is_some() {
+        return Err(why("but the case has a contact model: set `contact: None`".into()));
+    }
+    if let Some(m) = field.stress.iter().find(|m| m.acts_on_grid()) {
+        return Err(why(format!(
+            "but its stress `{}` acts on the staggered grid: use a point stress (e.g. weakly_compressible)",
+            m.model()
+        )));
+    }
+    Ok(())
 }
 
 fn case_index(fields: &[Field], name: &str) -> usize {

@@ -11,6 +11,7 @@
 //! The transfer scheme and the shape function are values chosen in the case (`transfer`,
 //! `shape`), not solver types.
 
+use crate::collocated::Collocated;
 use crate::scatter::{self, point_weights, PointsIn, Scatter};
 use crate::shape::{Shape, Weights1};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
@@ -18,7 +19,8 @@ use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{
-    BodyState, Frame, FrameContext, InitContext, PointStressContext, StateReader, StateWriter, StressModel,
+    BodyState, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StateReader, StateWriter,
+    StressModel,
 };
 use multifield_core::registry::{params_value, ParamDoc};
 use rayon::prelude::*;
@@ -35,6 +37,17 @@ pub enum Transfer {
     Flip,
     /// Affine particle-in-cell (conserves angular momentum, little dissipation).
     Apic,
+}
+
+/// Where the frame's scratch grid keeps the velocity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GridLayout {
+    /// On the faces of the cells (MAC), where the core couples fields through one pressure.
+    Staggered,
+    /// Both components on the nodes (standard MPM), for a field that is alone in its case:
+    /// one scatter and one gather a step, with no multifield phases (`collocated` module).
+    Collocated,
 }
 
 /// Material points of one field (structure of arrays).
@@ -105,6 +118,10 @@ pub struct Lagrangian {
     /// α of the FLIP/PIC blend (only for `"flip"`), 0.95–0.99 usual.
     #[serde(default = "default_blend")]
     pub flip_blend: Real,
+    /// `"staggered"` (the default, coupled through the core) or `"collocated"` (a field
+    /// alone in its case: no other field, pressure solve, exchange or contact).
+    #[serde(default = "default_grid")]
+    pub grid: GridLayout,
     /// The points.
     #[serde(skip)]
     pub points: Points,
@@ -122,6 +139,11 @@ pub struct Lagrangian {
     pub bodies: Vec<Body>,
     #[serde(skip)]
     x_old: Vec<Vector>,
+    #[serde(skip)]
+    collocated: Option<Collocated>,
+    /// Force the collocated grid's portable loops (tests: they give the same bits as AVX).
+    #[serde(skip)]
+    portable: bool,
 }
 
 /// A body of a Lagrangian field: its definition and its state.
@@ -154,6 +176,9 @@ fn default_transfer() -> Transfer {
 fn default_blend() -> Real {
     0.97
 }
+fn default_grid() -> GridLayout {
+    GridLayout::Staggered
+}
 
 impl Lagrangian {
     /// Checks the parameters.
@@ -163,6 +188,17 @@ impl Lagrangian {
         }
         if !(0.0..=1.0).contains(&self.flip_blend) {
             return Err(format!("flip_blend {}: must lie in [0, 1] (0.95–0.99 usual)", self.flip_blend));
+        }
+        if self.grid == GridLayout::Collocated {
+            if self.shape != Shape::Quadratic {
+                return Err("grid \"collocated\" needs shape \"quadratic\" (the linear shape's ∇v is unbounded                             where a point barely reaches a node); set shape: \"quadratic\" or grid: \"staggered\""
+                    .into());
+            }
+            if self.transfer == Transfer::Flip {
+                return Err("grid \"collocated\" transfers by \"apic\" or \"pic\"; set transfer: \"apic\", or \
+                            grid: \"staggered\" for FLIP"
+                    .into());
+            }
         }
         Ok(())
     }
@@ -181,6 +217,46 @@ impl Lagrangian {
             volumetric_only: false,
             bodies: Vec::new(),
             x_old: Vec::new(),
+            grid: GridLayout::Staggered,
+            collocated: None,
+            portable: false,
+        }
+    }
+
+    /// Makes the collocated grid use its portable loops (`true`) or AVX where the CPU has
+    /// it (`false`, the default); both give the same bits. Returns whether AVX will be used.
+    pub fn set_portable(&mut self, portable: bool) -> bool {
+        self.portable = portable;
+        let avx = crate::collocated::avx_available() && !portable;
+        if let Some(c) = self.collocated.as_mut() {
+            c.use_simd(avx);
+        }
+        avx
+    }
+
+    /// Whether the field has point-stress models, and whether all are `volumetric_only`.
+    fn classify_stress(&mut self, ctx: &FrameContext) {
+        self.has_point_stress = ctx.stress.iter().any(|s| s.acts_on_points());
+        self.volumetric_only =
+            self.has_point_stress && ctx.stress.iter().filter(|s| s.acts_on_points()).all(|s| s.volumetric_only());
+    }
+
+    /// The stress of every point from the field's point-stress models (zero without one);
+    /// records whether there is one and whether all are `volumetric_only`.
+    fn evaluate_stress(&mut self, ctx: &FrameContext) {
+        self.classify_stress(ctx);
+        let pts = &mut self.points;
+        if self.has_point_stress {
+            pts.stress.par_iter_mut().for_each(|s| *s = Matrix::zeros());
+            for model in ctx.stress.iter().filter(|s| s.acts_on_points()) {
+                model.point_stress(&mut PointStressContext {
+                    dt: ctx.dt,
+                    density: ctx.density,
+                    deformation_gradient: &pts.f,
+                    velocity_gradient: &pts.grad_v,
+                    stress: &mut pts.stress,
+                });
+            }
         }
     }
 
@@ -405,6 +481,12 @@ multifield_core::register!(
         ParamDoc { name: "shape", unit: "-", default: "\"linear\"", doc: "\"linear\" or \"quadratic\" (B-spline)" },
         ParamDoc { name: "transfer", unit: "-", default: "\"flip\"", doc: "\"pic\", \"flip\" (blend) or \"apic\"" },
         ParamDoc { name: "flip_blend", unit: "-", default: "0.97", doc: "α of the FLIP/PIC blend" },
+        ParamDoc {
+            name: "grid",
+            unit: "-",
+            default: "\"staggered\"",
+            doc: "\"staggered\" (faces, coupled) or \"collocated\" (nodes; a field alone in its case)"
+        },
     ]
 );
 
@@ -618,6 +700,11 @@ impl Frame for Lagrangian {
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
         check_open_sides(ctx.boundaries, ctx.region)?;
+        if self.grid == GridLayout::Collocated && matches!(ctx.region, Region::Bodies(_)) {
+            return Err("a field of bodies needs grid \"staggered\" (its rigid projection and its coupling \
+                        to a fluid live on the faces); remove grid: \"collocated\""
+                .into());
+        }
         let g = ctx.grid;
         let n = self.points_per_cell;
         let dv = g.cell_area() / (n * n) as Real;
@@ -704,25 +791,46 @@ impl Frame for Lagrangian {
         Ok(())
     }
 
+    fn steps_alone(&self) -> bool {
+        self.grid == GridLayout::Collocated
+    }
+
+    fn step_alone(&mut self, ctx: &mut FrameContext) -> Result<FrameFigures, String> {
+        self.classify_stress(ctx);
+        let portable = self.portable;
+        let grid = self.collocated.get_or_insert_with(|| {
+            let mut c = Collocated::new(ctx.grid);
+            c.use_simd(!portable);
+            c
+        });
+        // a point stress that is not `volumetric_only` keeps the full F (F ← (I + Δt ∇v) F)
+        Ok(grid.step(
+            ctx.grid,
+            ctx.boundaries,
+            &mut self.points,
+            ctx.stress,
+            ctx.density,
+            self.transfer,
+            self.volumetric_only,
+            ctx.dt,
+            ctx.gravity,
+        ))
+    }
+
+    /// The staggered scatter of the points as they are now: θ, face masses, and the face
+    /// velocities mu/m (without the internal force).
+    fn refresh_grid_state(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        self.to_grid(ctx)?;
+        let s = &mut *ctx.state;
+        s.velocity.clone_from(&s.velocity_old);
+        Ok(())
+    }
+
     fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
         let g = ctx.grid;
+        self.evaluate_stress(ctx);
         let pts = &mut self.points;
         let n = pts.len();
-        self.has_point_stress = ctx.stress.iter().any(|s| s.acts_on_points());
-        self.volumetric_only =
-            self.has_point_stress && ctx.stress.iter().filter(|s| s.acts_on_points()).all(|s| s.volumetric_only());
-        if self.has_point_stress {
-            pts.stress.par_iter_mut().for_each(|s| *s = Matrix::zeros());
-            for model in ctx.stress.iter().filter(|s| s.acts_on_points()) {
-                model.point_stress(&mut PointStressContext {
-                    dt: ctx.dt,
-                    density: ctx.density,
-                    deformation_gradient: &pts.f,
-                    velocity_gradient: &pts.grad_v,
-                    stress: &mut pts.stress,
-                });
-            }
-        }
         self.vol.resize(n, 0.0);
         self.vol.par_iter_mut().enumerate().for_each(|(p, v)| *v = pts.vol0[p] * pts.f[p].determinant());
         let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));

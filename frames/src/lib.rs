@@ -7,6 +7,7 @@
 //! with the core; call [`link`] once from a binary or test so the linker keeps this crate.
 #![warn(missing_docs)]
 
+pub mod collocated;
 pub mod eulerian;
 pub mod lagrangian;
 pub mod mass_point;

@@ -1,0 +1,741 @@
+//! The collocated grid of a lone Lagrangian field (`grid: "collocated"`): one whole step of
+//! the material points in one scatter and one gather, with the grid velocity at the nodes
+//! (i h, j h), the layout of standard MPM (Sulsky, Chen & Schreyer 1994; Jiang et al.'s
+//! APIC 2015; Taichi's mpm88).
+//!
+//! A field that is alone (no other field, no pressure solve, no exchange, no contact) needs
+//! none of the multifield phases: its step is particles to grid, the grid update
+//! `u = (mu + Δt f)/m + Δt g` with the walls, and grid to particles. The staggered
+//! (MAC) layout exists to couple fields through one pressure; a lone field can keep its two
+//! velocity components on the same nodes, which halves the stencils a point touches (9
+//! nodes of 3 sums, against 9 x-faces and 9 y-faces of 2 sums and 9 cells of volume).
+//!
+//! The discretisation is the staggered path's in every other respect: the quadratic
+//! B-spline, the force `−V σ ∇S` (not MLS-MPM's `S D⁻¹ (x_i − x_p)`), APIC's
+//! `C = D⁻¹ Σ S u (x_i − x_p)ᵀ` or PIC, `∇v = Σ u ∇Sᵀ`, J ← J det(I + Δt ∇v) for a
+//! `volumetric_only` stress and F ← (I + Δt ∇v) F otherwise, and at a wall the ghost nodes
+//! mirror the nodes inside (the normal component odd, the tangential one by the wall's
+//! rule) in both transfers.
+//!
+//! Parallel and deterministic: the points are split by index into `PARTS` fixed parts,
+//! each scattered into its own grid on its own thread; the grid update adds the parts node
+//! by node in part order, and the gather's per-block sums of the diagnostics are added in
+//! block order. The same bits on any number of threads. With AVX (x86-64, detected at run
+//! time) the scatter adds a node's four sums in one register and the gather takes four
+//! points at a time, by the same operations in the same order as the portable loops: the
+//! same bits with or without it.
+//!
+//! Only the rows and columns the points reached are updated and cleared: a splash that
+//! spans the box touches a few nodes per row away from the bulk.
+use crate::lagrangian::{Points, Transfer};
+use crate::scatter::map_axis;
+use crate::shape::Shape;
+use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::grid::Grid;
+use multifield_core::math::{Matrix, Real, Vector};
+use multifield_core::plugin::{FrameFigures, PointStressContext, StressModel};
+use rayon::prelude::*;
+
+/// Partial grids of the scatter: the points are split into this many parts by index, each
+/// scattered into its own grid (in parallel), and the grids are added in part order. A
+/// fixed number, so that the sums are the same bits for any number of threads.
+const PARTS: usize = 2;
+const _: () = assert!(PARTS == 2, "Collocated::scatter and Collocated::update split into two parts");
+/// Ghost nodes on each side of the lattice.
+const PAD: usize = 2;
+/// An empty column span.
+const EMPTY: (isize, isize) = (isize::MAX, isize::MIN);
+/// Points per block of the parallel gather (its diagnostic sums are added in block order).
+const BLOCK: usize = 512;
+
+/// A node's scattered sums [m, Σ (mu)_x, Σ (mu)_y, 0]: 32 bytes aligned to 32, one AVX
+/// register that never straddles a cache line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(32))]
+struct Node([Real; 4]);
+
+impl Node {
+    const ZERO: Node = Node([0.0; 4]);
+}
+
+impl std::ops::Index<usize> for Node {
+    type Output = Real;
+    #[inline(always)]
+    fn index(&self, c: usize) -> &Real {
+        &self.0[c]
+    }
+}
+
+impl std::ops::IndexMut<usize> for Node {
+    #[inline(always)]
+    fn index_mut(&mut self, c: usize) -> &mut Real {
+        &mut self.0[c]
+    }
+}
+
+/// The collocated grid's scratch, kept between steps.
+pub struct Collocated {
+    nx: usize,
+    ny: usize,
+    /// Padded lattice width (nodes per row).
+    width: usize,
+    /// Padded lattice height (rows).
+    height: usize,
+    /// `PARTS` partial grids, one after the other: part k holds the scattered sums
+    /// [m, Σ (mu)_x, Σ (mu)_y, 0] of points [k n/PARTS, (k + 1) n/PARTS); zero outside a
+    /// step.
+    acc: Vec<Node>,
+    /// Grid velocity after the update, ghosts filled.
+    vel: Vec<[Real; 2]>,
+    /// Padded rows [lo, hi) that the last scatter touched (all parts).
+    rows: (usize, usize),
+    /// Per part and padded row, the range [min, max] of the stencils' first lattice
+    /// column over the points whose stencil starts on that row (empty: min > max).
+    span: Vec<(isize, isize)>,
+    /// Masses below this are empty nodes: 1e-12 of the largest point mass.
+    tiny: Option<Real>,
+    /// Whether the transfers use AVX (x86-64 CPUs that have it; the same bits as without).
+    avx: bool,
+}
+
+/// What the scatter reads of a point besides the `Points` arrays.
+struct ScatterIn<'a> {
+    pts: &'a Points,
+    apic: bool,
+    dt: Real,
+    grid: &'a Grid,
+    /// The field's stress models and density: each part evaluates its points' stress
+    /// before scattering them.
+    models: &'a [Box<dyn StressModel>],
+    density: Real,
+}
+
+impl Collocated {
+    /// Scratch for `grid`.
+    pub fn new(grid: &Grid) -> Self {
+        let (width, height) = (grid.nx + 1 + 2 * PAD, grid.ny + 1 + 2 * PAD);
+        Self {
+            nx: grid.nx,
+            ny: grid.ny,
+            width,
+            height,
+            acc: vec![Node::ZERO; PARTS * width * height],
+            vel: vec![[0.0; 2]; width * height],
+            rows: (0, 0),
+            span: vec![EMPTY; PARTS * height],
+            tiny: None,
+            avx: avx_available(),
+        }
+    }
+
+    /// Whether the transfers use AVX: `false` forces the portable loops (which give the
+    /// same bits); `true` uses AVX where the CPU has it. Returns what is in use.
+    pub fn use_simd(&mut self, on: bool) -> bool {
+        self.avx = on && avx_available();
+        self.avx
+    }
+
+    /// Index of lattice node (i, j) (ghosts from −`PAD`).
+    #[inline(always)]
+    fn index(&self, i: isize, j: isize) -> usize {
+        (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.width
+    }
+
+    /// Grid velocity at node (i, j) after the last update (for tests).
+    pub fn velocity(&self, i: isize, j: isize) -> [Real; 2] {
+        self.vel[self.index(i, j)]
+    }
+
+    /// One step of the points: stress (the `models` that act on points, into `pts.stress`),
+    /// scatter, grid update, gather.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        grid: &Grid,
+        bc: &Boundaries,
+        pts: &mut Points,
+        models: &[Box<dyn StressModel>],
+        density: Real,
+        transfer: Transfer,
+        volumetric_only: bool,
+        dt: Real,
+        gravity: Vector,
+    ) -> FrameFigures {
+        let mut stress = std::mem::take(&mut pts.stress);
+        let input = ScatterIn { pts, apic: transfer == Transfer::Apic, dt, grid, models, density };
+        self.scatter(&input, &mut stress);
+        pts.stress = stress;
+        // the points' masses never change
+        let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
+        self.update(grid, bc, dt, gravity, tiny);
+        self.gather(grid, bc, pts, transfer, volumetric_only, dt)
+    }
+
+    /// Particles to grid: mass, momentum (APIC) and Δt × internal force into `acc`, the
+    /// points of each part into its own grid, in parallel.
+    fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix]) {
+        let n = input.pts.len();
+        let (width, avx) = (self.width, self.avx);
+        let row0 = -(PAD as isize); // lattice row of padded row 0
+        let height = self.height;
+        let (s0, s1) = stress.split_at_mut(n / PARTS);
+        let parts: Vec<&mut [Matrix]> = vec![s0, s1];
+        self.acc.par_chunks_mut(width * height).zip(self.span.par_chunks_mut(height)).zip(parts).enumerate().for_each(
+            |(k, ((grid, span), sigma))| {
+                let pts = k * n / PARTS..(k + 1) * n / PARTS;
+                sigma.iter_mut().for_each(|s| *s = Matrix::zeros());
+                for model in input.models.iter().filter(|m| m.acts_on_points()) {
+                    model.point_stress(&mut PointStressContext {
+                        dt: input.dt,
+                        density: input.density,
+                        deformation_gradient: &input.pts.f[pts.clone()],
+                        velocity_gradient: &input.pts.grad_v[pts.clone()],
+                        stress: sigma,
+                    });
+                }
+                let sigma = &*sigma;
+                let first = pts.start;
+                let mut note = |(bx, by): (isize, isize)| {
+                    let s = &mut span[(by + PAD as isize) as usize];
+                    *s = (s.0.min(bx), s.1.max(bx));
+                };
+                #[cfg(target_arch = "x86_64")]
+                if avx {
+                    for p in pts {
+                        // SAFETY: `avx` is set only where the CPU has AVX (`Collocated::new`)
+                        note(unsafe { scatter_point_avx(grid, width, row0, input, p, &sigma[p - first]) });
+                    }
+                    return;
+                }
+                for p in pts {
+                    note(scatter_point(grid, width, row0, input, p, &sigma[p - first]));
+                }
+            },
+        );
+        // a stencil starting on padded row r covers rows r, r + 1, r + 2
+        let touched = |r: usize| (0..PARTS).any(|k| self.span[k * height + r].0 <= self.span[k * height + r].1);
+        let lo = (0..height).find(|&r| touched(r));
+        let hi = (0..height).rev().find(|&r| touched(r));
+        self.rows = match (lo, hi) {
+            (Some(lo), Some(hi)) => (lo, (hi + 3).min(height)),
+            _ => (0, 0),
+        };
+    }
+
+    /// Padded columns [lo, hi) of padded row `r` that the last scatter touched (empty: lo ≥ hi).
+    fn columns(&self, r: usize) -> (usize, usize) {
+        let (mut lo, mut hi) = EMPTY;
+        for k in 0..PARTS {
+            for q in r.saturating_sub(2)..=r {
+                let (a, b) = self.span[k * self.height + q];
+                (lo, hi) = (lo.min(a), hi.max(b));
+            }
+        }
+        if lo > hi {
+            (0, 0)
+        } else {
+            ((lo + PAD as isize) as usize, (hi + PAD as isize) as usize + 3)
+        }
+    }
+
+    /// The grid update: ghosts folded in, u = (mu + Δt f)/m + Δt g, the walls; `acc`
+    /// zeroed for the next step; the ghost nodes of `vel` filled.
+    fn update(&mut self, grid: &Grid, bc: &Boundaries, dt: Real, gravity: Vector, tiny: Real) {
+        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (nx, ny) = (self.nx as isize, self.ny as isize);
+        let pad = PAD as isize;
+        // periodic along y: ghosts wrap to rows far away; update every row
+        let (r0, r1) = if py { (0, self.height) } else { self.rows };
+        let plane = self.width * self.height;
+        for part in 0..PARTS {
+            let off = part * plane;
+            // fold the ghost nodes into the lattice (mirrored at walls: the normal momentum flips)
+            for r in r0..r1 {
+                let jg = r as isize - pad;
+                let ghost_row = jg < 0 || jg > ny;
+                for ig in ghost_columns(ghost_row, nx) {
+                    let k = off + self.index(ig, jg);
+                    let a = self.acc[k];
+                    if a.0 == [0.0; 4] {
+                        continue;
+                    }
+                    self.acc[k] = Node::ZERO;
+                    let (i, mx) = map_axis(ig, self.nx, true, px);
+                    let (j, my) = map_axis(jg, self.ny, true, py);
+                    let t = off + self.index(i, j);
+                    let sx = if mx { -1.0 } else { 1.0 };
+                    let sy = if my { -1.0 } else { 1.0 };
+                    self.acc[t][0] += a[0];
+                    self.acc[t][1] += sx * a[1];
+                    self.acc[t][2] += sy * a[2];
+                }
+            }
+            // periodic sides: node n is node 0
+            if px {
+                for r in r0..r1 {
+                    let jg = r as isize - pad;
+                    if (0..=ny).contains(&jg) {
+                        let (a, b) = (off + self.index(0, jg), off + self.index(nx, jg));
+                        let v = self.acc[b];
+                        self.acc[b] = Node::ZERO;
+                        for c in 0..3 {
+                            self.acc[a][c] += v[c];
+                        }
+                    }
+                }
+            }
+            if py {
+                for i in 0..=nx {
+                    let (a, b) = (off + self.index(i, 0), off + self.index(i, ny));
+                    let v = self.acc[b];
+                    self.acc[b] = Node::ZERO;
+                    for c in 0..3 {
+                        self.acc[a][c] += v[c];
+                    }
+                }
+            }
+        }
+        // the update, row by row in parallel (rows of the lattice only): the parts added in
+        // order, then zeroed for the next step
+        let (lo, hi) = (r0.max(PAD), r1.min(PAD + self.ny + 1));
+        let width = self.width;
+        let (gx, gy) = (dt * gravity.x, dt * gravity.y);
+        let (nxu, nyu) = (self.nx, self.ny);
+        // the touched columns of each row (every column along a periodic x: a ghost's
+        // contribution wraps to the far side)
+        let ranges: Vec<(usize, usize)> = (lo..hi)
+            .map(|r| {
+                let (c0, c1) = if px { (0, width) } else { self.columns(r) };
+                (c0.max(PAD), c1.min(PAD + nxu + 1).max(c0.max(PAD)))
+            })
+            .collect();
+        let (first, second) = self.acc.split_at_mut(plane);
+        first[lo * width..hi * width]
+            .par_chunks_mut(width)
+            .zip(second[lo * width..hi * width].par_chunks_mut(width))
+            .zip(self.vel[lo * width..hi * width].par_chunks_mut(width))
+            .zip(ranges.par_iter())
+            .enumerate()
+            .for_each(|(k, (((a0, a1), vel), &(c0, c1)))| {
+                let j = lo + k - PAD;
+                let cols = c0..c1;
+                for ((a, b), v) in a0[cols.clone()].iter_mut().zip(&mut a1[cols.clone()]).zip(&mut vel[cols]) {
+                    let (m, mx, my) = (a[0] + b[0], a[1] + b[1], a[2] + b[2]);
+                    let (ux, uy) = if m > tiny { (mx / m, my / m) } else { (0.0, 0.0) };
+                    *v = [ux + gx, uy + gy];
+                    *a = Node::ZERO;
+                    *b = Node::ZERO;
+                }
+                let row = &mut vel[PAD..PAD + nxu + 1];
+                let s = j as Real / nyu as Real;
+                if px {
+                    row[nxu] = row[0];
+                } else {
+                    wall(bc, Side::Left, s, &mut row[0], 0);
+                    wall(bc, Side::Right, s, &mut row[nxu], 0);
+                }
+                if !py && (j == 0 || j == nyu) {
+                    let side = if j == 0 { Side::Bottom } else { Side::Top };
+                    for (i, v) in row.iter_mut().enumerate() {
+                        wall(bc, side, i as Real / nxu as Real, v, 1);
+                    }
+                }
+            });
+        if py {
+            for i in 0..=nx {
+                let v = self.vel[self.index(i, 0)];
+                let k = self.index(i, ny);
+                self.vel[k] = v;
+            }
+        }
+        // ghost velocities: the node they mirror (or wrap to), by the walls' rules
+        for r in r0..r1 {
+            let jg = r as isize - pad;
+            let ghost_row = jg < 0 || jg > ny;
+            for ig in ghost_columns(ghost_row, nx) {
+                let (i, mx) = map_axis(ig, self.nx, true, px);
+                let (j, my) = map_axis(jg, self.ny, true, py);
+                let mut v = self.vel[self.index(i, j)];
+                if mx {
+                    let side = if ig < 0 { Side::Left } else { Side::Right };
+                    v[0] = -v[0];
+                    v[1] = bc.tangential_ghost(side, v[1], (jg as Real / ny as Real).clamp(0.0, 1.0));
+                }
+                if my {
+                    let side = if jg < 0 { Side::Bottom } else { Side::Top };
+                    v[1] = -v[1];
+                    v[0] = bc.tangential_ghost(side, v[0], (ig as Real / nx as Real).clamp(0.0, 1.0));
+                }
+                let k = self.index(ig, jg);
+                self.vel[k] = v;
+            }
+        }
+        let _ = grid;
+        self.span.iter_mut().for_each(|s| *s = EMPTY);
+    }
+
+    /// Grid to particles: velocity (PIC or APIC), ∇v, F (or J), position; the step's sums.
+    fn gather(
+        &self,
+        grid: &Grid,
+        bc: &Boundaries,
+        pts: &mut Points,
+        transfer: Transfer,
+        volumetric_only: bool,
+        dt: Real,
+    ) -> FrameFigures {
+        let dinv = Shape::Quadratic.apic_d_inverse(grid.h).unwrap_or(0.0);
+        let apic = transfer == Transfer::Apic;
+        let lo = grid.origin;
+        let hi = grid.origin + grid.size();
+        let eps = 1e-9 * grid.h;
+        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let m = &pts.m;
+        let sums: Vec<FrameFigures> = pts
+            .x
+            .par_chunks_mut(BLOCK)
+            .zip(pts.v.par_chunks_mut(BLOCK))
+            .zip(pts.f.par_chunks_mut(BLOCK).zip(pts.grad_v.par_chunks_mut(BLOCK)))
+            .zip(pts.c_u.par_chunks_mut(BLOCK).zip(pts.c_v.par_chunks_mut(BLOCK)))
+            .zip(m.par_chunks(BLOCK))
+            .map(|((((x, v), (f, gv)), (cu, cv)), m)| {
+                let mut sums = FrameFigures::default();
+                let mut raw = [[0.0; 10]; BLOCK];
+                self.gather_raw(grid, x, &mut raw[..x.len()]);
+                for k in 0..x.len() {
+                    let r = &raw[k];
+                    let (u, l) = ([r[0], r[1]], Matrix::new(r[2], r[4], r[3], r[5]) / grid.h);
+                    let b = [[r[6], r[8]], [r[7], r[9]]];
+                    let mut vk = Vector::new(u[0], u[1]);
+                    if apic {
+                        cu[k] = Vector::new(b[0][0], b[0][1]) * dinv;
+                        cv[k] = Vector::new(b[1][0], b[1][1]) * dinv;
+                    }
+                    gv[k] = l;
+                    let step = Matrix::identity() + dt * l;
+                    f[k] = if volumetric_only {
+                        // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)
+                        Matrix::new(f[k].determinant() * step.determinant(), 0.0, 0.0, 1.0)
+                    } else {
+                        step * f[k]
+                    };
+                    let mut xk = x[k] + dt * vk;
+                    for (axis, periodic) in [(0, px), (1, py)] {
+                        let len = hi[axis] - lo[axis];
+                        if periodic {
+                            if xk[axis] < lo[axis] || xk[axis] >= hi[axis] {
+                                xk[axis] = lo[axis] + (xk[axis] - lo[axis]).rem_euclid(len);
+                            }
+                        } else if xk[axis] < lo[axis] + eps {
+                            xk[axis] = lo[axis] + eps;
+                            vk[axis] = vk[axis].max(0.0);
+                        } else if xk[axis] > hi[axis] - eps {
+                            xk[axis] = hi[axis] - eps;
+                            vk[axis] = vk[axis].min(0.0);
+                        }
+                    }
+                    x[k] = xk;
+                    v[k] = vk;
+                    let s2 = vk.norm_squared();
+                    sums.kinetic_energy += 0.5 * m[k] * s2;
+                    sums.mass += m[k];
+                    sums.momentum += m[k] * vk;
+                    sums.max_speed = sums.max_speed.max(s2);
+                }
+                sums
+            })
+            .collect();
+        let mut total = FrameFigures::default();
+        for s in sums {
+            total.kinetic_energy += s.kinetic_energy;
+            total.mass += s.mass;
+            total.momentum += s.momentum;
+            total.max_speed = total.max_speed.max(s.max_speed);
+        }
+        total.max_speed = total.max_speed.sqrt();
+        total
+    }
+
+    /// The raw sums of the gathers of the points at `x` into `out`, 10 per point:
+    /// Σ S u (2), Σ u ∂S/∂ξ (2), Σ u ∂S/∂η (2), Σ S u (x_i − x_p) (2), Σ S u (y_i − y_p)
+    /// (2), each for the components (x, y). With AVX, four points at a time in the lanes
+    /// of a register, by the same operations in the same order as the portable loop: the
+    /// same bits.
+    fn gather_raw(&self, grid: &Grid, x: &[Vector], out: &mut [[Real; 10]]) {
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            while done + 4 <= x.len() {
+                // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
+                unsafe { self.gather4_avx(grid, &x[done..done + 4], &mut out[done..done + 4]) };
+                done += 4;
+            }
+        }
+        for k in done..x.len() {
+            out[k] = self.gather_point(grid, x[k]);
+        }
+    }
+
+    /// The raw sums of one point's gather (see `gather_raw`).
+    #[inline(always)]
+    fn gather_point(&self, grid: &Grid, x: Vector) -> [Real; 10] {
+        let h = grid.h;
+        let xi = (x - grid.origin) / h;
+        let (bx, fx, wx, dwx) = bspline(xi.x);
+        let (by, fy, wy, dwy) = bspline(xi.y);
+        let wxd: [Real; 3] = std::array::from_fn(|a| (a as Real - fx) * h * wx[a]);
+        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2]);
+        let k0 = self.index(bx, by);
+        let rows = &self.vel[k0..k0 + 2 * self.width + 3];
+        for b in 0..3 {
+            let row = &rows[b * self.width..b * self.width + 3];
+            let (mut s, mut t, mut r) = ([0.0; 2], [0.0; 2], [0.0; 2]);
+            for a in 0..3 {
+                for c in 0..2 {
+                    s[c] += wx[a] * row[a][c];
+                    t[c] += dwx[a] * row[a][c];
+                    r[c] += wxd[a] * row[a][c];
+                }
+            }
+            let wdy = wy[b] * (b as Real - fy) * h;
+            for c in 0..2 {
+                u[c] += wy[b] * s[c];
+                gx[c] += wy[b] * t[c];
+                gy[c] += dwy[b] * s[c];
+                ax[c] += wy[b] * r[c];
+                ay[c] += wdy * s[c];
+            }
+        }
+        [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]]
+    }
+
+    /// `gather_point` for four points, one per lane.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn gather4_avx(&self, grid: &Grid, x: &[Vector], out: &mut [[Real; 10]]) {
+        use std::arch::x86_64::*;
+        let h = grid.h;
+        let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) / h);
+        let lanes = |f: &dyn Fn(usize) -> Real| _mm256_setr_pd(f(0), f(1), f(2), f(3));
+        let axis = |v: __m256d| {
+            // bspline() in the lanes
+            let base = _mm256_sub_pd(
+                _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(0.5)))),
+                _mm256_set1_pd(1.0),
+            );
+            let f = _mm256_sub_pd(v, base);
+            let a = _mm256_sub_pd(_mm256_set1_pd(1.5), f);
+            let b = _mm256_sub_pd(f, _mm256_set1_pd(1.0));
+            let c = _mm256_sub_pd(f, _mm256_set1_pd(0.5));
+            let half = _mm256_set1_pd(0.5);
+            let w = [
+                _mm256_mul_pd(_mm256_mul_pd(half, a), a),
+                _mm256_sub_pd(_mm256_set1_pd(0.75), _mm256_mul_pd(b, b)),
+                _mm256_mul_pd(_mm256_mul_pd(half, c), c),
+            ];
+            let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
+            (base, f, w, dw)
+        };
+        let (bxv, fx, wx, dwx) = axis(lanes(&|l| xi[l].x));
+        let (byv, fy, wy, dwy) = axis(lanes(&|l| xi[l].y));
+        let (mut bx, mut by) = ([0.0; 4], [0.0; 4]);
+        // SAFETY: four f64 each
+        unsafe {
+            _mm256_storeu_pd(bx.as_mut_ptr(), bxv);
+            _mm256_storeu_pd(by.as_mut_ptr(), byv);
+        }
+        let k0: [usize; 4] = std::array::from_fn(|l| self.index(bx[l] as isize, by[l] as isize));
+        // every stencil lies in the padded lattice (the points are inside the domain)
+        for &k in &k0 {
+            assert!(k + 2 * self.width + 3 <= self.vel.len());
+        }
+        let hv = _mm256_set1_pd(h);
+        let wxd: [__m256d; 3] = std::array::from_fn(|a| {
+            _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv), wx[a])
+        });
+        let z = _mm256_setzero_pd();
+        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
+        let base = self.vel.as_ptr() as *const Real;
+        for b in 0..3 {
+            let (mut s, mut t, mut r) = ([z; 2], [z; 2], [z; 2]);
+            for a in 0..3 {
+                let o = b * self.width + a;
+                // SAFETY: k0[l] + o < vel.len() (asserted above); a node is two f64
+                let uv = unsafe {
+                    let p = |l: usize| _mm_loadu_pd(base.add(2 * (k0[l] + o)));
+                    let v02 = _mm256_set_m128d(p(2), p(0));
+                    let v13 = _mm256_set_m128d(p(3), p(1));
+                    [_mm256_unpacklo_pd(v02, v13), _mm256_unpackhi_pd(v02, v13)]
+                };
+                for c in 0..2 {
+                    s[c] = _mm256_add_pd(s[c], _mm256_mul_pd(wx[a], uv[c]));
+                    t[c] = _mm256_add_pd(t[c], _mm256_mul_pd(dwx[a], uv[c]));
+                    r[c] = _mm256_add_pd(r[c], _mm256_mul_pd(wxd[a], uv[c]));
+                }
+            }
+            let wdy = _mm256_mul_pd(_mm256_mul_pd(wy[b], _mm256_sub_pd(_mm256_set1_pd(b as Real), fy)), hv);
+            for c in 0..2 {
+                u[c] = _mm256_add_pd(u[c], _mm256_mul_pd(wy[b], s[c]));
+                gx[c] = _mm256_add_pd(gx[c], _mm256_mul_pd(wy[b], t[c]));
+                gy[c] = _mm256_add_pd(gy[c], _mm256_mul_pd(dwy[b], s[c]));
+                ax[c] = _mm256_add_pd(ax[c], _mm256_mul_pd(wy[b], r[c]));
+                ay[c] = _mm256_add_pd(ay[c], _mm256_mul_pd(wdy, s[c]));
+            }
+        }
+        let all = [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]];
+        for (q, v) in all.iter().enumerate() {
+            let mut lane = [0.0; 4];
+            // SAFETY: four f64
+            unsafe { _mm256_storeu_pd(lane.as_mut_ptr(), *v) };
+            for l in 0..4 {
+                out[l][q] = lane[l];
+            }
+        }
+    }
+}
+
+/// The ghost columns of a lattice row of `nx` cells: all of a ghost row, else the `PAD` on
+/// each side.
+fn ghost_columns(ghost_row: bool, nx: isize) -> impl Iterator<Item = isize> {
+    let pad = PAD as isize;
+    let (left, right) = if ghost_row { (nx + 1, nx + 1) } else { (0, nx + 1) };
+    (-pad..left).chain(right..=nx + pad)
+}
+
+/// Whether this CPU has AVX (checked once per grid).
+pub fn avx_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// A wall node: the normal component takes the wall's, the tangential one the mean of the
+/// inside value and its ghost (0 at a no-slip wall, the wall's at a moving one, unchanged
+/// at a free-slip one). `normal`: the component normal to `side`.
+#[inline]
+fn wall(bc: &Boundaries, side: Side, s: Real, v: &mut [Real; 2], normal: usize) {
+    if let Some(w) = bc.normal_velocity(side, s) {
+        v[normal] = w;
+    }
+    let t = 1 - normal;
+    v[t] = 0.5 * (v[t] + bc.tangential_ghost(side, v[t], s));
+}
+
+/// Quadratic B-spline weights along one axis at lattice coordinate `xi` ≥ −½: base node,
+/// fraction from it in [½, 3/2), weights and derivatives dw/dξ. ⌊xi − ½⌋ is `(xi + ½) as
+/// isize − 1` (truncation is ⌊·⌋ for the non-negative xi + ½): no libm call, no branch.
+#[inline(always)]
+fn bspline(xi: Real) -> (isize, Real, [Real; 3], [Real; 3]) {
+    let base = (xi + 0.5) as isize - 1;
+    let f = xi - base as Real;
+    let (a, b, c) = (1.5 - f, f - 1.0, f - 0.5);
+    (base, f, [0.5 * a * a, 0.75 - b * b, 0.5 * c * c], [-a, -2.0 * b, c])
+}
+
+/// Scatters point `p` into `chunk` (padded rows of `width` nodes, lattice row `row0` at
+/// its row 0): for each of its 9 nodes, [S m, S m (v + C (x_i − x_p)) − Δt V σ ∇S, 0].
+/// With S = wx_a wy_b and ∇S = (wx_a' wy_b, wx_a wy_b')/h this is wy_b P_a + wx_a Q_b:
+/// P_a = [m wx_a, m wx_a (v + C·0 dx_a) − k σ·0 wx_a'], Q_b = [0, m wy_b C·1 dy_b − k σ·1 wy_b'],
+/// k = Δt V/h.
+#[inline(always)]
+fn scatter_point(
+    chunk: &mut [Node],
+    width: usize,
+    row0: isize,
+    input: &ScatterIn,
+    p: usize,
+    sg: &Matrix,
+) -> (isize, isize) {
+    let (g, pts, dt) = (input.grid, input.pts, input.dt);
+    let h = g.h;
+    let xi = (pts.x[p] - g.origin) / h;
+    let (bx, fx, wx, dwx) = bspline(xi.x);
+    let (by, fy, wy, dwy) = bspline(xi.y);
+    let (m, v) = (pts.m[p], pts.v[p]);
+    let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
+    let k = dt * pts.vol0[p] * pts.f[p].determinant() / h;
+    let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
+    let mut pa = [[0.0; 4]; 3];
+    let mut qb = [[0.0; 4]; 3];
+    for a in 0..3 {
+        let dx = (a as Real - fx) * h;
+        let mw = m * wx[a];
+        pa[a] = [mw, mw * (v.x + dx * cu.x) - dwx[a] * s00, mw * (v.y + dx * cv.x) - dwx[a] * s10, 0.0];
+        let dy = (a as Real - fy) * h;
+        let mwd = m * wy[a] * dy;
+        qb[a] = [0.0, mwd * cu.y - dwy[a] * s01, mwd * cv.y - dwy[a] * s11, 0.0];
+    }
+    let col = (bx + PAD as isize) as usize;
+    let r0 = (by - row0) as usize * width + col;
+    let rows = &mut chunk[r0..r0 + 2 * width + 3];
+    for b in 0..3 {
+        let row = &mut rows[b * width..b * width + 3];
+        for a in 0..3 {
+            for c in 0..4 {
+                row[a][c] += wy[b] * pa[a][c] + wx[a] * qb[b][c];
+            }
+        }
+    }
+    (bx, by)
+}
+
+/// `scatter_point` with a node's four sums in the lanes of one AVX register: the same
+/// operations in the same order, so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn scatter_point_avx(
+    chunk: &mut [Node],
+    width: usize,
+    row0: isize,
+    input: &ScatterIn,
+    p: usize,
+    sg: &Matrix,
+) -> (isize, isize) {
+    use std::arch::x86_64::*;
+    let (g, pts, dt) = (input.grid, input.pts, input.dt);
+    let h = g.h;
+    let xi = (pts.x[p] - g.origin) / h;
+    let (bx, fx, wx, dwx) = bspline(xi.x);
+    let (by, fy, wy, dwy) = bspline(xi.y);
+    let (m, v) = (pts.m[p], pts.v[p]);
+    let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
+    let k = dt * pts.vol0[p] * pts.f[p].determinant() / h;
+    let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
+    let vv = _mm256_setr_pd(1.0, v.x, v.y, 0.0);
+    let cx = _mm256_setr_pd(0.0, cu.x, cv.x, 0.0);
+    let cy = _mm256_setr_pd(0.0, cu.y, cv.y, 0.0);
+    let sx = _mm256_setr_pd(0.0, s00, s10, 0.0);
+    let sy = _mm256_setr_pd(0.0, s01, s11, 0.0);
+    let pa: [__m256d; 3] = std::array::from_fn(|a| {
+        let dx = (a as Real - fx) * h;
+        let mw = _mm256_set1_pd(m * wx[a]);
+        let mom = _mm256_mul_pd(mw, _mm256_add_pd(vv, _mm256_mul_pd(_mm256_set1_pd(dx), cx)));
+        _mm256_sub_pd(mom, _mm256_mul_pd(_mm256_set1_pd(dwx[a]), sx))
+    });
+    let qb: [__m256d; 3] = std::array::from_fn(|b| {
+        let dy = (b as Real - fy) * h;
+        let mwd = _mm256_set1_pd(m * wy[b] * dy);
+        _mm256_sub_pd(_mm256_mul_pd(mwd, cy), _mm256_mul_pd(_mm256_set1_pd(dwy[b]), sy))
+    });
+    let col = (bx + PAD as isize) as usize;
+    let r0 = (by - row0) as usize * width + col;
+    let rows = &mut chunk[r0..r0 + 2 * width + 3];
+    let base = rows.as_mut_ptr() as *mut Real;
+    for b in 0..3 {
+        let wyb = _mm256_set1_pd(wy[b]);
+        for a in 0..3 {
+            let add = _mm256_add_pd(_mm256_mul_pd(wyb, pa[a]), _mm256_mul_pd(_mm256_set1_pd(wx[a]), qb[b]));
+            // SAFETY: node b·width + a lies in `rows` (2 width + 3 nodes of four f64)
+            unsafe {
+                let at = base.add(4 * (b * width + a));
+                _mm256_storeu_pd(at, _mm256_add_pd(_mm256_loadu_pd(at), add));
+            }
+        }
+    }
+    (bx, by)
+}
