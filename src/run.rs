@@ -590,7 +590,12 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         summary.simulated_time = d.time;
         summary.final_kinetic_energy = d.kinetic_energy;
         summary.max_divergence = summary.max_divergence.max(d.max_divergence);
-        summary.max_volume_fraction_error = summary.max_volume_fraction_error.max(d.volume_fraction_error);
+        // NaN where Σθ is not computed (a field that steps alone): `null` in summary.json
+        summary.max_volume_fraction_error = if d.volume_fraction_error.is_nan() {
+            Real::NAN
+        } else {
+            summary.max_volume_fraction_error.max(d.volume_fraction_error)
+        };
         summary.pressure_iterations_total += d.pressure_iterations as u64;
         summary.min_dt = summary.min_dt.min(d.dt);
         summary.last_dt_limit = d.dt_limit.clone();

@@ -4,8 +4,8 @@
 //!   states, pressure, every field's velocities and points, the APIC matrices, the whole
 //!   final checkpoint) and its `diagnostics.csv`/`bodies.csv` continue byte for byte: on a
 //!   coupled DKT scene (Eulerian water, rigid Lagrangian disks, contact, MG-PCG), on a
-//!   Lagrangian APIC fluid with each pressure solver, and for a finished run extended to a
-//!   later `time.end`;
+//!   Lagrangian APIC fluid with each pressure solver, on a lone Lagrangian fluid on the
+//!   collocated grid, and for a finished run extended to a later `time.end`;
 //! - a run killed mid-write (a leftover temporary checkpoint, a half-written row, rows past
 //!   the last checkpoint) continues from its last complete checkpoint, and a truncated
 //!   checkpoint is refused with the reason and the complete one to use (exit code 2);
@@ -215,6 +215,19 @@ fn a_restarted_apic_run_is_bit_identical_with_every_pressure_solver() {
         );
         restart_reproduces_the_run(&format!("apic_{k}"), &case);
     }
+}
+
+/// A field alone on the collocated grid (mpm88: no pressure solve, the core's phases
+/// skipped): the points carry over, and the grid state the checkpoints hold is refreshed
+/// before each one, so the final checkpoints are the same bytes.
+#[test]
+fn a_restarted_collocated_run_is_bit_identical_to_the_uninterrupted_one() {
+    let case = load(
+        "examples/mpm88.ron",
+        &["time.end=0.16", "output.interval=0.004", "output.checkpoints=Some((interval: 0.08))", "output.charts=false"],
+    );
+    let (end, _) = restart_reproduces_the_run("collocated", &case);
+    assert_eq!(end.step, 800);
 }
 
 /// Eulerian Taylor–Green, fixed Δt = 0.01, rows every 0.02, checkpoints every 0.05.

@@ -201,8 +201,15 @@ impl Collocated {
                 };
                 #[cfg(target_arch = "x86_64")]
                 if avx {
-                    for p in pts {
+                    let mut p = pts.start;
+                    while p + 4 <= pts.end {
+                        let s = &sigma[p - first..p - first + 4];
                         // SAFETY: `avx` is set only where the CPU has AVX (`Collocated::new`)
+                        unsafe { scatter4_avx(grid, width, row0, input, p, s) }.into_iter().for_each(&mut note);
+                        p += 4;
+                    }
+                    for p in p..pts.end {
+                        // SAFETY: as above
                         note(unsafe { scatter_point_avx(grid, width, row0, input, p, &sigma[p - first]) });
                     }
                     return;
@@ -384,12 +391,18 @@ impl Collocated {
         volumetric_only: bool,
         dt: Real,
     ) -> FrameFigures {
-        let dinv = Shape::Quadratic.apic_d_inverse(grid.h).unwrap_or(0.0);
-        let apic = transfer == Transfer::Apic;
-        let lo = grid.origin;
-        let hi = grid.origin + grid.size();
-        let eps = 1e-9 * grid.h;
         let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let fin = Finish {
+            dt,
+            h: grid.h,
+            dinv: Shape::Quadratic.apic_d_inverse(grid.h).unwrap_or(0.0),
+            apic: transfer == Transfer::Apic,
+            volumetric_only,
+            lo: grid.origin,
+            hi: grid.origin + grid.size(),
+            eps: 1e-9 * grid.h,
+            periodic: [px, py],
+        };
         let m = &pts.m;
         let sums: Vec<FrameFigures> = pts
             .x
@@ -403,44 +416,15 @@ impl Collocated {
                 let mut raw = [[0.0; 10]; BLOCK];
                 self.gather_raw(grid, x, &mut raw[..x.len()]);
                 for k in 0..x.len() {
-                    let r = &raw[k];
-                    let (u, l) = ([r[0], r[1]], Matrix::new(r[2], r[4], r[3], r[5]) / grid.h);
-                    let b = [[r[6], r[8]], [r[7], r[9]]];
-                    let mut vk = Vector::new(u[0], u[1]);
-                    if apic {
-                        cu[k] = Vector::new(b[0][0], b[0][1]) * dinv;
-                        cv[k] = Vector::new(b[1][0], b[1][1]) * dinv;
-                    }
-                    gv[k] = l;
-                    let step = Matrix::identity() + dt * l;
-                    f[k] = if volumetric_only {
-                        // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)
-                        Matrix::new(f[k].determinant() * step.determinant(), 0.0, 0.0, 1.0)
-                    } else {
-                        step * f[k]
+                    let out = Out {
+                        x: &mut x[k],
+                        v: &mut v[k],
+                        f: &mut f[k],
+                        gv: &mut gv[k],
+                        cu: &mut cu[k],
+                        cv: &mut cv[k],
                     };
-                    let mut xk = x[k] + dt * vk;
-                    for (axis, periodic) in [(0, px), (1, py)] {
-                        let len = hi[axis] - lo[axis];
-                        if periodic {
-                            if xk[axis] < lo[axis] || xk[axis] >= hi[axis] {
-                                xk[axis] = lo[axis] + (xk[axis] - lo[axis]).rem_euclid(len);
-                            }
-                        } else if xk[axis] < lo[axis] + eps {
-                            xk[axis] = lo[axis] + eps;
-                            vk[axis] = vk[axis].max(0.0);
-                        } else if xk[axis] > hi[axis] - eps {
-                            xk[axis] = hi[axis] - eps;
-                            vk[axis] = vk[axis].min(0.0);
-                        }
-                    }
-                    x[k] = xk;
-                    v[k] = vk;
-                    let s2 = vk.norm_squared();
-                    sums.kinetic_energy += 0.5 * m[k] * s2;
-                    sums.mass += m[k];
-                    sums.momentum += m[k] * vk;
-                    sums.max_speed = sums.max_speed.max(s2);
+                    finish_point(&fin, &raw[k], m[k], out, &mut sums);
                 }
                 sums
             })
@@ -516,7 +500,8 @@ impl Collocated {
         use std::arch::x86_64::*;
         let h = grid.h;
         let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) / h);
-        let lanes = |f: &dyn Fn(usize) -> Real| _mm256_setr_pd(f(0), f(1), f(2), f(3));
+        // SAFETY (the loads below): four f64
+        let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
         let axis = |v: __m256d| {
             // bspline() in the lanes
             let base = _mm256_sub_pd(
@@ -536,8 +521,8 @@ impl Collocated {
             let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
             (base, f, w, dw)
         };
-        let (bxv, fx, wx, dwx) = axis(lanes(&|l| xi[l].x));
-        let (byv, fy, wy, dwy) = axis(lanes(&|l| xi[l].y));
+        let (bxv, fx, wx, dwx) = axis(lanes(arr4(|l| xi[l].x)));
+        let (byv, fy, wy, dwy) = axis(lanes(arr4(|l| xi[l].y)));
         let (mut bx, mut by) = ([0.0; 4], [0.0; 4]);
         // SAFETY: four f64 each
         unsafe {
@@ -626,6 +611,19 @@ fn wall(bc: &Boundaries, side: Side, s: Real, v: &mut [Real; 2], normal: usize) 
     v[t] = 0.5 * (v[t] + bc.tangential_ghost(side, v[t], s));
 }
 
+/// `[f(0), f(1), f(2), f(3)]`: the four lanes of a register, one per point.
+#[inline(always)]
+fn arr4(f: impl Fn(usize) -> Real) -> [Real; 4] {
+    [f(0), f(1), f(2), f(3)]
+}
+
+/// det F of a 2 × 2 matrix, written out so that the scalar and the AVX scatter compute
+/// it by the same operations.
+#[inline(always)]
+fn det2(f: &Matrix) -> Real {
+    f.m11 * f.m22 - f.m21 * f.m12
+}
+
 /// Quadratic B-spline weights along one axis at lattice coordinate `xi` ≥ −½: base node,
 /// fraction from it in [½, 3/2), weights and derivatives dw/dξ. ⌊xi − ½⌋ is `(xi + ½) as
 /// isize − 1` (truncation is ⌊·⌋ for the non-negative xi + ½): no libm call, no branch.
@@ -658,7 +656,7 @@ fn scatter_point(
     let (by, fy, wy, dwy) = bspline(xi.y);
     let (m, v) = (pts.m[p], pts.v[p]);
     let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
-    let k = dt * pts.vol0[p] * pts.f[p].determinant() / h;
+    let k = dt * pts.vol0[p] * det2(&pts.f[p]) / h;
     let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
     let mut pa = [[0.0; 4]; 3];
     let mut qb = [[0.0; 4]; 3];
@@ -704,7 +702,7 @@ fn scatter_point_avx(
     let (by, fy, wy, dwy) = bspline(xi.y);
     let (m, v) = (pts.m[p], pts.v[p]);
     let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
-    let k = dt * pts.vol0[p] * pts.f[p].determinant() / h;
+    let k = dt * pts.vol0[p] * det2(&pts.f[p]) / h;
     let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
     let vv = _mm256_setr_pd(1.0, v.x, v.y, 0.0);
     let cx = _mm256_setr_pd(0.0, cu.x, cv.x, 0.0);
@@ -738,4 +736,197 @@ fn scatter_point_avx(
         }
     }
     (bx, by)
+}
+
+/// `scatter_point` for the four points `p .. p + 4` (stresses `sg`): their weights, stress
+/// factors and node sums computed in the lanes of AVX registers (one point per lane), then
+/// transposed to one register per node and added as in `scatter_point_avx`. The same
+/// operations in the same order per point: the same bits. Returns each point's first
+/// stencil column and row.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn scatter4_avx(
+    chunk: &mut [Node],
+    width: usize,
+    row0: isize,
+    input: &ScatterIn,
+    p: usize,
+    sg: &[Matrix],
+) -> [(isize, isize); 4] {
+    use std::arch::x86_64::*;
+    let (g, pts, dt) = (input.grid, input.pts, input.dt);
+    let h = g.h;
+    // SAFETY (the loads below): four f64
+    let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
+    let (hv, zero) = (_mm256_set1_pd(h), _mm256_setzero_pd());
+    let xi_x = _mm256_div_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].x)), _mm256_set1_pd(g.origin.x)), hv);
+    let xi_y = _mm256_div_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].y)), _mm256_set1_pd(g.origin.y)), hv);
+    // bspline() in the lanes
+    let axis = |v: __m256d| {
+        let base = _mm256_sub_pd(
+            _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(0.5)))),
+            _mm256_set1_pd(1.0),
+        );
+        let f = _mm256_sub_pd(v, base);
+        let a = _mm256_sub_pd(_mm256_set1_pd(1.5), f);
+        let b = _mm256_sub_pd(f, _mm256_set1_pd(1.0));
+        let c = _mm256_sub_pd(f, _mm256_set1_pd(0.5));
+        let half = _mm256_set1_pd(0.5);
+        let w = [
+            _mm256_mul_pd(_mm256_mul_pd(half, a), a),
+            _mm256_sub_pd(_mm256_set1_pd(0.75), _mm256_mul_pd(b, b)),
+            _mm256_mul_pd(_mm256_mul_pd(half, c), c),
+        ];
+        let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
+        (base, f, w, dw)
+    };
+    let (bxv, fx, wx, dwx) = axis(xi_x);
+    let (byv, fy, wy, dwy) = axis(xi_y);
+    let m = lanes(arr4(|l| pts.m[p + l]));
+    let (vx, vy) = (lanes(arr4(|l| pts.v[p + l].x)), lanes(arr4(|l| pts.v[p + l].y)));
+    let c = |v: [Real; 4]| if input.apic { lanes(v) } else { zero };
+    let (cux, cuy) = (c(arr4(|l| pts.c_u[p + l].x)), c(arr4(|l| pts.c_u[p + l].y)));
+    let (cvx, cvy) = (c(arr4(|l| pts.c_v[p + l].x)), c(arr4(|l| pts.c_v[p + l].y)));
+    // k = Δt V⁰ det F / h, with det F = F11 F22 − F21 F12 (`det2`)
+    let det = _mm256_sub_pd(
+        _mm256_mul_pd(lanes(arr4(|l| pts.f[p + l].m11)), lanes(arr4(|l| pts.f[p + l].m22))),
+        _mm256_mul_pd(lanes(arr4(|l| pts.f[p + l].m21)), lanes(arr4(|l| pts.f[p + l].m12))),
+    );
+    let k = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(dt), lanes(arr4(|l| pts.vol0[p + l]))), det), hv);
+    let s00 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m11)));
+    let s01 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m12)));
+    let s10 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m21)));
+    let s11 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m22)));
+    // rows r0..r3 (channels, one point per lane) to one register per point
+    let transpose = |r0: __m256d, r1: __m256d, r2: __m256d, r3: __m256d| {
+        let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+        let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+        [
+            _mm256_permute2f128_pd::<0x20>(t0, t2),
+            _mm256_permute2f128_pd::<0x20>(t1, t3),
+            _mm256_permute2f128_pd::<0x31>(t0, t2),
+            _mm256_permute2f128_pd::<0x31>(t1, t3),
+        ]
+    };
+    // P_a = [m wx_a, m wx_a (vx + dx_a cux) − wx_a' s00, m wx_a (vy + dx_a cvx) − wx_a' s10, 0]
+    let pa: [[__m256d; 4]; 3] = std::array::from_fn(|a| {
+        let dx = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv);
+        let mw = _mm256_mul_pd(m, wx[a]);
+        let px =
+            _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vx, _mm256_mul_pd(dx, cux))), _mm256_mul_pd(dwx[a], s00));
+        let py =
+            _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vy, _mm256_mul_pd(dx, cvx))), _mm256_mul_pd(dwx[a], s10));
+        transpose(mw, px, py, zero)
+    });
+    // Q_b = [0, m wy_b dy_b cuy − wy_b' s01, m wy_b dy_b cvy − wy_b' s11, 0]
+    let qb: [[__m256d; 4]; 3] = std::array::from_fn(|b| {
+        let dy = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(b as Real), fy), hv);
+        let mwd = _mm256_mul_pd(_mm256_mul_pd(m, wy[b]), dy);
+        let qx = _mm256_sub_pd(_mm256_mul_pd(mwd, cuy), _mm256_mul_pd(dwy[b], s01));
+        let qy = _mm256_sub_pd(_mm256_mul_pd(mwd, cvy), _mm256_mul_pd(dwy[b], s11));
+        transpose(zero, qx, qy, zero)
+    });
+    let store = |v: __m256d| {
+        let mut out = [0.0; 4];
+        // SAFETY: four f64
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
+        out
+    };
+    let (bx, by) = (store(bxv), store(byv));
+    let (wxs, wys) = (wx.map(store), wy.map(store));
+    let mut firsts = [(0, 0); 4];
+    for l in 0..4 {
+        let (bx, by) = (bx[l] as isize, by[l] as isize);
+        firsts[l] = (bx, by);
+        let r0 = (by - row0) as usize * width + (bx + PAD as isize) as usize;
+        let rows = &mut chunk[r0..r0 + 2 * width + 3];
+        let base = rows.as_mut_ptr() as *mut Real;
+        for b in 0..3 {
+            let wyb = _mm256_set1_pd(wys[b][l]);
+            for a in 0..3 {
+                let add =
+                    _mm256_add_pd(_mm256_mul_pd(wyb, pa[a][l]), _mm256_mul_pd(_mm256_set1_pd(wxs[a][l]), qb[b][l]));
+                // SAFETY: node b·width + a lies in `rows` (2 width + 3 nodes of four f64)
+                unsafe {
+                    let at = base.add(4 * (b * width + a));
+                    _mm256_storeu_pd(at, _mm256_add_pd(_mm256_loadu_pd(at), add));
+                }
+            }
+        }
+    }
+    firsts
+}
+
+/// What the end of a point's gather needs besides its sums.
+struct Finish {
+    dt: Real,
+    h: Real,
+    dinv: Real,
+    apic: bool,
+    volumetric_only: bool,
+    lo: Vector,
+    hi: Vector,
+    eps: Real,
+    periodic: [bool; 2],
+}
+
+/// What the end of a point's gather writes.
+struct Out<'a> {
+    x: &'a mut Vector,
+    v: &'a mut Vector,
+    f: &'a mut Matrix,
+    gv: &'a mut Matrix,
+    cu: &'a mut Vector,
+    cv: &'a mut Vector,
+}
+
+/// The end of a point's gather from its sums `r` (see `gather_raw`): velocity, APIC C, ∇v,
+/// F (or J), position (wrapped at periodic sides, stopped at walls), and its share of the
+/// step's figures.
+#[inline(always)]
+fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, sums: &mut FrameFigures) {
+    let (dt, h) = (fin.dt, fin.h);
+    let l = Matrix::new(r[2] / h, r[4] / h, r[3] / h, r[5] / h);
+    let mut vk = Vector::new(r[0], r[1]);
+    if fin.apic {
+        *out.cu = Vector::new(r[6] * fin.dinv, r[8] * fin.dinv);
+        *out.cv = Vector::new(r[7] * fin.dinv, r[9] * fin.dinv);
+    }
+    *out.gv = l;
+    let step = Matrix::new(1.0 + dt * l.m11, 0.0 + dt * l.m12, 0.0 + dt * l.m21, 1.0 + dt * l.m22);
+    *out.f = if fin.volumetric_only {
+        // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)
+        Matrix::new(det2(out.f) * det2(&step), 0.0, 0.0, 1.0)
+    } else {
+        step * *out.f
+    };
+    let mut xk = Vector::new(out.x.x + dt * vk.x, out.x.y + dt * vk.y);
+    for axis in 0..2 {
+        let (lo, hi) = (fin.lo[axis], fin.hi[axis]);
+        if fin.periodic[axis] {
+            if xk[axis] < lo || xk[axis] >= hi {
+                xk[axis] = lo + (xk[axis] - lo).rem_euclid(hi - lo);
+            }
+        } else if xk[axis] < lo + fin.eps {
+            xk[axis] = lo + fin.eps;
+            if vk[axis] < 0.0 {
+                vk[axis] = 0.0;
+            }
+        } else if xk[axis] > hi - fin.eps {
+            xk[axis] = hi - fin.eps;
+            if vk[axis] > 0.0 {
+                vk[axis] = 0.0;
+            }
+        }
+    }
+    *out.x = xk;
+    *out.v = vk;
+    let s2 = vk.x * vk.x + vk.y * vk.y;
+    sums.kinetic_energy += 0.5 * m * s2;
+    sums.mass += m;
+    sums.momentum.x += m * vk.x;
+    sums.momentum.y += m * vk.y;
+    if s2 > sums.max_speed {
+        sums.max_speed = s2;
+    }
 }
