@@ -78,6 +78,7 @@ fn avx_here() -> bool {
 /// gather reproduces linear fields), so after a step every point moves with ω × (x − c)
 /// of its old position, C = ∇v = [[0, −ω], [ω, 0]], and J = det(I + Δt ∇v) = 1 + (ωΔt)².
 #[test]
+#[allow(clippy::needless_range_loop)] // indexes the points and their start positions
 fn apic_carries_a_rigid_rotation_exactly() {
     multifield::link_all();
     let text = r#"(
