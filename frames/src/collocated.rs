@@ -413,18 +413,22 @@ impl Collocated {
             .zip(m.par_chunks(BLOCK))
             .map(|((((x, v), (f, gv)), (cu, cv)), m)| {
                 let mut sums = FrameFigures::default();
-                let mut raw = [[0.0; 10]; BLOCK];
-                self.gather_raw(grid, x, &mut raw[..x.len()]);
-                for k in 0..x.len() {
-                    let out = Out {
-                        x: &mut x[k],
-                        v: &mut v[k],
-                        f: &mut f[k],
-                        gv: &mut gv[k],
-                        cu: &mut cu[k],
-                        cv: &mut cv[k],
-                    };
-                    finish_point(&fin, &raw[k], m[k], out, &mut sums);
+                // four points at a time: their sums, then the end of each one's gather
+                for k0 in (0..x.len()).step_by(4) {
+                    let n = (x.len() - k0).min(4);
+                    let mut raw = [[0.0; 10]; 4];
+                    self.gather_raw(grid, &x[k0..k0 + n], &mut raw[..n]);
+                    for (k, r) in (k0..k0 + n).zip(&raw) {
+                        let out = Out {
+                            x: &mut x[k],
+                            v: &mut v[k],
+                            f: &mut f[k],
+                            gv: &mut gv[k],
+                            cu: &mut cu[k],
+                            cv: &mut cv[k],
+                        };
+                        finish_point(&fin, r, m[k], out, &mut sums);
+                    }
                 }
                 sums
             })
@@ -535,9 +539,10 @@ impl Collocated {
             assert!(k + 2 * self.width + 3 <= self.vel.len());
         }
         let hv = _mm256_set1_pd(h);
-        let wxd: [__m256d; 3] = std::array::from_fn(|a| {
-            _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv), wx[a])
-        });
+        let mut wxd: [__m256d; 3] = [_mm256_setzero_pd(); 3];
+        for a in 0..3 {
+            wxd[a] = _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv), wx[a]);
+        }
         let z = _mm256_setzero_pd();
         let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
         let base = self.vel.as_ptr() as *const Real;
@@ -709,17 +714,23 @@ fn scatter_point_avx(
     let cy = _mm256_setr_pd(0.0, cu.y, cv.y, 0.0);
     let sx = _mm256_setr_pd(0.0, s00, s10, 0.0);
     let sy = _mm256_setr_pd(0.0, s01, s11, 0.0);
-    let pa: [__m256d; 3] = std::array::from_fn(|a| {
-        let dx = (a as Real - fx) * h;
-        let mw = _mm256_set1_pd(m * wx[a]);
-        let mom = _mm256_mul_pd(mw, _mm256_add_pd(vv, _mm256_mul_pd(_mm256_set1_pd(dx), cx)));
-        _mm256_sub_pd(mom, _mm256_mul_pd(_mm256_set1_pd(dwx[a]), sx))
-    });
-    let qb: [__m256d; 3] = std::array::from_fn(|b| {
-        let dy = (b as Real - fy) * h;
-        let mwd = _mm256_set1_pd(m * wy[b] * dy);
-        _mm256_sub_pd(_mm256_mul_pd(mwd, cy), _mm256_mul_pd(_mm256_set1_pd(dwy[b]), sy))
-    });
+    let mut pa: [__m256d; 3] = [_mm256_setzero_pd(); 3];
+    for a in 0..3 {
+        pa[a] = {
+            let dx = (a as Real - fx) * h;
+            let mw = _mm256_set1_pd(m * wx[a]);
+            let mom = _mm256_mul_pd(mw, _mm256_add_pd(vv, _mm256_mul_pd(_mm256_set1_pd(dx), cx)));
+            _mm256_sub_pd(mom, _mm256_mul_pd(_mm256_set1_pd(dwx[a]), sx))
+        };
+    }
+    let mut qb: [__m256d; 3] = [_mm256_setzero_pd(); 3];
+    for b in 0..3 {
+        qb[b] = {
+            let dy = (b as Real - fy) * h;
+            let mwd = _mm256_set1_pd(m * wy[b] * dy);
+            _mm256_sub_pd(_mm256_mul_pd(mwd, cy), _mm256_mul_pd(_mm256_set1_pd(dwy[b]), sy))
+        };
+    }
     let col = (bx + PAD as isize) as usize;
     let r0 = (by - row0) as usize * width + col;
     let rows = &mut chunk[r0..r0 + 2 * width + 3];
@@ -809,23 +820,29 @@ fn scatter4_avx(
         ]
     };
     // P_a = [m wx_a, m wx_a (vx + dx_a cux) − wx_a' s00, m wx_a (vy + dx_a cvx) − wx_a' s10, 0]
-    let pa: [[__m256d; 4]; 3] = std::array::from_fn(|a| {
-        let dx = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv);
-        let mw = _mm256_mul_pd(m, wx[a]);
-        let px =
-            _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vx, _mm256_mul_pd(dx, cux))), _mm256_mul_pd(dwx[a], s00));
-        let py =
-            _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vy, _mm256_mul_pd(dx, cvx))), _mm256_mul_pd(dwx[a], s10));
-        transpose(mw, px, py, zero)
-    });
+    let mut pa: [[__m256d; 4]; 3] = [[zero; 4]; 3];
+    for a in 0..3 {
+        pa[a] = {
+            let dx = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv);
+            let mw = _mm256_mul_pd(m, wx[a]);
+            let px =
+                _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vx, _mm256_mul_pd(dx, cux))), _mm256_mul_pd(dwx[a], s00));
+            let py =
+                _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vy, _mm256_mul_pd(dx, cvx))), _mm256_mul_pd(dwx[a], s10));
+            transpose(mw, px, py, zero)
+        };
+    }
     // Q_b = [0, m wy_b dy_b cuy − wy_b' s01, m wy_b dy_b cvy − wy_b' s11, 0]
-    let qb: [[__m256d; 4]; 3] = std::array::from_fn(|b| {
-        let dy = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(b as Real), fy), hv);
-        let mwd = _mm256_mul_pd(_mm256_mul_pd(m, wy[b]), dy);
-        let qx = _mm256_sub_pd(_mm256_mul_pd(mwd, cuy), _mm256_mul_pd(dwy[b], s01));
-        let qy = _mm256_sub_pd(_mm256_mul_pd(mwd, cvy), _mm256_mul_pd(dwy[b], s11));
-        transpose(zero, qx, qy, zero)
-    });
+    let mut qb: [[__m256d; 4]; 3] = [[zero; 4]; 3];
+    for b in 0..3 {
+        qb[b] = {
+            let dy = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(b as Real), fy), hv);
+            let mwd = _mm256_mul_pd(_mm256_mul_pd(m, wy[b]), dy);
+            let qx = _mm256_sub_pd(_mm256_mul_pd(mwd, cuy), _mm256_mul_pd(dwy[b], s01));
+            let qy = _mm256_sub_pd(_mm256_mul_pd(mwd, cvy), _mm256_mul_pd(dwy[b], s11));
+            transpose(zero, qx, qy, zero)
+        };
+    }
     let store = |v: __m256d| {
         let mut out = [0.0; 4];
         // SAFETY: four f64
