@@ -416,6 +416,23 @@ impl Collocated {
                 // four points at a time: their sums, then the end of each one's gather
                 for k0 in (0..x.len()).step_by(4) {
                     let n = (x.len() - k0).min(4);
+                    #[cfg(target_arch = "x86_64")]
+                    if n == 4 && self.avx && fin.volumetric_only && !px && !py {
+                        let r = k0..k0 + 4;
+                        let xs = [x[k0], x[k0 + 1], x[k0 + 2], x[k0 + 3]];
+                        let out = Out4 {
+                            x: &mut x[r.clone()],
+                            v: &mut v[r.clone()],
+                            f: &mut f[r.clone()],
+                            gv: &mut gv[r.clone()],
+                            cu: &mut cu[r.clone()],
+                            cv: &mut cv[r.clone()],
+                        };
+                        let sink = Sink4::Finish { fin: &fin, out, m: &m[r], sums: &mut sums };
+                        // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
+                        unsafe { self.gather4_avx(grid, xs, sink) };
+                        continue;
+                    }
                     let mut raw = [[0.0; 10]; 4];
                     self.gather_raw(grid, &x[k0..k0 + n], &mut raw[..n]);
                     for (k, r) in (k0..k0 + n).zip(&raw) {
@@ -455,7 +472,8 @@ impl Collocated {
         if self.avx {
             while done + 4 <= x.len() {
                 // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
-                unsafe { self.gather4_avx(grid, &x[done..done + 4], &mut out[done..done + 4]) };
+                let xs = [x[done], x[done + 1], x[done + 2], x[done + 3]];
+                unsafe { self.gather4_avx(grid, xs, Sink4::Raw(&mut out[done..done + 4])) };
                 done += 4;
             }
         }
@@ -500,7 +518,7 @@ impl Collocated {
     /// `gather_point` for four points, one per lane.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    fn gather4_avx(&self, grid: &Grid, x: &[Vector], out: &mut [[Real; 10]]) {
+    fn gather4_avx(&self, grid: &Grid, x: [Vector; 4], sink: Sink4) {
         use std::arch::x86_64::*;
         let h = grid.h;
         let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) / h);
@@ -573,13 +591,133 @@ impl Collocated {
             }
         }
         let all = [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]];
-        for (q, v) in all.iter().enumerate() {
-            let mut lane = [0.0; 4];
-            // SAFETY: four f64
-            unsafe { _mm256_storeu_pd(lane.as_mut_ptr(), *v) };
-            for l in 0..4 {
-                out[l][q] = lane[l];
+        match sink {
+            Sink4::Raw(out) => {
+                for (q, v) in all.iter().enumerate() {
+                    let mut lane = [0.0; 4];
+                    // SAFETY: four f64
+                    unsafe { _mm256_storeu_pd(lane.as_mut_ptr(), *v) };
+                    for l in 0..4 {
+                        out[l][q] = lane[l];
+                    }
+                }
             }
+            Sink4::Finish { fin, out, m, sums } => finish4(fin, &all, x, out, m, sums),
+        }
+    }
+}
+
+/// Where `gather4_avx` puts its sums: the raw sums (see `gather_raw`), or the end of the
+/// four points' gathers (`finish_point` in the lanes; a `volumetric_only` field with walls
+/// on every side).
+enum Sink4<'a> {
+    Raw(&'a mut [[Real; 10]]),
+    Finish { fin: &'a Finish, out: Out4<'a>, m: &'a [Real], sums: &'a mut FrameFigures },
+}
+
+/// What the end of four points' gathers writes.
+struct Out4<'a> {
+    x: &'a mut [Vector],
+    v: &'a mut [Vector],
+    f: &'a mut [Matrix],
+    gv: &'a mut [Matrix],
+    cu: &'a mut [Vector],
+    cv: &'a mut [Vector],
+}
+
+/// `finish_point` for four points of a `volumetric_only` field with walls on every side,
+/// one point per lane, from their sums `r` (the registers of `gather_raw`'s ten sums) and
+/// start positions `x`: the same operations, the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn finish4(
+    fin: &Finish,
+    r: &[std::arch::x86_64::__m256d; 10],
+    x: [Vector; 4],
+    out: Out4,
+    m: &[Real],
+    sums: &mut FrameFigures,
+) {
+    use std::arch::x86_64::*;
+    assert!(out.x.len() == 4 && out.v.len() == 4 && out.f.len() == 4 && out.gv.len() == 4 && m.len() == 4);
+    assert!(out.cu.len() == 4 && out.cv.len() == 4);
+    // SAFETY (the loads and stores of four f64 below)
+    let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
+    let store = |v: __m256d| {
+        let mut o = [0.0; 4];
+        unsafe { _mm256_storeu_pd(o.as_mut_ptr(), v) };
+        o
+    };
+    // [x0 x1 x2 x3], [y0 y1 y2 y3] to the two-vector pairs of points 0, 1 and 2, 3
+    let pairs = |a: __m256d, b: __m256d, to: &mut [Vector]| {
+        let (lo, hi) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+        let p = to.as_mut_ptr() as *mut Real;
+        // SAFETY: `to` holds four vectors of two f64, contiguous (nalgebra's column storage)
+        unsafe {
+            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(lo, hi));
+            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
+        }
+    };
+    // four 2 × 2 matrices from the lanes of their entries (column-major: m11, m21, m12, m22)
+    let matrices = |m11: __m256d, m21: __m256d, m12: __m256d, m22: __m256d, to: &mut [Matrix]| {
+        let (t0, t1) = (_mm256_unpacklo_pd(m11, m21), _mm256_unpackhi_pd(m11, m21));
+        let (t2, t3) = (_mm256_unpacklo_pd(m12, m22), _mm256_unpackhi_pd(m12, m22));
+        let p = to.as_mut_ptr() as *mut Real;
+        // SAFETY: `to` holds four matrices of four f64, contiguous
+        unsafe {
+            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(t0, t2));
+            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x20>(t1, t3));
+            _mm256_storeu_pd(p.add(8), _mm256_permute2f128_pd::<0x31>(t0, t2));
+            _mm256_storeu_pd(p.add(12), _mm256_permute2f128_pd::<0x31>(t1, t3));
+        }
+    };
+    let (dt, hv, one, zero) = (_mm256_set1_pd(fin.dt), _mm256_set1_pd(fin.h), _mm256_set1_pd(1.0), _mm256_setzero_pd());
+    let (l11, l12) = (_mm256_div_pd(r[2], hv), _mm256_div_pd(r[4], hv));
+    let (l21, l22) = (_mm256_div_pd(r[3], hv), _mm256_div_pd(r[5], hv));
+    if fin.apic {
+        let d = _mm256_set1_pd(fin.dinv);
+        pairs(_mm256_mul_pd(r[6], d), _mm256_mul_pd(r[8], d), out.cu);
+        pairs(_mm256_mul_pd(r[7], d), _mm256_mul_pd(r[9], d), out.cv);
+    }
+    let (s11, s12) = (_mm256_add_pd(one, _mm256_mul_pd(dt, l11)), _mm256_add_pd(zero, _mm256_mul_pd(dt, l12)));
+    let (s21, s22) = (_mm256_add_pd(zero, _mm256_mul_pd(dt, l21)), _mm256_add_pd(one, _mm256_mul_pd(dt, l22)));
+    let det_step = _mm256_sub_pd(_mm256_mul_pd(s11, s22), _mm256_mul_pd(s21, s12));
+    let f = &*out.f;
+    let det_f = _mm256_sub_pd(
+        _mm256_mul_pd(lanes(arr4(|l| f[l].m11)), lanes(arr4(|l| f[l].m22))),
+        _mm256_mul_pd(lanes(arr4(|l| f[l].m21)), lanes(arr4(|l| f[l].m12))),
+    );
+    let j = _mm256_mul_pd(det_f, det_step);
+    matrices(l11, l21, l12, l22, out.gv);
+    matrices(j, zero, zero, one, out.f);
+    let mut vel = [r[0], r[1]];
+    let mut pos = [
+        _mm256_add_pd(lanes(arr4(|l| x[l].x)), _mm256_mul_pd(dt, vel[0])),
+        _mm256_add_pd(lanes(arr4(|l| x[l].y)), _mm256_mul_pd(dt, vel[1])),
+    ];
+    for axis in 0..2 {
+        let lo = _mm256_set1_pd(fin.lo[axis] + fin.eps);
+        let hi = _mm256_set1_pd(fin.hi[axis] - fin.eps);
+        let below = _mm256_cmp_pd::<_CMP_LT_OQ>(pos[axis], lo);
+        let above = _mm256_andnot_pd(below, _mm256_cmp_pd::<_CMP_GT_OQ>(pos[axis], hi));
+        pos[axis] = _mm256_blendv_pd(_mm256_blendv_pd(pos[axis], lo, below), hi, above);
+        let into_low = _mm256_and_pd(below, _mm256_cmp_pd::<_CMP_LT_OQ>(vel[axis], zero));
+        let into_high = _mm256_and_pd(above, _mm256_cmp_pd::<_CMP_GT_OQ>(vel[axis], zero));
+        vel[axis] = _mm256_blendv_pd(vel[axis], zero, _mm256_or_pd(into_low, into_high));
+    }
+    pairs(pos[0], pos[1], out.x);
+    pairs(vel[0], vel[1], out.v);
+    let mv = lanes(arr4(|l| m[l]));
+    let s2 = _mm256_add_pd(_mm256_mul_pd(vel[0], vel[0]), _mm256_mul_pd(vel[1], vel[1]));
+    let ke = store(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0.5), mv), s2));
+    let (px, py, s2) = (store(_mm256_mul_pd(mv, vel[0])), store(_mm256_mul_pd(mv, vel[1])), store(s2));
+    for l in 0..4 {
+        sums.kinetic_energy += ke[l];
+        sums.mass += m[l];
+        sums.momentum.x += px[l];
+        sums.momentum.y += py[l];
+        if s2[l] > sums.max_speed {
+            sums.max_speed = s2[l];
         }
     }
 }
