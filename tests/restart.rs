@@ -228,6 +228,20 @@ fn a_restarted_collocated_run_is_bit_identical_to_the_uninterrupted_one() {
     );
     let (end, _) = restart_reproduces_the_run("collocated", &case);
     assert_eq!(end.step, 800);
+    // an adaptive Δt: the restarted run's first step takes its limit from the checkpointed
+    // step's largest speed, as the uninterrupted run does
+    let adaptive = load(
+        "examples/mpm88.ron",
+        &[
+            "time.end=0.16",
+            "time.fixed_dt=None",
+            "output.interval=0.004",
+            "output.checkpoints=Some((interval: 0.08))",
+            "output.charts=false",
+        ],
+    );
+    let (end, _) = restart_reproduces_the_run("collocated_adaptive", &adaptive);
+    assert!(end.step > 800, "{} steps: Δt below the fixed 2e-4", end.step);
 }
 
 /// Eulerian Taylor–Green, fixed Δt = 0.01, rows every 0.02, checkpoints every 0.05.

@@ -664,7 +664,9 @@ impl Simulation {
     }
 
     /// Whether the fields' grid state is older than their frames' state (after a step of a
-    /// field that steps alone, or a restart of one).
+    /// field that steps alone, or a restart of one). Whatever reads the grid state (output
+    /// writers, [`Simulation::save_state`]) should [`Simulation::refresh_grid_state`] first;
+    /// the runner does.
     pub fn grid_state_stale(&self) -> bool {
         self.grid_state_stale
     }
@@ -1151,6 +1153,12 @@ fn check_alone(case: &Case, fields: &[Field], pressure: bool) -> Result<()> {
     }
     if case.contact.is_some() {
         return Err(why("but the case has a contact model: set `contact: None`".into()));
+    }
+    if let Some(m) = field.stress.iter().find(|m| m.is_rigid()) {
+        return Err(why(format!(
+            "but its stress `{}` makes bodies rigid, and a field on this grid has none: remove it",
+            m.model()
+        )));
     }
     if let Some(m) = field.stress.iter().find(|m| m.acts_on_grid()) {
         return Err(why(format!(

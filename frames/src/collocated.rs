@@ -203,14 +203,27 @@ impl Collocated {
                 if avx {
                     let mut p = pts.start;
                     while p + 4 <= pts.end {
+                        if !finite(&input.pts.x[p..p + 4]) {
+                            // a blown-up point: the portable loop, which cannot index out of range
+                            for q in p..p + 4 {
+                                note(scatter_point(grid, width, row0, input, q, &sigma[q - first]));
+                            }
+                            p += 4;
+                            continue;
+                        }
                         let s = &sigma[p - first..p - first + 4];
                         // SAFETY: `avx` is set only where the CPU has AVX (`Collocated::new`)
                         unsafe { scatter4_avx(grid, width, row0, input, p, s) }.into_iter().for_each(&mut note);
                         p += 4;
                     }
                     for p in p..pts.end {
-                        // SAFETY: as above
-                        note(unsafe { scatter_point_avx(grid, width, row0, input, p, &sigma[p - first]) });
+                        let sg = &sigma[p - first];
+                        if finite(&input.pts.x[p..p + 1]) {
+                            // SAFETY: as above
+                            note(unsafe { scatter_point_avx(grid, width, row0, input, p, sg) });
+                        } else {
+                            note(scatter_point(grid, width, row0, input, p, sg));
+                        }
                     }
                     return;
                 }
@@ -304,15 +317,17 @@ impl Collocated {
         }
         // the update, row by row in parallel (rows of the lattice only): the parts added in
         // order, then zeroed for the next step
-        let (lo, hi) = (r0.max(PAD), r1.min(PAD + self.ny + 1));
+        let lo = r0.max(PAD);
+        let hi = r1.min(PAD + self.ny + 1).max(lo); // no points: no rows
         let width = self.width;
         let (gx, gy) = (dt * gravity.x, dt * gravity.y);
         let (nxu, nyu) = (self.nx, self.ny);
-        // the touched columns of each row (every column along a periodic x: a ghost's
-        // contribution wraps to the far side)
+        // the touched columns of each row
         let ranges: Vec<(usize, usize)> = (lo..hi)
             .map(|r| {
-                let (c0, c1) = if px { (0, width) } else { self.columns(r) };
+                // every column along a periodic side: a ghost's contribution wraps to the
+                // far side of the lattice, outside the touched columns of its row
+                let (c0, c1) = if px || py { (0, width) } else { self.columns(r) };
                 (c0.max(PAD), c1.min(PAD + nxu + 1).max(c0.max(PAD)))
             })
             .collect();
@@ -417,7 +432,7 @@ impl Collocated {
                 for k0 in (0..x.len()).step_by(4) {
                     let n = (x.len() - k0).min(4);
                     #[cfg(target_arch = "x86_64")]
-                    if n == 4 && self.avx && fin.volumetric_only && !px && !py {
+                    if n == 4 && self.avx && fin.volumetric_only && !px && !py && finite(&x[k0..k0 + 4]) {
                         let r = k0..k0 + 4;
                         let xs = [x[k0], x[k0 + 1], x[k0 + 2], x[k0 + 3]];
                         let out = Out4 {
@@ -470,7 +485,7 @@ impl Collocated {
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
         if self.avx {
-            while done + 4 <= x.len() {
+            while done + 4 <= x.len() && finite(&x[done..done + 4]) {
                 // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
                 let xs = [x[done], x[done + 1], x[done + 2], x[done + 3]];
                 unsafe { self.gather4_avx(grid, xs, Sink4::Raw(&mut out[done..done + 4])) };
@@ -486,7 +501,7 @@ impl Collocated {
     #[inline(always)]
     fn gather_point(&self, grid: &Grid, x: Vector) -> [Real; 10] {
         let h = grid.h;
-        let xi = (x - grid.origin) / h;
+        let xi = lattice(grid, x);
         let (bx, fx, wx, dwx) = bspline(xi.x);
         let (by, fy, wy, dwy) = bspline(xi.y);
         let wxd: [Real; 3] = std::array::from_fn(|a| (a as Real - fx) * h * wx[a]);
@@ -551,11 +566,12 @@ impl Collocated {
             _mm256_storeu_pd(bx.as_mut_ptr(), bxv);
             _mm256_storeu_pd(by.as_mut_ptr(), byv);
         }
-        let k0: [usize; 4] = std::array::from_fn(|l| self.index(bx[l] as isize, by[l] as isize));
-        // every stencil lies in the padded lattice (the points are inside the domain)
-        for &k in &k0 {
-            assert!(k + 2 * self.width + 3 <= self.vel.len());
+        // every stencil lies in the padded lattice (the points are finite and inside the
+        // domain: their first node is at −1 or beyond, their last at n + 1 or before)
+        for l in 0..4 {
+            assert!(bx[l] >= -1.0 && by[l] >= -1.0 && bx[l] <= self.nx as Real - 1.0 && by[l] <= self.ny as Real - 1.0);
         }
+        let k0: [usize; 4] = std::array::from_fn(|l| self.index(bx[l] as isize, by[l] as isize));
         let hv = _mm256_set1_pd(h);
         let mut wxd: [__m256d; 3] = [_mm256_setzero_pd(); 3];
         for a in 0..3 {
@@ -754,6 +770,21 @@ fn wall(bc: &Boundaries, side: Side, s: Real, v: &mut [Real; 2], normal: usize) 
     v[t] = 0.5 * (v[t] + bc.tangential_ghost(side, v[t], s));
 }
 
+/// Whether every position is finite (the AVX loops take only those).
+#[inline(always)]
+fn finite(x: &[Vector]) -> bool {
+    x.iter().all(|x| x.x.is_finite() && x.y.is_finite())
+}
+
+/// Lattice coordinates of `x`, (x − origin)/h, kept within [−½, n + ½]: a no-op for a point
+/// in the domain, and a blown-up (infinite) one indexes the padded lattice and turns the
+/// grid to NaN instead of running off it (the run then stops as unstable).
+#[inline(always)]
+fn lattice(g: &Grid, x: Vector) -> Vector {
+    let xi = (x - g.origin) / g.h;
+    Vector::new(xi.x.clamp(-0.5, g.nx as Real + 0.5), xi.y.clamp(-0.5, g.ny as Real + 0.5))
+}
+
 /// `[f(0), f(1), f(2), f(3)]`: the four lanes of a register, one per point.
 #[inline(always)]
 fn arr4(f: impl Fn(usize) -> Real) -> [Real; 4] {
@@ -794,7 +825,7 @@ fn scatter_point(
 ) -> (isize, isize) {
     let (g, pts, dt) = (input.grid, input.pts, input.dt);
     let h = g.h;
-    let xi = (pts.x[p] - g.origin) / h;
+    let xi = lattice(g, pts.x[p]);
     let (bx, fx, wx, dwx) = bspline(xi.x);
     let (by, fy, wy, dwy) = bspline(xi.y);
     let (m, v) = (pts.m[p], pts.v[p]);
@@ -840,7 +871,7 @@ fn scatter_point_avx(
     use std::arch::x86_64::*;
     let (g, pts, dt) = (input.grid, input.pts, input.dt);
     let h = g.h;
-    let xi = (pts.x[p] - g.origin) / h;
+    let xi = lattice(g, pts.x[p]);
     let (bx, fx, wx, dwx) = bspline(xi.x);
     let (by, fy, wy, dwy) = bspline(xi.y);
     let (m, v) = (pts.m[p], pts.v[p]);

@@ -191,7 +191,8 @@ impl Lagrangian {
         }
         if self.grid == GridLayout::Collocated {
             if self.shape != Shape::Quadratic {
-                return Err("grid \"collocated\" needs shape \"quadratic\" (the linear shape's ∇v is unbounded                             where a point barely reaches a node); set shape: \"quadratic\" or grid: \"staggered\""
+                return Err("grid \"collocated\" needs shape \"quadratic\" (the linear shape's ∇v is unbounded \
+                            where a point barely reaches a node); set shape: \"quadratic\" or grid: \"staggered\""
                     .into());
             }
             if self.transfer == Transfer::Flip {
@@ -818,7 +819,8 @@ impl Frame for Lagrangian {
     }
 
     /// The staggered scatter of the points as they are now: θ, face masses, and the face
-    /// velocities mu/m (without the internal force).
+    /// velocities mu/m (without the internal force). It also re-evaluates the points'
+    /// stress (with Δt = 0) from their F; every step evaluates it again before using it.
     fn refresh_grid_state(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
         self.to_grid(ctx)?;
         let s = &mut *ctx.state;

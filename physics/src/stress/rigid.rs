@@ -38,4 +38,7 @@ impl StressModel for Rigid {
     fn is_rigid(&self) -> bool {
         true
     }
+    fn acts_on_grid(&self) -> bool {
+        false
+    }
 }
