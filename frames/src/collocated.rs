@@ -96,6 +96,11 @@ pub struct Collocated {
     tiny: Option<Real>,
     /// Whether the transfers use AVX (x86-64 CPUs that have it; the same bits as without).
     avx: bool,
+    /// Whether the last step's kinetic energy and largest speed were finite: then every
+    /// point is finite and in the domain (the gather keeps it there), which the AVX loops'
+    /// unchecked indexing needs. After a blown-up step the portable loops run, which keep
+    /// a NaN or infinite point on the padded lattice (`lattice`).
+    finite: bool,
 }
 
 /// What the scatter reads of a point besides the `Points` arrays.
@@ -125,6 +130,7 @@ impl Collocated {
             span: vec![EMPTY; PARTS * height],
             tiny: None,
             avx: avx_available(),
+            finite: true,
         }
     }
 
@@ -168,14 +174,16 @@ impl Collocated {
         // the points' masses never change
         let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
         self.update(grid, bc, dt, gravity, tiny);
-        self.gather(grid, bc, pts, transfer, volumetric_only, dt)
+        let figures = self.gather(grid, bc, pts, transfer, volumetric_only, dt);
+        self.finite = figures.kinetic_energy.is_finite() && figures.max_speed.is_finite();
+        figures
     }
 
     /// Particles to grid: mass, momentum (APIC) and Δt × internal force into `acc`, the
     /// points of each part into its own grid, in parallel.
     fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix]) {
         let n = input.pts.len();
-        let (width, avx) = (self.width, self.avx);
+        let (width, avx) = (self.width, self.avx && self.finite);
         let row0 = -(PAD as isize); // lattice row of padded row 0
         let height = self.height;
         let (s0, s1) = stress.split_at_mut(n / PARTS);
@@ -203,27 +211,14 @@ impl Collocated {
                 if avx {
                     let mut p = pts.start;
                     while p + 4 <= pts.end {
-                        if !finite(&input.pts.x[p..p + 4]) {
-                            // a blown-up point: the portable loop, which cannot index out of range
-                            for q in p..p + 4 {
-                                note(scatter_point(grid, width, row0, input, q, &sigma[q - first]));
-                            }
-                            p += 4;
-                            continue;
-                        }
                         let s = &sigma[p - first..p - first + 4];
                         // SAFETY: `avx` is set only where the CPU has AVX (`Collocated::new`)
                         unsafe { scatter4_avx(grid, width, row0, input, p, s) }.into_iter().for_each(&mut note);
                         p += 4;
                     }
+                    // the last one to three points of the part
                     for p in p..pts.end {
-                        let sg = &sigma[p - first];
-                        if finite(&input.pts.x[p..p + 1]) {
-                            // SAFETY: as above
-                            note(unsafe { scatter_point_avx(grid, width, row0, input, p, sg) });
-                        } else {
-                            note(scatter_point(grid, width, row0, input, p, sg));
-                        }
+                        note(scatter_point(grid, width, row0, input, p, &sigma[p - first]));
                     }
                     return;
                 }
@@ -432,7 +427,7 @@ impl Collocated {
                 for k0 in (0..x.len()).step_by(4) {
                     let n = (x.len() - k0).min(4);
                     #[cfg(target_arch = "x86_64")]
-                    if n == 4 && self.avx && fin.volumetric_only && !px && !py && finite(&x[k0..k0 + 4]) {
+                    if n == 4 && self.avx && self.finite && fin.volumetric_only && !px && !py {
                         let r = k0..k0 + 4;
                         let xs = [x[k0], x[k0 + 1], x[k0 + 2], x[k0 + 3]];
                         let out = Out4 {
@@ -484,8 +479,8 @@ impl Collocated {
     fn gather_raw(&self, grid: &Grid, x: &[Vector], out: &mut [[Real; 10]]) {
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
-        if self.avx {
-            while done + 4 <= x.len() && finite(&x[done..done + 4]) {
+        if self.avx && self.finite {
+            while done + 4 <= x.len() {
                 // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
                 let xs = [x[done], x[done + 1], x[done + 2], x[done + 3]];
                 unsafe { self.gather4_avx(grid, xs, Sink4::Raw(&mut out[done..done + 4])) };
@@ -566,10 +561,11 @@ impl Collocated {
             _mm256_storeu_pd(bx.as_mut_ptr(), bxv);
             _mm256_storeu_pd(by.as_mut_ptr(), byv);
         }
-        // every stencil lies in the padded lattice (the points are finite and inside the
-        // domain: their first node is at −1 or beyond, their last at n + 1 or before)
+        // every stencil lies in the padded lattice: the AVX loops run only while every point
+        // is finite (`Collocated::finite`), and a finite point is in the domain, 0 ≤ ξ ≤ n,
+        // which puts its first node in [−1, n − 1] and its last in [1, n + 1]
         for l in 0..4 {
-            assert!(bx[l] >= -1.0 && by[l] >= -1.0 && bx[l] <= self.nx as Real - 1.0 && by[l] <= self.ny as Real - 1.0);
+            assert!(bx[l] >= -1.0 && by[l] >= -1.0 && bx[l] <= self.nx as Real && by[l] <= self.ny as Real);
         }
         let k0: [usize; 4] = std::array::from_fn(|l| self.index(bx[l] as isize, by[l] as isize));
         let hv = _mm256_set1_pd(h);
@@ -770,12 +766,6 @@ fn wall(bc: &Boundaries, side: Side, s: Real, v: &mut [Real; 2], normal: usize) 
     v[t] = 0.5 * (v[t] + bc.tangential_ghost(side, v[t], s));
 }
 
-/// Whether every position is finite (the AVX loops take only those).
-#[inline(always)]
-fn finite(x: &[Vector]) -> bool {
-    x.iter().all(|x| x.x.is_finite() && x.y.is_finite())
-}
-
 /// Lattice coordinates of `x`, (x − origin)/h, kept within [−½, n + ½]: a no-op for a point
 /// in the domain, and a blown-up (infinite) one indexes the padded lattice and turns the
 /// grid to NaN instead of running off it (the run then stops as unstable).
@@ -856,71 +846,9 @@ fn scatter_point(
     (bx, by)
 }
 
-/// `scatter_point` with a node's four sums in the lanes of one AVX register: the same
-/// operations in the same order, so the same bits.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-fn scatter_point_avx(
-    chunk: &mut [Node],
-    width: usize,
-    row0: isize,
-    input: &ScatterIn,
-    p: usize,
-    sg: &Matrix,
-) -> (isize, isize) {
-    use std::arch::x86_64::*;
-    let (g, pts, dt) = (input.grid, input.pts, input.dt);
-    let h = g.h;
-    let xi = lattice(g, pts.x[p]);
-    let (bx, fx, wx, dwx) = bspline(xi.x);
-    let (by, fy, wy, dwy) = bspline(xi.y);
-    let (m, v) = (pts.m[p], pts.v[p]);
-    let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
-    let k = dt * pts.vol0[p] * det2(&pts.f[p]) / h;
-    let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
-    let vv = _mm256_setr_pd(1.0, v.x, v.y, 0.0);
-    let cx = _mm256_setr_pd(0.0, cu.x, cv.x, 0.0);
-    let cy = _mm256_setr_pd(0.0, cu.y, cv.y, 0.0);
-    let sx = _mm256_setr_pd(0.0, s00, s10, 0.0);
-    let sy = _mm256_setr_pd(0.0, s01, s11, 0.0);
-    let mut pa: [__m256d; 3] = [_mm256_setzero_pd(); 3];
-    for a in 0..3 {
-        pa[a] = {
-            let dx = (a as Real - fx) * h;
-            let mw = _mm256_set1_pd(m * wx[a]);
-            let mom = _mm256_mul_pd(mw, _mm256_add_pd(vv, _mm256_mul_pd(_mm256_set1_pd(dx), cx)));
-            _mm256_sub_pd(mom, _mm256_mul_pd(_mm256_set1_pd(dwx[a]), sx))
-        };
-    }
-    let mut qb: [__m256d; 3] = [_mm256_setzero_pd(); 3];
-    for b in 0..3 {
-        qb[b] = {
-            let dy = (b as Real - fy) * h;
-            let mwd = _mm256_set1_pd(m * wy[b] * dy);
-            _mm256_sub_pd(_mm256_mul_pd(mwd, cy), _mm256_mul_pd(_mm256_set1_pd(dwy[b]), sy))
-        };
-    }
-    let col = (bx + PAD as isize) as usize;
-    let r0 = (by - row0) as usize * width + col;
-    let rows = &mut chunk[r0..r0 + 2 * width + 3];
-    let base = rows.as_mut_ptr() as *mut Real;
-    for b in 0..3 {
-        let wyb = _mm256_set1_pd(wy[b]);
-        for a in 0..3 {
-            let add = _mm256_add_pd(_mm256_mul_pd(wyb, pa[a]), _mm256_mul_pd(_mm256_set1_pd(wx[a]), qb[b]));
-            // SAFETY: node b·width + a lies in `rows` (2 width + 3 nodes of four f64)
-            unsafe {
-                let at = base.add(4 * (b * width + a));
-                _mm256_storeu_pd(at, _mm256_add_pd(_mm256_loadu_pd(at), add));
-            }
-        }
-    }
-    (bx, by)
-}
-
 /// `scatter_point` for the four points `p .. p + 4` (stresses `sg`): their weights, stress
 /// factors and node sums computed in the lanes of AVX registers (one point per lane), then
-/// transposed to one register per node and added as in `scatter_point_avx`. The same
+/// transposed to one register per node and added to it. The same
 /// operations in the same order per point: the same bits. Returns each point's first
 /// stencil column and row.
 #[cfg(target_arch = "x86_64")]
