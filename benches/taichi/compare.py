@@ -22,8 +22,9 @@ Speed: particle-steps per second (8,192 points × steps / seconds) of
   `-fopenmp` added (more threads; per-thread grids summed node by node; run with
   GOMP_SPINCOUNT=10000 unless it or OMP_WAIT_POLICY is set): what this machine allows
   for the algorithm with no framework around it. `--no-bare` skips it.
-With `--repeat R` each is run R times, interleaved, and the best rate is kept (the machine
-is shared); the load average before each run is printed. The bare kernel's checksum (kinetic
+With `--repeat R` each is run R times, interleaved; the tables give the median rate of the
+R runs (the machine is shared) and, in parentheses, the best; the ratios are of medians.
+The load average before each run is printed. The bare kernel's checksum (kinetic
 energy and mean height every 500 steps) is compared with Taichi's one-thread history.
 
 Physics: ours (1 thread) against `mpm88.py --walls-at-unit-square --threads 1`, the same
@@ -119,6 +120,17 @@ def run_bare(bins, threads):
     )
 
 
+def summary(runs):
+    """The median run by rate (its rate, steps, checks...), with the best rate as `best`."""
+    ordered = sorted(runs, key=lambda r: r["rate"])
+    median = dict(ordered[(len(ordered) - 1) // 2])
+    if len(ordered) % 2 == 0:
+        median["rate"] = 0.5 * (ordered[len(ordered) // 2 - 1]["rate"] + ordered[len(ordered) // 2]["rate"])
+    median["best"] = ordered[-1]["rate"]
+    median["checks"] = runs[0].get("checks", {})
+    return median
+
+
 def read_csv(path):
     with open(path) as f:
         return list(csv.DictReader(f))
@@ -149,7 +161,7 @@ def main():
     ap.add_argument("--bin", default=os.environ.get("MULTIFIELD_BIN", ROOT / "target/release/multifield"))
     ap.add_argument("--case", default=ROOT / "examples/mpm88.ron")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--repeat", type=int, default=1, help="runs per configuration; the best rate is kept")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per configuration; medians and bests are reported")
     ap.add_argument("--out", default=None, help="directory for the runs (default: a temporary one)")
     ap.add_argument("--impact", type=float, default=0.12, help="time that splits 'before impact' from 'after'")
     ap.add_argument("--no-bare", action="store_true", help="skip the bare C kernel (benches/taichi/mpm88_bare.c)")
@@ -176,10 +188,9 @@ def main():
     print(f"runs in {out}; {os.cpu_count()} cores; load average (1, 5, 15 min) now {load()}")
 
     bins = None if args.no_bare else build_bare(args.cc, out)
-    best = lambda a, b: b if a is None or b["rate"] > a["rate"] else a  # noqa: E731
     results = {}
     for threads in args.threads:
-        best_o, best_t, best_b = None, None, None
+        runs_o, runs_t, runs_b = [], [], []
         for k in range(args.repeat):
             o = run_ours(binary, args.case, out / f"ours_t{threads}_{k}", threads, args.set)
             t = run_taichi(script, threads, history=out / f"taichi_t{threads}_{k}.csv")
@@ -191,10 +202,11 @@ def main():
             if bins:
                 b = run_bare(bins, threads)
                 line += f"; bare C {b['rate']:.3e} ({b['steps']} steps, {b['seconds']:.2f} s, load {b['load']})"
-                best_b = best(best_b, b)
+                runs_b.append(b)
             print(line)
-            best_o, best_t = best(best_o, o), best(best_t, t)
-        results[threads] = (best_o, best_t, best_b)
+            runs_o.append(o)
+            runs_t.append(t)
+        results[threads] = (summary(runs_o), summary(runs_t), summary(runs_b) if runs_b else None)
 
     print()
     if bins:
@@ -205,9 +217,11 @@ def main():
         print("|---:|---:|---:|---:|---:|---:|---:|---:|")
         for threads, (o, t, b) in results.items():
             print(
-                f"| {threads} | {o['rate']:.3e} | {t['rate']:.3e} | {b['rate']:.3e} | {o['rate'] / t['rate']:.2f} "
+                f"| {threads} | {o['rate']:.3e} ({o['best']:.3e}) | {t['rate']:.3e} ({t['best']:.3e}) "
+                f"| {b['rate']:.3e} ({b['best']:.3e}) | {o['rate'] / t['rate']:.2f} "
                 f"| {b['rate'] / t['rate']:.2f} | {b['rate'] / o['rate']:.2f} | {5 * t['rate']:.3e} |"
             )
+        print("(medians of the runs, the best in parentheses; ratios of medians)")
         print()
         for threads, (o, t, b) in results.items():
             verdict = "reaches" if o["rate"] >= 5 * t["rate"] else "does not reach"
@@ -236,7 +250,7 @@ def main():
         print("| threads | ours (particle-steps/s) | Taichi 1.7 CPU, f32 (particle-steps/s) | ours / Taichi |")
         print("|---:|---:|---:|---:|")
         for threads, (o, t, _) in results.items():
-            print(f"| {threads} | {o['rate']:.3e} | {t['rate']:.3e} | {o['rate'] / t['rate']:.2f} |")
+            print(f"| {threads} | {o['rate']:.3e} ({o['best']:.3e}) | {t['rate']:.3e} ({t['best']:.3e}) | {o['rate'] / t['rate']:.2f} |")
     print()
 
     # physics: ours at 1 thread (any thread count gives the same bits) against the walls-matched mpm88
