@@ -36,6 +36,32 @@ use multifield_core::math::{Matrix, Real, Vector};
 use multifield_core::plugin::{FrameFigures, PointStressContext, StressModel};
 use rayon::prelude::*;
 
+/// `bspline` in the four lanes of an AVX register of lattice coordinates: (base as f64,
+/// fraction, weights, derivatives), by the same operations. A macro, so that it is inlined
+/// into the AVX functions that use it (the two transfers).
+#[cfg(target_arch = "x86_64")]
+macro_rules! bspline4 {
+    ($xi:expr) => {{
+        let v = $xi;
+        let base = _mm256_sub_pd(
+            _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(0.5)))),
+            _mm256_set1_pd(1.0),
+        );
+        let f = _mm256_sub_pd(v, base);
+        let a = _mm256_sub_pd(_mm256_set1_pd(1.5), f);
+        let b = _mm256_sub_pd(f, _mm256_set1_pd(1.0));
+        let c = _mm256_sub_pd(f, _mm256_set1_pd(0.5));
+        let half = _mm256_set1_pd(0.5);
+        let w = [
+            _mm256_mul_pd(_mm256_mul_pd(half, a), a),
+            _mm256_sub_pd(_mm256_set1_pd(0.75), _mm256_mul_pd(b, b)),
+            _mm256_mul_pd(_mm256_mul_pd(half, c), c),
+        ];
+        let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
+        (base, f, w, dw)
+    }};
+}
+
 /// Partial grids of the scatter: the points are split into this many parts by index, each
 /// scattered into its own grid (in parallel), and the grids are added in part order. A
 /// fixed number, so that the sums are the same bits for any number of threads.
@@ -144,12 +170,7 @@ impl Collocated {
     /// Index of lattice node (i, j) (ghosts from −`PAD`).
     #[inline(always)]
     fn index(&self, i: isize, j: isize) -> usize {
-        (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.width
-    }
-
-    /// Grid velocity at node (i, j) after the last update (for tests).
-    pub fn velocity(&self, i: isize, j: isize) -> [Real; 2] {
-        self.vel[self.index(i, j)]
+        node_index(self.width, i, j)
     }
 
     /// One step of the points: stress (the `models` that act on points, into `pts.stress`),
@@ -173,7 +194,7 @@ impl Collocated {
         pts.stress = stress;
         // the points' masses never change
         let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
-        self.update(grid, bc, dt, gravity, tiny);
+        self.update(bc, dt, gravity, tiny);
         let figures = self.gather(grid, bc, pts, transfer, volumetric_only, dt);
         self.finite = figures.kinetic_energy.is_finite() && figures.max_speed.is_finite();
         figures
@@ -255,7 +276,7 @@ impl Collocated {
 
     /// The grid update: ghosts folded in, u = (mu + Δt f)/m + Δt g, the walls; `acc`
     /// zeroed for the next step; the ghost nodes of `vel` filled.
-    fn update(&mut self, grid: &Grid, bc: &Boundaries, dt: Real, gravity: Vector, tiny: Real) {
+    fn update(&mut self, bc: &Boundaries, dt: Real, gravity: Vector, tiny: Real) {
         let (px, py) = (bc.periodic_x(), bc.periodic_y());
         let (nx, ny) = (self.nx as isize, self.ny as isize);
         let pad = PAD as isize;
@@ -286,27 +307,22 @@ impl Collocated {
                 }
             }
             // periodic sides: node n is node 0
+            let (width, acc) = (self.width, &mut self.acc[off..off + plane]);
+            let at = |i: isize, j: isize| node_index(width, i, j);
+            let mut merge = |into: usize, from: usize| {
+                let v = std::mem::replace(&mut acc[from], Node::ZERO);
+                for c in 0..3 {
+                    acc[into][c] += v[c];
+                }
+            };
             if px {
-                for r in r0..r1 {
-                    let jg = r as isize - pad;
-                    if (0..=ny).contains(&jg) {
-                        let (a, b) = (off + self.index(0, jg), off + self.index(nx, jg));
-                        let v = self.acc[b];
-                        self.acc[b] = Node::ZERO;
-                        for c in 0..3 {
-                            self.acc[a][c] += v[c];
-                        }
-                    }
+                for jg in (r0 as isize - pad).max(0)..(r1 as isize - pad).min(ny + 1) {
+                    merge(at(0, jg), at(nx, jg));
                 }
             }
             if py {
                 for i in 0..=nx {
-                    let (a, b) = (off + self.index(i, 0), off + self.index(i, ny));
-                    let v = self.acc[b];
-                    self.acc[b] = Node::ZERO;
-                    for c in 0..3 {
-                        self.acc[a][c] += v[c];
-                    }
+                    merge(at(i, 0), at(i, ny));
                 }
             }
         }
@@ -387,7 +403,6 @@ impl Collocated {
                 self.vel[k] = v;
             }
         }
-        let _ = grid;
         self.span.iter_mut().for_each(|s| *s = EMPTY);
     }
 
@@ -534,27 +549,8 @@ impl Collocated {
         let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) / h);
         // SAFETY (the loads below): four f64
         let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
-        let axis = |v: __m256d| {
-            // bspline() in the lanes
-            let base = _mm256_sub_pd(
-                _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(0.5)))),
-                _mm256_set1_pd(1.0),
-            );
-            let f = _mm256_sub_pd(v, base);
-            let a = _mm256_sub_pd(_mm256_set1_pd(1.5), f);
-            let b = _mm256_sub_pd(f, _mm256_set1_pd(1.0));
-            let c = _mm256_sub_pd(f, _mm256_set1_pd(0.5));
-            let half = _mm256_set1_pd(0.5);
-            let w = [
-                _mm256_mul_pd(_mm256_mul_pd(half, a), a),
-                _mm256_sub_pd(_mm256_set1_pd(0.75), _mm256_mul_pd(b, b)),
-                _mm256_mul_pd(_mm256_mul_pd(half, c), c),
-            ];
-            let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
-            (base, f, w, dw)
-        };
-        let (bxv, fx, wx, dwx) = axis(lanes(arr4(|l| xi[l].x)));
-        let (byv, fy, wy, dwy) = axis(lanes(arr4(|l| xi[l].y)));
+        let (bxv, fx, wx, dwx) = bspline4!(lanes(arr4(|l| xi[l].x)));
+        let (byv, fy, wy, dwy) = bspline4!(lanes(arr4(|l| xi[l].y)));
         let (mut bx, mut by) = ([0.0; 4], [0.0; 4]);
         // SAFETY: four f64 each
         unsafe {
@@ -734,6 +730,13 @@ fn finish4(
     }
 }
 
+/// Index of lattice node (i, j) (ghosts from −`PAD`) in a padded lattice of `width`
+/// nodes per row.
+#[inline(always)]
+fn node_index(width: usize, i: isize, j: isize) -> usize {
+    (i + PAD as isize) as usize + (j + PAD as isize) as usize * width
+}
+
 /// The ghost columns of a lattice row of `nx` cells: all of a ghost row, else the `PAD` on
 /// each side.
 fn ghost_columns(ghost_row: bool, nx: isize) -> impl Iterator<Item = isize> {
@@ -869,27 +872,8 @@ fn scatter4_avx(
     let (hv, zero) = (_mm256_set1_pd(h), _mm256_setzero_pd());
     let xi_x = _mm256_div_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].x)), _mm256_set1_pd(g.origin.x)), hv);
     let xi_y = _mm256_div_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].y)), _mm256_set1_pd(g.origin.y)), hv);
-    // bspline() in the lanes
-    let axis = |v: __m256d| {
-        let base = _mm256_sub_pd(
-            _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(0.5)))),
-            _mm256_set1_pd(1.0),
-        );
-        let f = _mm256_sub_pd(v, base);
-        let a = _mm256_sub_pd(_mm256_set1_pd(1.5), f);
-        let b = _mm256_sub_pd(f, _mm256_set1_pd(1.0));
-        let c = _mm256_sub_pd(f, _mm256_set1_pd(0.5));
-        let half = _mm256_set1_pd(0.5);
-        let w = [
-            _mm256_mul_pd(_mm256_mul_pd(half, a), a),
-            _mm256_sub_pd(_mm256_set1_pd(0.75), _mm256_mul_pd(b, b)),
-            _mm256_mul_pd(_mm256_mul_pd(half, c), c),
-        ];
-        let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
-        (base, f, w, dw)
-    };
-    let (bxv, fx, wx, dwx) = axis(xi_x);
-    let (byv, fy, wy, dwy) = axis(xi_y);
+    let (bxv, fx, wx, dwx) = bspline4!(xi_x);
+    let (byv, fy, wy, dwy) = bspline4!(xi_y);
     let m = lanes(arr4(|l| pts.m[p + l]));
     let (vx, vy) = (lanes(arr4(|l| pts.v[p + l].x)), lanes(arr4(|l| pts.v[p + l].y)));
     let c = |v: [Real; 4]| if input.apic { lanes(v) } else { zero };
