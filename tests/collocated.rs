@@ -1,7 +1,7 @@
 //! The Lagrangian frame's collocated grid (`grid: "collocated"`), which steps a field that
 //! is alone in its case in one scatter and one gather:
 //!
-//! - the AVX and portable loops, on 1 and 2 threads, give the same bits;
+//! - the portable, AVX and AVX-512 loops, on 1 and 2 threads, give the same bits;
 //! - an affine velocity field (rigid rotation) is transferred exactly by APIC, and a
 //!   falling block keeps its free-fall kinetic energy to round-off;
 //! - the grid state it refreshes for output holds the points' volume and momentum;
@@ -10,6 +10,7 @@
 use multifield::core::case::Case;
 use multifield::core::math::{Real, Vector};
 use multifield::core::simulation::Simulation;
+use multifield::frames::collocated::Simd;
 use multifield::frames::lagrangian::Lagrangian;
 use std::path::Path;
 
@@ -39,31 +40,37 @@ fn state_bits(sim: &Simulation) -> Vec<u64> {
     out.iter().map(|x| x.to_bits()).collect()
 }
 
-/// `steps` steps of `case` on `threads` threads, AVX or portable loops: the points' state
-/// and every step's figures as bits, and whether AVX was in use.
-fn run(case: &Case, steps: u64, threads: usize, portable: bool) -> (Vec<u64>, Vec<u64>, bool) {
+/// `steps` steps of `case` on `threads` threads with at most the lanes `simd`: the points'
+/// state and every step's figures as bits, and the lanes in use.
+fn run(case: &Case, steps: u64, threads: usize, simd: Simd) -> (Vec<u64>, Vec<u64>, Simd) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| {
         let mut sim = Simulation::new(case).unwrap();
-        let avx = frame_mut(&mut sim).set_portable(portable);
+        let used = frame_mut(&mut sim).set_simd(simd);
         let mut figures = Vec::new();
         for _ in 0..steps {
             let d = sim.step().unwrap();
             figures.extend([d.kinetic_energy, d.momentum.x, d.momentum.y, d.max_speed].map(Real::to_bits));
         }
-        (state_bits(&sim), figures, avx)
+        (state_bits(&sim), figures, used)
     })
 }
 
-/// The portable loops on 1 thread against 2 threads and the AVX loops on 1 and 2.
+/// The portable loops on 1 thread against 2 threads, and the AVX and AVX-512 lanes (those
+/// this CPU has) on 1 and 2.
 fn assert_same_bits(name: &str, case: &Case, steps: u64) {
-    let (reference, figures, avx) = run(case, steps, 1, true);
-    assert!(!avx);
-    for (threads, portable) in [(2, true), (1, false), (2, false)] {
-        let (bits, f, uses_avx) = run(case, steps, threads, portable);
-        assert_eq!(uses_avx, !portable && avx_here(), "AVX in use");
-        assert!(bits == reference, "{name}, {threads} thread(s), portable {portable}: the points differ");
-        assert!(f == figures, "{name}, {threads} thread(s), portable {portable}: the step figures differ");
+    let (reference, figures, used) = run(case, steps, 1, Simd::Portable);
+    assert_eq!(used, Simd::Portable);
+    for simd in [Simd::Portable, Simd::Avx, Simd::Avx512] {
+        for threads in [1, 2] {
+            if (simd == Simd::Portable && threads == 1) || simd > Simd::available() {
+                continue;
+            }
+            let (bits, f, used) = run(case, steps, threads, simd);
+            assert_eq!(used, simd, "the lanes in use");
+            assert!(bits == reference, "{name}, {threads} thread(s), {simd:?}: the points differ");
+            assert!(f == figures, "{name}, {threads} thread(s), {simd:?}: the step figures differ");
+        }
     }
 }
 
@@ -71,17 +78,19 @@ fn assert_same_bits(name: &str, case: &Case, steps: u64) {
 /// a soft elastic block dropped in its place (the full F, the portable end of the gather),
 /// and a block crossing a periodic side with an odd number of points (the loops' tails).
 #[test]
-fn avx_portable_loops_and_thread_counts_give_the_same_bits() {
-    eprintln!("AVX available here: {}", avx_here());
+fn portable_and_simd_loops_and_thread_counts_give_the_same_bits() {
+    eprintln!("lanes available here: {:?}", Simd::available());
     assert_same_bits("mpm88", &mpm88(&["time.end=0.08"]), 400);
     let elastic =
         "fields.fluid.stress=[(model: \"linear_elastic\", params: (young_modulus: 400.0, poisson_ratio: 0.3))]";
     assert_same_bits("elastic block", &mpm88(&[elastic]), 800);
-    let case = crossing("left: FreeSlip, right: FreeSlip, bottom: Periodic, top: Periodic", [0.0, 2.0]);
+    let periodic = "left: FreeSlip, right: FreeSlip, bottom: Periodic, top: Periodic";
+    let case = crossing_in(periodic, [0.0, 2.0], "(min: (0.31, 0.62), max: (0.71, 0.93))");
     let n = Simulation::new(&case).map(|s| frame(&s).points.len()).unwrap();
-    // the tails of the four-point loops: the parts [0, n/2) and [n/2, n), the last gather
-    // block of n mod 512 points
-    let tails = (!(n / 2).is_multiple_of(4) || !(n - n / 2).is_multiple_of(4)) && !(n % 512).is_multiple_of(4);
+    // the tails of the loops of four and eight points: the scatter's parts [0, n/2) and
+    // [n/2, n), the gather's last block of n mod 512 points (eight at a time, then four,
+    // then one)
+    let tails = (!(n / 2).is_multiple_of(4) || !(n - n / 2).is_multiple_of(4)) && (n % 512) % 8 > 4;
     assert!(tails, "{n} points: the loops' tails would go untested");
     assert_same_bits("periodic crossing", &case, 200);
 }
@@ -89,12 +98,17 @@ fn avx_portable_loops_and_thread_counts_give_the_same_bits() {
 /// A block of weakly compressible fluid in a 32 × 32 box translating at `velocity` (no
 /// gravity), starting near the side it crosses.
 fn crossing(boundaries: &str, velocity: [Real; 2]) -> Case {
-    multifield::link_all();
     let region = if velocity[1] != 0.0 {
         "(min: (0.31, 0.62), max: (0.7, 0.93))"
     } else {
         "(min: (0.62, 0.31), max: (0.93, 0.7))"
     };
+    crossing_in(boundaries, velocity, region)
+}
+
+/// `crossing` with the block in `region`.
+fn crossing_in(boundaries: &str, velocity: [Real; 2], region: &str) -> Case {
+    multifield::link_all();
     let text = format!(
         r#"(
     name: "crossing",
@@ -142,10 +156,6 @@ fn a_block_crossing_a_periodic_side_keeps_its_uniform_velocity() {
         eprintln!("{boundaries}: |v − U| at most {dv:e}, |J − 1| at most {dj:e}");
         assert!(dv < 1e-10 && dj < 1e-12, "{boundaries}: |v − U| {dv:e}, |J − 1| {dj:e}");
     }
-}
-
-fn avx_here() -> bool {
-    multifield::frames::collocated::avx_available()
 }
 
 /// A block in rigid rotation with no stress and no gravity: APIC on the quadratic B-spline

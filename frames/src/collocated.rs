@@ -120,8 +120,8 @@ pub struct Collocated {
     span: Vec<(isize, isize)>,
     /// Masses below this are empty nodes: 1e-12 of the largest point mass.
     tiny: Option<Real>,
-    /// Whether the transfers use AVX (x86-64 CPUs that have it; the same bits as without).
-    avx: bool,
+    /// The lanes the transfers use (at most what the CPU has; the same bits with any).
+    simd: Simd,
     /// Whether the last step's kinetic energy and largest speed were finite: then every
     /// point is finite and in the domain (the gather keeps it there), which the AVX loops'
     /// unchecked indexing needs. After a blown-up step the portable loops run, which keep
@@ -155,16 +155,16 @@ impl Collocated {
             rows: (0, 0),
             span: vec![EMPTY; PARTS * height],
             tiny: None,
-            avx: avx_available(),
+            simd: Simd::available(),
             finite: true,
         }
     }
 
-    /// Whether the transfers use AVX: `false` forces the portable loops (which give the
-    /// same bits); `true` uses AVX where the CPU has it. Returns what is in use.
-    pub fn use_simd(&mut self, on: bool) -> bool {
-        self.avx = on && avx_available();
-        self.avx
+    /// The lanes the transfers use: `simd` where the CPU has it, else the most it has (all
+    /// give the same bits). Returns what is in use.
+    pub fn use_simd(&mut self, simd: Simd) -> Simd {
+        self.simd = simd.min(Simd::available());
+        self.simd
     }
 
     /// Index of lattice node (i, j) (ghosts from −`PAD`).
@@ -204,7 +204,7 @@ impl Collocated {
     /// points of each part into its own grid, in parallel.
     fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix]) {
         let n = input.pts.len();
-        let (width, avx) = (self.width, self.avx && self.finite);
+        let (width, avx) = (self.width, self.simd >= Simd::Avx && self.finite);
         let row0 = -(PAD as isize); // lattice row of padded row 0
         let height = self.height;
         let (s0, s1) = stress.split_at_mut(n / PARTS);
@@ -342,6 +342,24 @@ impl Collocated {
                 (c0.max(PAD), c1.min(PAD + nxu + 1).max(c0.max(PAD)))
             })
             .collect();
+        // the walls of lattice row j (its nodes from padded column PAD)
+        let update_walls = |vel: &mut [[Real; 2]], j: usize| {
+            let row = &mut vel[PAD..PAD + nxu + 1];
+            let s = j as Real / nyu as Real;
+            if px {
+                row[nxu] = row[0];
+            } else {
+                wall(bc, Side::Left, s, &mut row[0], 0);
+                wall(bc, Side::Right, s, &mut row[nxu], 0);
+            }
+            if !py && (j == 0 || j == nyu) {
+                let side = if j == 0 { Side::Bottom } else { Side::Top };
+                for (i, v) in row.iter_mut().enumerate() {
+                    wall(bc, side, i as Real / nxu as Real, v, 1);
+                }
+            }
+        };
+        let avx = self.simd >= Simd::Avx;
         let (first, second) = self.acc.split_at_mut(plane);
         first[lo * width..hi * width]
             .par_chunks_mut(width)
@@ -352,27 +370,15 @@ impl Collocated {
             .for_each(|(k, (((a0, a1), vel), &(c0, c1)))| {
                 let j = lo + k - PAD;
                 let cols = c0..c1;
-                for ((a, b), v) in a0[cols.clone()].iter_mut().zip(&mut a1[cols.clone()]).zip(&mut vel[cols]) {
-                    let (m, mx, my) = (a[0] + b[0], a[1] + b[1], a[2] + b[2]);
-                    let (ux, uy) = if m > tiny { (mx / m, my / m) } else { (0.0, 0.0) };
-                    *v = [ux + gx, uy + gy];
-                    *a = Node::ZERO;
-                    *b = Node::ZERO;
+                let (a, b, v) = (&mut a0[cols.clone()], &mut a1[cols.clone()], &mut vel[cols]);
+                #[cfg(target_arch = "x86_64")]
+                if avx {
+                    // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
+                    unsafe { update_nodes_avx(a, b, v, tiny, [gx, gy]) };
+                    return update_walls(vel, j);
                 }
-                let row = &mut vel[PAD..PAD + nxu + 1];
-                let s = j as Real / nyu as Real;
-                if px {
-                    row[nxu] = row[0];
-                } else {
-                    wall(bc, Side::Left, s, &mut row[0], 0);
-                    wall(bc, Side::Right, s, &mut row[nxu], 0);
-                }
-                if !py && (j == 0 || j == nyu) {
-                    let side = if j == 0 { Side::Bottom } else { Side::Top };
-                    for (i, v) in row.iter_mut().enumerate() {
-                        wall(bc, side, i as Real / nxu as Real, v, 1);
-                    }
-                }
+                update_nodes(a, b, v, tiny, [gx, gy]);
+                update_walls(vel, j);
             });
         if py {
             for i in 0..=nx {
@@ -419,7 +425,7 @@ impl Collocated {
         let (px, py) = (bc.periodic_x(), bc.periodic_y());
         let fin = Finish {
             dt,
-            h: grid.h,
+            ih: 1.0 / grid.h,
             dinv: Shape::Quadratic.apic_d_inverse(grid.h).unwrap_or(0.0),
             apic: transfer == Transfer::Apic,
             volumetric_only,
@@ -428,6 +434,11 @@ impl Collocated {
             eps: 1e-9 * grid.h,
             periodic: [px, py],
         };
+        // the lanes only while every point is finite (see `finite`)
+        let simd = if self.finite { self.simd } else { Simd::Portable };
+        // the end of the gather in the lanes too: a `volumetric_only` field with walls on
+        // every side (`finish4`)
+        let lanes_finish = volumetric_only && !px && !py;
         let m = &pts.m;
         let sums: Vec<FrameFigures> = pts
             .x
@@ -438,14 +449,22 @@ impl Collocated {
             .zip(m.par_chunks(BLOCK))
             .map(|((((x, v), (f, gv)), (cu, cv)), m)| {
                 let mut sums = FrameFigures::default();
-                // four points at a time: their sums, then the end of each one's gather
-                for k0 in (0..x.len()).step_by(4) {
-                    let n = (x.len() - k0).min(4);
+                let mut k0 = 0;
+                while k0 < x.len() {
+                    // eight points at a time with AVX-512, four with AVX, then one at a time
+                    let n = match (simd, x.len() - k0) {
+                        (Simd::Avx512, left) if left >= 8 => 8,
+                        (Simd::Avx | Simd::Avx512, left) if left >= 4 => 4,
+                        _ => 1,
+                    };
+                    let r = k0..k0 + n;
+                    k0 += n;
                     #[cfg(target_arch = "x86_64")]
-                    if n == 4 && self.avx && self.finite && fin.volumetric_only && !px && !py {
-                        let r = k0..k0 + 4;
-                        let xs = [x[k0], x[k0 + 1], x[k0 + 2], x[k0 + 3]];
-                        let out = Out4 {
+                    if n > 1 {
+                        let mut xs = [Vector::zeros(); 8];
+                        xs[..n].copy_from_slice(&x[r.clone()]);
+                        let mut raw = [[0.0; 10]; 8];
+                        let out = Outs {
                             x: &mut x[r.clone()],
                             v: &mut v[r.clone()],
                             f: &mut f[r.clone()],
@@ -453,24 +472,45 @@ impl Collocated {
                             cu: &mut cu[r.clone()],
                             cv: &mut cv[r.clone()],
                         };
-                        let sink = Sink4::Finish { fin: &fin, out, m: &m[r], sums: &mut sums };
-                        // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
-                        unsafe { self.gather4_avx(grid, xs, sink) };
+                        let mut sink = if lanes_finish {
+                            Sink::Finish { fin: &fin, out, m: &m[r.clone()], sums: &mut sums }
+                        } else {
+                            Sink::Raw(&mut raw[..n])
+                        };
+                        // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
+                        unsafe {
+                            if n == 8 {
+                                self.gather8_avx512(grid, &xs[..8], &mut sink);
+                            } else {
+                                self.gather4_avx(grid, &xs[..4], &mut sink);
+                            }
+                        }
+                        if !lanes_finish {
+                            for (k, r) in r.zip(&raw) {
+                                let out = Out {
+                                    x: &mut x[k],
+                                    v: &mut v[k],
+                                    f: &mut f[k],
+                                    gv: &mut gv[k],
+                                    cu: &mut cu[k],
+                                    cv: &mut cv[k],
+                                };
+                                finish_point(&fin, r, m[k], out, &mut sums);
+                            }
+                        }
                         continue;
                     }
-                    let mut raw = [[0.0; 10]; 4];
-                    self.gather_raw(grid, &x[k0..k0 + n], &mut raw[..n]);
-                    for (k, r) in (k0..k0 + n).zip(&raw) {
-                        let out = Out {
-                            x: &mut x[k],
-                            v: &mut v[k],
-                            f: &mut f[k],
-                            gv: &mut gv[k],
-                            cu: &mut cu[k],
-                            cv: &mut cv[k],
-                        };
-                        finish_point(&fin, r, m[k], out, &mut sums);
-                    }
+                    let k = r.start;
+                    let raw = self.gather_point(grid, x[k]);
+                    let out = Out {
+                        x: &mut x[k],
+                        v: &mut v[k],
+                        f: &mut f[k],
+                        gv: &mut gv[k],
+                        cu: &mut cu[k],
+                        cv: &mut cv[k],
+                    };
+                    finish_point(&fin, &raw, m[k], out, &mut sums);
                 }
                 sums
             })
@@ -486,28 +526,11 @@ impl Collocated {
         total
     }
 
-    /// The raw sums of the gathers of the points at `x` into `out`, 10 per point:
-    /// Σ S u (2), Σ u ∂S/∂ξ (2), Σ u ∂S/∂η (2), Σ S u (x_i − x_p) (2), Σ S u (y_i − y_p)
-    /// (2), each for the components (x, y). With AVX, four points at a time in the lanes
-    /// of a register, by the same operations in the same order as the portable loop: the
+    /// The raw sums of one point's gather, 10 of them: Σ S u (2), Σ u ∂S/∂ξ (2),
+    /// Σ u ∂S/∂η (2), Σ S u (x_i − x_p) (2), Σ S u (y_i − y_p) (2), each for the
+    /// components (x, y). `gather4_avx` and `gather8_avx512` compute them for four and eight
+    /// points in the lanes of a register, by the same operations in the same order: the
     /// same bits.
-    fn gather_raw(&self, grid: &Grid, x: &[Vector], out: &mut [[Real; 10]]) {
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        if self.avx && self.finite {
-            while done + 4 <= x.len() {
-                // SAFETY: `self.avx` is set only where the CPU has AVX (`Collocated::new`)
-                let xs = [x[done], x[done + 1], x[done + 2], x[done + 3]];
-                unsafe { self.gather4_avx(grid, xs, Sink4::Raw(&mut out[done..done + 4])) };
-                done += 4;
-            }
-        }
-        for k in done..x.len() {
-            out[k] = self.gather_point(grid, x[k]);
-        }
-    }
-
-    /// The raw sums of one point's gather (see `gather_raw`).
     #[inline(always)]
     fn gather_point(&self, grid: &Grid, x: Vector) -> [Real; 10] {
         let h = grid.h;
@@ -523,30 +546,42 @@ impl Collocated {
             let (mut s, mut t, mut r) = ([0.0; 2], [0.0; 2], [0.0; 2]);
             for a in 0..3 {
                 for c in 0..2 {
-                    s[c] += wx[a] * row[a][c];
-                    t[c] += dwx[a] * row[a][c];
-                    r[c] += wxd[a] * row[a][c];
+                    s[c] = wx[a].mul_add(row[a][c], s[c]);
+                    t[c] = dwx[a].mul_add(row[a][c], t[c]);
+                    r[c] = wxd[a].mul_add(row[a][c], r[c]);
                 }
             }
             let wdy = wy[b] * (b as Real - fy) * h;
             for c in 0..2 {
-                u[c] += wy[b] * s[c];
-                gx[c] += wy[b] * t[c];
-                gy[c] += dwy[b] * s[c];
-                ax[c] += wy[b] * r[c];
-                ay[c] += wdy * s[c];
+                u[c] = wy[b].mul_add(s[c], u[c]);
+                gx[c] = wy[b].mul_add(t[c], gx[c]);
+                gy[c] = dwy[b].mul_add(s[c], gy[c]);
+                ax[c] = wy[b].mul_add(r[c], ax[c]);
+                ay[c] = wdy.mul_add(s[c], ay[c]);
             }
         }
         [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]]
     }
 
-    /// `gather_point` for four points, one per lane.
+    /// First stencil node of each of the points at lattice bases `bx`, `by`. Every stencil
+    /// lies in the padded lattice: the lanes run only while every point is finite
+    /// (`Collocated::finite`), and a finite point is in the domain, 0 ≤ ξ ≤ n, which puts
+    /// its first node in [−1, n − 1] and its last in [1, n + 1].
+    fn first_nodes<const N: usize>(&self, bx: [Real; N], by: [Real; N]) -> [usize; N] {
+        std::array::from_fn(|l| {
+            assert!(bx[l] >= -1.0 && by[l] >= -1.0 && bx[l] <= self.nx as Real && by[l] <= self.ny as Real);
+            self.index(bx[l] as isize, by[l] as isize)
+        })
+    }
+
+    /// `gather_point` for the four points at `x`, one per lane.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    fn gather4_avx(&self, grid: &Grid, x: [Vector; 4], sink: Sink4) {
+    #[target_feature(enable = "avx,fma")]
+    fn gather4_avx(&self, grid: &Grid, x: &[Vector], sink: &mut Sink) {
         use std::arch::x86_64::*;
         let h = grid.h;
-        let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) / h);
+        let ih = 1.0 / h;
+        let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) * ih);
         // SAFETY (the loads below): four f64
         let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
         let (bxv, fx, wx, dwx) = bspline4!(lanes(arr4(|l| xi[l].x)));
@@ -557,13 +592,7 @@ impl Collocated {
             _mm256_storeu_pd(bx.as_mut_ptr(), bxv);
             _mm256_storeu_pd(by.as_mut_ptr(), byv);
         }
-        // every stencil lies in the padded lattice: the AVX loops run only while every point
-        // is finite (`Collocated::finite`), and a finite point is in the domain, 0 ≤ ξ ≤ n,
-        // which puts its first node in [−1, n − 1] and its last in [1, n + 1]
-        for l in 0..4 {
-            assert!(bx[l] >= -1.0 && by[l] >= -1.0 && bx[l] <= self.nx as Real && by[l] <= self.ny as Real);
-        }
-        let k0: [usize; 4] = std::array::from_fn(|l| self.index(bx[l] as isize, by[l] as isize));
+        let k0 = self.first_nodes(bx, by);
         let hv = _mm256_set1_pd(h);
         let mut wxd: [__m256d; 3] = [_mm256_setzero_pd(); 3];
         for a in 0..3 {
@@ -576,7 +605,7 @@ impl Collocated {
             let (mut s, mut t, mut r) = ([z; 2], [z; 2], [z; 2]);
             for a in 0..3 {
                 let o = b * self.width + a;
-                // SAFETY: k0[l] + o < vel.len() (asserted above); a node is two f64
+                // SAFETY: k0[l] + o < vel.len() (`first_nodes`); a node is two f64
                 let uv = unsafe {
                     let p = |l: usize| _mm_loadu_pd(base.add(2 * (k0[l] + o)));
                     let v02 = _mm256_set_m128d(p(2), p(0));
@@ -584,47 +613,134 @@ impl Collocated {
                     [_mm256_unpacklo_pd(v02, v13), _mm256_unpackhi_pd(v02, v13)]
                 };
                 for c in 0..2 {
-                    s[c] = _mm256_add_pd(s[c], _mm256_mul_pd(wx[a], uv[c]));
-                    t[c] = _mm256_add_pd(t[c], _mm256_mul_pd(dwx[a], uv[c]));
-                    r[c] = _mm256_add_pd(r[c], _mm256_mul_pd(wxd[a], uv[c]));
+                    s[c] = _mm256_fmadd_pd(wx[a], uv[c], s[c]);
+                    t[c] = _mm256_fmadd_pd(dwx[a], uv[c], t[c]);
+                    r[c] = _mm256_fmadd_pd(wxd[a], uv[c], r[c]);
                 }
             }
             let wdy = _mm256_mul_pd(_mm256_mul_pd(wy[b], _mm256_sub_pd(_mm256_set1_pd(b as Real), fy)), hv);
             for c in 0..2 {
-                u[c] = _mm256_add_pd(u[c], _mm256_mul_pd(wy[b], s[c]));
-                gx[c] = _mm256_add_pd(gx[c], _mm256_mul_pd(wy[b], t[c]));
-                gy[c] = _mm256_add_pd(gy[c], _mm256_mul_pd(dwy[b], s[c]));
-                ax[c] = _mm256_add_pd(ax[c], _mm256_mul_pd(wy[b], r[c]));
-                ay[c] = _mm256_add_pd(ay[c], _mm256_mul_pd(wdy, s[c]));
+                u[c] = _mm256_fmadd_pd(wy[b], s[c], u[c]);
+                gx[c] = _mm256_fmadd_pd(wy[b], t[c], gx[c]);
+                gy[c] = _mm256_fmadd_pd(dwy[b], s[c], gy[c]);
+                ax[c] = _mm256_fmadd_pd(wy[b], r[c], ax[c]);
+                ay[c] = _mm256_fmadd_pd(wdy, s[c], ay[c]);
+            }
+        }
+        sink.put(0, &[u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]], x);
+    }
+
+    /// `gather_point` for the eight points at `x`, one per lane of an AVX-512 register: the
+    /// weights by `bspline4!` on each half, the sums as in `gather4_avx`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,fma")]
+    fn gather8_avx512(&self, grid: &Grid, x: &[Vector], sink: &mut Sink) {
+        use std::arch::x86_64::*;
+        let h = grid.h;
+        let ih = 1.0 / h;
+        let xi: [Vector; 8] = std::array::from_fn(|l| (x[l] - grid.origin) * ih);
+        // SAFETY (the loads below): four f64
+        let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
+        let join = |lo: __m256d, hi: __m256d| _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(lo), hi);
+        let (bx0, fx0, wx0, dwx0) = bspline4!(lanes(arr4(|l| xi[l].x)));
+        let (bx1, fx1, wx1, dwx1) = bspline4!(lanes(arr4(|l| xi[4 + l].x)));
+        let (by0, fy0, wy0, dwy0) = bspline4!(lanes(arr4(|l| xi[l].y)));
+        let (by1, fy1, wy1, dwy1) = bspline4!(lanes(arr4(|l| xi[4 + l].y)));
+        let (fx, fy) = (join(fx0, fx1), join(fy0, fy1));
+        let wx: [__m512d; 3] = std::array::from_fn(|a| join(wx0[a], wx1[a]));
+        let dwx: [__m512d; 3] = std::array::from_fn(|a| join(dwx0[a], dwx1[a]));
+        let wy: [__m512d; 3] = std::array::from_fn(|a| join(wy0[a], wy1[a]));
+        let dwy: [__m512d; 3] = std::array::from_fn(|a| join(dwy0[a], dwy1[a]));
+        let (mut bx, mut by) = ([0.0; 8], [0.0; 8]);
+        // SAFETY: eight f64 each
+        unsafe {
+            _mm512_storeu_pd(bx.as_mut_ptr(), join(bx0, bx1));
+            _mm512_storeu_pd(by.as_mut_ptr(), join(by0, by1));
+        }
+        let k0 = self.first_nodes(bx, by);
+        let hv = _mm512_set1_pd(h);
+        let wxd: [__m512d; 3] = std::array::from_fn(|a| {
+            _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(a as Real), fx), hv), wx[a])
+        });
+        let z = _mm512_setzero_pd();
+        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
+        let base = self.vel.as_ptr() as *const Real;
+        for b in 0..3 {
+            let (mut s, mut t, mut r) = ([z; 2], [z; 2], [z; 2]);
+            for a in 0..3 {
+                let o = b * self.width + a;
+                // SAFETY: k0[l] + o < vel.len() (`first_nodes`); a node is two f64
+                let uv = unsafe {
+                    let p = |l: usize| _mm_loadu_pd(base.add(2 * (k0[l] + o)));
+                    // 128-bit lanes [p0 p2 p4 p6] and [p1 p3 p5 p7]: their low and high
+                    // halves interleaved are [u0 … u7] and [v0 … v7]
+                    let even = join(_mm256_set_m128d(p(2), p(0)), _mm256_set_m128d(p(6), p(4)));
+                    let odd = join(_mm256_set_m128d(p(3), p(1)), _mm256_set_m128d(p(7), p(5)));
+                    [_mm512_unpacklo_pd(even, odd), _mm512_unpackhi_pd(even, odd)]
+                };
+                for c in 0..2 {
+                    s[c] = _mm512_fmadd_pd(wx[a], uv[c], s[c]);
+                    t[c] = _mm512_fmadd_pd(dwx[a], uv[c], t[c]);
+                    r[c] = _mm512_fmadd_pd(wxd[a], uv[c], r[c]);
+                }
+            }
+            let wdy = _mm512_mul_pd(_mm512_mul_pd(wy[b], _mm512_sub_pd(_mm512_set1_pd(b as Real), fy)), hv);
+            for c in 0..2 {
+                u[c] = _mm512_fmadd_pd(wy[b], s[c], u[c]);
+                gx[c] = _mm512_fmadd_pd(wy[b], t[c], gx[c]);
+                gy[c] = _mm512_fmadd_pd(dwy[b], s[c], gy[c]);
+                ax[c] = _mm512_fmadd_pd(wy[b], r[c], ax[c]);
+                ay[c] = _mm512_fmadd_pd(wdy, s[c], ay[c]);
             }
         }
         let all = [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]];
-        match sink {
-            Sink4::Raw(out) => {
-                for (q, v) in all.iter().enumerate() {
+        sink.put(0, &all.map(|v| _mm512_castpd512_pd256(v)), &x[..4]);
+        sink.put(4, &all.map(|v| _mm512_extractf64x4_pd::<1>(v)), &x[4..]);
+    }
+}
+
+/// Where the lanes of a gather put their sums: the raw sums (see `gather_point`), or the
+/// end of the points' gathers (`finish_point` in the lanes; a `volumetric_only` field with
+/// walls on every side).
+enum Sink<'a> {
+    Raw(&'a mut [[Real; 10]]),
+    Finish { fin: &'a Finish, out: Outs<'a>, m: &'a [Real], sums: &'a mut FrameFigures },
+}
+
+impl Sink<'_> {
+    /// The sums `all` of the four points from `q` on (start positions `x`), one per lane.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,fma")]
+    fn put(&mut self, q: usize, all: &[std::arch::x86_64::__m256d; 10], x: &[Vector]) {
+        match self {
+            Sink::Raw(out) => {
+                for (k, v) in all.iter().enumerate() {
                     let mut lane = [0.0; 4];
                     // SAFETY: four f64
-                    unsafe { _mm256_storeu_pd(lane.as_mut_ptr(), *v) };
+                    unsafe { std::arch::x86_64::_mm256_storeu_pd(lane.as_mut_ptr(), *v) };
                     for l in 0..4 {
-                        out[l][q] = lane[l];
+                        out[q + l][k] = lane[l];
                     }
                 }
             }
-            Sink4::Finish { fin, out, m, sums } => finish4(fin, &all, x, out, m, sums),
+            Sink::Finish { fin, out, m, sums } => {
+                let r = q..q + 4;
+                let four = Outs {
+                    x: &mut out.x[r.clone()],
+                    v: &mut out.v[r.clone()],
+                    f: &mut out.f[r.clone()],
+                    gv: &mut out.gv[r.clone()],
+                    cu: &mut out.cu[r.clone()],
+                    cv: &mut out.cv[r.clone()],
+                };
+                finish4(fin, all, x, four, &m[r], sums)
+            }
         }
     }
 }
 
-/// Where `gather4_avx` puts its sums: the raw sums (see `gather_raw`), or the end of the
-/// four points' gathers (`finish_point` in the lanes; a `volumetric_only` field with walls
-/// on every side).
-enum Sink4<'a> {
-    Raw(&'a mut [[Real; 10]]),
-    Finish { fin: &'a Finish, out: Out4<'a>, m: &'a [Real], sums: &'a mut FrameFigures },
-}
-
-/// What the end of four points' gathers writes.
-struct Out4<'a> {
+/// What the end of several points' gathers writes.
+struct Outs<'a> {
     x: &'a mut [Vector],
     v: &'a mut [Vector],
     f: &'a mut [Matrix],
@@ -632,22 +748,23 @@ struct Out4<'a> {
     cu: &'a mut [Vector],
     cv: &'a mut [Vector],
 }
-
 /// `finish_point` for four points of a `volumetric_only` field with walls on every side,
-/// one point per lane, from their sums `r` (the registers of `gather_raw`'s ten sums) and
+/// one point per lane, from their sums `r` (the registers of `gather_point`'s ten sums) and
 /// start positions `x`: the same operations, the same bits.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
+#[target_feature(enable = "avx,fma")]
 fn finish4(
     fin: &Finish,
     r: &[std::arch::x86_64::__m256d; 10],
-    x: [Vector; 4],
-    out: Out4,
+    x: &[Vector],
+    out: Outs,
     m: &[Real],
     sums: &mut FrameFigures,
 ) {
     use std::arch::x86_64::*;
-    assert!(out.x.len() == 4 && out.v.len() == 4 && out.f.len() == 4 && out.gv.len() == 4 && m.len() == 4);
+    assert!(
+        x.len() == 4 && out.x.len() == 4 && out.v.len() == 4 && out.f.len() == 4 && out.gv.len() == 4 && m.len() == 4
+    );
     assert!(out.cu.len() == 4 && out.cv.len() == 4);
     // SAFETY (the loads and stores of four f64 below)
     let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
@@ -679,9 +796,10 @@ fn finish4(
             _mm256_storeu_pd(p.add(12), _mm256_permute2f128_pd::<0x31>(t1, t3));
         }
     };
-    let (dt, hv, one, zero) = (_mm256_set1_pd(fin.dt), _mm256_set1_pd(fin.h), _mm256_set1_pd(1.0), _mm256_setzero_pd());
-    let (l11, l12) = (_mm256_div_pd(r[2], hv), _mm256_div_pd(r[4], hv));
-    let (l21, l22) = (_mm256_div_pd(r[3], hv), _mm256_div_pd(r[5], hv));
+    let (dt, one, zero) = (_mm256_set1_pd(fin.dt), _mm256_set1_pd(1.0), _mm256_setzero_pd());
+    let ih = _mm256_set1_pd(fin.ih);
+    let (l11, l12) = (_mm256_mul_pd(r[2], ih), _mm256_mul_pd(r[4], ih));
+    let (l21, l22) = (_mm256_mul_pd(r[3], ih), _mm256_mul_pd(r[5], ih));
     if fin.apic {
         let d = _mm256_set1_pd(fin.dinv);
         pairs(_mm256_mul_pd(r[6], d), _mm256_mul_pd(r[8], d), out.cu);
@@ -730,6 +848,58 @@ fn finish4(
     }
 }
 
+/// The grid update of a run of nodes: the two parts `a` and `b` added, u = Σ m u / Σ m
+/// (0 where Σ m ≤ `tiny`) plus Δt g into `vel`, the parts zeroed for the next step.
+#[inline(always)]
+fn update_nodes(a: &mut [Node], b: &mut [Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
+    for ((a, b), v) in a.iter_mut().zip(b.iter_mut()).zip(vel.iter_mut()) {
+        let (m, mx, my) = (a[0] + b[0], a[1] + b[1], a[2] + b[2]);
+        let (ux, uy) = if m > tiny { (mx / m, my / m) } else { (0.0, 0.0) };
+        *v = [ux + g[0], uy + g[1]];
+        *a = Node::ZERO;
+        *b = Node::ZERO;
+    }
+}
+
+/// `update_nodes` four nodes at a time in the lanes of AVX registers (the divisions four
+/// at once): the same operations, the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,fma")]
+fn update_nodes_avx(a: &mut [Node], b: &mut [Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
+    use std::arch::x86_64::*;
+    let n = a.len().min(b.len()).min(vel.len());
+    let (least, gx, gy, zero) = (_mm256_set1_pd(tiny), _mm256_set1_pd(g[0]), _mm256_set1_pd(g[1]), _mm256_setzero_pd());
+    let mut k = 0;
+    while k + 4 <= n {
+        // SAFETY: nodes k .. k + 4 of `a`, `b` and `vel` exist (k + 4 ≤ n); a node is four
+        // f64 (32-byte aligned), a velocity two
+        unsafe {
+            let (pa, pb) = (a.as_mut_ptr().add(k) as *mut Real, b.as_mut_ptr().add(k) as *mut Real);
+            // rows [m, mx, my, 0] of the four nodes, the parts added
+            let s: [__m256d; 4] =
+                std::array::from_fn(|l| _mm256_add_pd(_mm256_load_pd(pa.add(4 * l)), _mm256_load_pd(pb.add(4 * l))));
+            let (t0, t1) = (_mm256_unpacklo_pd(s[0], s[1]), _mm256_unpackhi_pd(s[0], s[1]));
+            let (t2, t3) = (_mm256_unpacklo_pd(s[2], s[3]), _mm256_unpackhi_pd(s[2], s[3]));
+            let m = _mm256_permute2f128_pd::<0x20>(t0, t2);
+            let mx = _mm256_permute2f128_pd::<0x20>(t1, t3);
+            let my = _mm256_permute2f128_pd::<0x31>(t0, t2);
+            let keep = _mm256_cmp_pd::<_CMP_GT_OQ>(m, least);
+            let ux = _mm256_add_pd(_mm256_and_pd(_mm256_div_pd(mx, m), keep), gx);
+            let uy = _mm256_add_pd(_mm256_and_pd(_mm256_div_pd(my, m), keep), gy);
+            let (lo, hi) = (_mm256_unpacklo_pd(ux, uy), _mm256_unpackhi_pd(ux, uy));
+            let pv = vel.as_mut_ptr().add(k) as *mut Real;
+            _mm256_storeu_pd(pv, _mm256_permute2f128_pd::<0x20>(lo, hi));
+            _mm256_storeu_pd(pv.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
+            for l in 0..4 {
+                _mm256_store_pd(pa.add(4 * l), zero);
+                _mm256_store_pd(pb.add(4 * l), zero);
+            }
+        }
+        k += 4;
+    }
+    update_nodes(&mut a[k..n], &mut b[k..n], &mut vel[k..n], tiny, g);
+}
+
 /// Index of lattice node (i, j) (ghosts from −`PAD`) in a padded lattice of `width`
 /// nodes per row.
 #[inline(always)]
@@ -745,15 +915,36 @@ fn ghost_columns(ghost_row: bool, nx: isize) -> impl Iterator<Item = isize> {
     (-pad..left).chain(right..=nx + pad)
 }
 
-/// Whether this CPU has AVX (checked once per grid).
-pub fn avx_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+/// The lanes of the transfers: the portable loops, four points per AVX register or eight
+/// per AVX-512 register. All give the same bits (the same operations in the same order per
+/// point, no fused multiply-add).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Simd {
+    /// One point at a time, in plain Rust (any CPU).
+    Portable,
+    /// Four points in the lanes of an AVX register.
+    Avx,
+    /// Eight points in the lanes of an AVX-512 register (the gather; the scatter's nodes).
+    Avx512,
+}
+
+impl Simd {
+    /// The most this CPU has (x86-64: detected at run time).
+    pub fn available() -> Simd {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // the lanes use fused multiply-adds where the portable loops use `mul_add`
+            if !std::arch::is_x86_feature_detected!("fma") {
+                return Simd::Portable;
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Simd::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx") {
+                return Simd::Avx;
+            }
+        }
+        Simd::Portable
     }
 }
 
@@ -774,7 +965,7 @@ fn wall(bc: &Boundaries, side: Side, s: Real, v: &mut [Real; 2], normal: usize) 
 /// grid to NaN instead of running off it (the run then stops as unstable).
 #[inline(always)]
 fn lattice(g: &Grid, x: Vector) -> Vector {
-    let xi = (x - g.origin) / g.h;
+    let xi = (x - g.origin) * (1.0 / g.h);
     Vector::new(xi.x.clamp(-0.5, g.nx as Real + 0.5), xi.y.clamp(-0.5, g.ny as Real + 0.5))
 }
 
@@ -823,7 +1014,7 @@ fn scatter_point(
     let (by, fy, wy, dwy) = bspline(xi.y);
     let (m, v) = (pts.m[p], pts.v[p]);
     let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
-    let k = dt * pts.vol0[p] * det2(&pts.f[p]) / h;
+    let k = dt * pts.vol0[p] * det2(&pts.f[p]) * (1.0 / h);
     let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
     let mut pa = [[0.0; 4]; 3];
     let mut qb = [[0.0; 4]; 3];
@@ -842,7 +1033,7 @@ fn scatter_point(
         let row = &mut rows[b * width..b * width + 3];
         for a in 0..3 {
             for c in 0..4 {
-                row[a][c] += wy[b] * pa[a][c] + wx[a] * qb[b][c];
+                row[a][c] += wy[b].mul_add(pa[a][c], wx[a] * qb[b][c]);
             }
         }
     }
@@ -855,7 +1046,7 @@ fn scatter_point(
 /// operations in the same order per point: the same bits. Returns each point's first
 /// stencil column and row.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
+#[target_feature(enable = "avx,fma")]
 fn scatter4_avx(
     chunk: &mut [Node],
     width: usize,
@@ -870,8 +1061,9 @@ fn scatter4_avx(
     // SAFETY (the loads below): four f64
     let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
     let (hv, zero) = (_mm256_set1_pd(h), _mm256_setzero_pd());
-    let xi_x = _mm256_div_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].x)), _mm256_set1_pd(g.origin.x)), hv);
-    let xi_y = _mm256_div_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].y)), _mm256_set1_pd(g.origin.y)), hv);
+    let ih = _mm256_set1_pd(1.0 / h);
+    let xi_x = _mm256_mul_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].x)), _mm256_set1_pd(g.origin.x)), ih);
+    let xi_y = _mm256_mul_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].y)), _mm256_set1_pd(g.origin.y)), ih);
     let (bxv, fx, wx, dwx) = bspline4!(xi_x);
     let (byv, fy, wy, dwy) = bspline4!(xi_y);
     let m = lanes(arr4(|l| pts.m[p + l]));
@@ -879,12 +1071,12 @@ fn scatter4_avx(
     let c = |v: [Real; 4]| if input.apic { lanes(v) } else { zero };
     let (cux, cuy) = (c(arr4(|l| pts.c_u[p + l].x)), c(arr4(|l| pts.c_u[p + l].y)));
     let (cvx, cvy) = (c(arr4(|l| pts.c_v[p + l].x)), c(arr4(|l| pts.c_v[p + l].y)));
-    // k = Δt V⁰ det F / h, with det F = F11 F22 − F21 F12 (`det2`)
+    // k = Δt V⁰ det F (1/h), with det F = F11 F22 − F21 F12 (`det2`)
     let det = _mm256_sub_pd(
         _mm256_mul_pd(lanes(arr4(|l| pts.f[p + l].m11)), lanes(arr4(|l| pts.f[p + l].m22))),
         _mm256_mul_pd(lanes(arr4(|l| pts.f[p + l].m21)), lanes(arr4(|l| pts.f[p + l].m12))),
     );
-    let k = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(dt), lanes(arr4(|l| pts.vol0[p + l]))), det), hv);
+    let k = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(dt), lanes(arr4(|l| pts.vol0[p + l]))), det), ih);
     let s00 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m11)));
     let s01 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m12)));
     let s10 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m21)));
@@ -933,20 +1125,22 @@ fn scatter4_avx(
     let (bx, by) = (store(bxv), store(byv));
     let (wxs, wys) = (wx.map(store), wy.map(store));
     let mut firsts = [(0, 0); 4];
+    let mut first_nodes = [0; 4];
     for l in 0..4 {
         let (bx, by) = (bx[l] as isize, by[l] as isize);
         firsts[l] = (bx, by);
-        let r0 = (by - row0) as usize * width + (bx + PAD as isize) as usize;
-        let rows = &mut chunk[r0..r0 + 2 * width + 3];
-        let base = rows.as_mut_ptr() as *mut Real;
+        first_nodes[l] = (by - row0) as usize * width + (bx + PAD as isize) as usize;
+        assert!(first_nodes[l] + 2 * width + 3 <= chunk.len(), "a stencil off the padded lattice");
+    }
+    let base = chunk.as_mut_ptr() as *mut Real;
+    for l in 0..4 {
         for b in 0..3 {
             let wyb = _mm256_set1_pd(wys[b][l]);
             for a in 0..3 {
-                let add =
-                    _mm256_add_pd(_mm256_mul_pd(wyb, pa[a][l]), _mm256_mul_pd(_mm256_set1_pd(wxs[a][l]), qb[b][l]));
-                // SAFETY: node b·width + a lies in `rows` (2 width + 3 nodes of four f64)
+                let add = _mm256_fmadd_pd(wyb, pa[a][l], _mm256_mul_pd(_mm256_set1_pd(wxs[a][l]), qb[b][l]));
+                // SAFETY: node b·width + a of the stencil lies in `chunk` (asserted); four f64
                 unsafe {
-                    let at = base.add(4 * (b * width + a));
+                    let at = base.add(4 * (first_nodes[l] + b * width + a));
                     _mm256_storeu_pd(at, _mm256_add_pd(_mm256_loadu_pd(at), add));
                 }
             }
@@ -958,7 +1152,8 @@ fn scatter4_avx(
 /// What the end of a point's gather needs besides its sums.
 struct Finish {
     dt: Real,
-    h: Real,
+    /// 1/h (a product, not a quotient, in every lane: no division in the loops)
+    ih: Real,
     dinv: Real,
     apic: bool,
     volumetric_only: bool,
@@ -983,8 +1178,9 @@ struct Out<'a> {
 /// step's figures.
 #[inline(always)]
 fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, sums: &mut FrameFigures) {
-    let (dt, h) = (fin.dt, fin.h);
-    let l = Matrix::new(r[2] / h, r[4] / h, r[3] / h, r[5] / h);
+    let dt = fin.dt;
+    let ih = fin.ih;
+    let l = Matrix::new(r[2] * ih, r[4] * ih, r[3] * ih, r[5] * ih);
     let mut vk = Vector::new(r[0], r[1]);
     if fin.apic {
         *out.cu = Vector::new(r[6] * fin.dinv, r[8] * fin.dinv);

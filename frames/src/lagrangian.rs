@@ -11,7 +11,7 @@
 //! The transfer scheme and the shape function are values chosen in the case (`transfer`,
 //! `shape`), not solver types.
 
-use crate::collocated::Collocated;
+use crate::collocated::{Collocated, Simd};
 use crate::scatter::{self, point_weights, PointsIn, Scatter};
 use crate::shape::{Shape, Weights1};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
@@ -141,9 +141,9 @@ pub struct Lagrangian {
     x_old: Vec<Vector>,
     #[serde(skip)]
     collocated: Option<Collocated>,
-    /// Force the collocated grid's portable loops (tests: they give the same bits as AVX).
-    #[serde(skip)]
-    portable: bool,
+    /// The most lanes the collocated grid's transfers may use (tests: all give the same bits).
+    #[serde(skip, default = "Simd::available")]
+    simd: Simd,
 }
 
 /// A body of a Lagrangian field: its definition and its state.
@@ -220,19 +220,19 @@ impl Lagrangian {
             x_old: Vec::new(),
             grid: GridLayout::Staggered,
             collocated: None,
-            portable: false,
+            simd: Simd::available(),
         }
     }
 
-    /// Makes the collocated grid use its portable loops (`true`) or AVX where the CPU has
-    /// it (`false`, the default); both give the same bits. Returns whether AVX will be used.
-    pub fn set_portable(&mut self, portable: bool) -> bool {
-        self.portable = portable;
-        let avx = crate::collocated::avx_available() && !portable;
+    /// The most lanes the collocated grid's transfers may use: `Simd::Portable` forces the
+    /// portable loops, `Simd::Avx512` (the default is what the CPU has) the widest; all give
+    /// the same bits. Returns the lanes that will be used.
+    pub fn set_simd(&mut self, simd: Simd) -> Simd {
+        self.simd = simd.min(Simd::available());
         if let Some(c) = self.collocated.as_mut() {
-            c.use_simd(avx);
+            c.use_simd(self.simd);
         }
-        avx
+        self.simd
     }
 
     /// Whether the field has point-stress models, and whether all are `volumetric_only`.
@@ -798,10 +798,10 @@ impl Frame for Lagrangian {
 
     fn step_alone(&mut self, ctx: &mut FrameContext) -> Result<FrameFigures, String> {
         self.classify_stress(ctx);
-        let portable = self.portable;
+        let simd = self.simd;
         let grid = self.collocated.get_or_insert_with(|| {
             let mut c = Collocated::new(ctx.grid);
-            c.use_simd(!portable);
+            c.use_simd(simd);
             c
         });
         // a point stress that is not `volumetric_only` keeps the full F (F ← (I + Δt ∇v) F)
