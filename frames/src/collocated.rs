@@ -448,7 +448,7 @@ impl Collocated {
             .zip(pts.c_u.par_chunks_mut(BLOCK).zip(pts.c_v.par_chunks_mut(BLOCK)))
             .zip(m.par_chunks(BLOCK))
             .map(|((((x, v), (f, gv)), (cu, cv)), m)| {
-                let mut sums = FrameFigures::default();
+                let mut sums = LaneSums::default();
                 let mut k0 = 0;
                 while k0 < x.len() {
                     // eight points at a time with AVX-512, four with AVX, then one at a time
@@ -473,7 +473,7 @@ impl Collocated {
                             cv: &mut cv[r.clone()],
                         };
                         let mut sink = if lanes_finish {
-                            Sink::Finish { fin: &fin, out, m: &m[r.clone()], sums: &mut sums }
+                            Sink::Finish { fin: &fin, out, m: &m[r.clone()], lane0: r.start % 8, sums: &mut sums }
                         } else {
                             Sink::Raw(&mut raw[..n])
                         };
@@ -495,7 +495,7 @@ impl Collocated {
                                     cu: &mut cu[k],
                                     cv: &mut cv[k],
                                 };
-                                finish_point(&fin, r, m[k], out, &mut sums);
+                                finish_point(&fin, r, m[k], out, k % 8, &mut sums);
                             }
                         }
                         continue;
@@ -510,9 +510,9 @@ impl Collocated {
                         cu: &mut cu[k],
                         cv: &mut cv[k],
                     };
-                    finish_point(&fin, &raw, m[k], out, &mut sums);
+                    finish_point(&fin, &raw, m[k], out, k % 8, &mut sums);
                 }
-                sums
+                sums.total()
             })
             .collect();
         let mut total = FrameFigures::default();
@@ -704,7 +704,14 @@ impl Collocated {
 /// walls on every side).
 enum Sink<'a> {
     Raw(&'a mut [[Real; 10]]),
-    Finish { fin: &'a Finish, out: Outs<'a>, m: &'a [Real], sums: &'a mut FrameFigures },
+    /// `lane0`: the first point's lane in `sums` (its index in the block mod 8)
+    Finish {
+        fin: &'a Finish,
+        out: Outs<'a>,
+        m: &'a [Real],
+        lane0: usize,
+        sums: &'a mut LaneSums,
+    },
 }
 
 impl Sink<'_> {
@@ -723,7 +730,7 @@ impl Sink<'_> {
                     }
                 }
             }
-            Sink::Finish { fin, out, m, sums } => {
+            Sink::Finish { fin, out, m, lane0, sums } => {
                 let r = q..q + 4;
                 let four = Outs {
                     x: &mut out.x[r.clone()],
@@ -733,7 +740,7 @@ impl Sink<'_> {
                     cu: &mut out.cu[r.clone()],
                     cv: &mut out.cv[r.clone()],
                 };
-                finish4(fin, all, x, four, &m[r], sums)
+                finish4(fin, all, x, four, &m[r], (*lane0 + q) % 8, sums)
             }
         }
     }
@@ -759,7 +766,8 @@ fn finish4(
     x: &[Vector],
     out: Outs,
     m: &[Real],
-    sums: &mut FrameFigures,
+    q: usize,
+    sums: &mut LaneSums,
 ) {
     use std::arch::x86_64::*;
     assert!(
@@ -768,11 +776,6 @@ fn finish4(
     assert!(out.cu.len() == 4 && out.cv.len() == 4);
     // SAFETY (the loads and stores of four f64 below)
     let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
-    let store = |v: __m256d| {
-        let mut o = [0.0; 4];
-        unsafe { _mm256_storeu_pd(o.as_mut_ptr(), v) };
-        o
-    };
     // [x0 x1 x2 x3], [y0 y1 y2 y3] to the two-vector pairs of points 0, 1 and 2, 3
     let pairs = |a: __m256d, b: __m256d, to: &mut [Vector]| {
         let (lo, hi) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
@@ -835,16 +838,22 @@ fn finish4(
     pairs(vel[0], vel[1], out.v);
     let mv = lanes(arr4(|l| m[l]));
     let s2 = _mm256_add_pd(_mm256_mul_pd(vel[0], vel[0]), _mm256_mul_pd(vel[1], vel[1]));
-    let ke = store(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0.5), mv), s2));
-    let (px, py, s2) = (store(_mm256_mul_pd(mv, vel[0])), store(_mm256_mul_pd(mv, vel[1])), store(s2));
-    for l in 0..4 {
-        sums.kinetic_energy += ke[l];
-        sums.mass += m[l];
-        sums.momentum.x += px[l];
-        sums.momentum.y += py[l];
-        if s2[l] > sums.max_speed {
-            sums.max_speed = s2[l];
-        }
+    let ke = _mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0.5), mv), s2);
+    let (px, py) = (_mm256_mul_pd(mv, vel[0]), _mm256_mul_pd(mv, vel[1]));
+    // lanes q .. q + 4 of the block's sums (`LaneSums::add`); max(s2, acc) is acc unless s2 > acc
+    assert!(q == 0 || q == 4);
+    let add = |acc: &mut [Real; 8], v: __m256d| {
+        // SAFETY: q + 4 ≤ 8 (asserted)
+        unsafe { _mm256_storeu_pd(acc.as_mut_ptr().add(q), _mm256_add_pd(_mm256_loadu_pd(acc.as_ptr().add(q)), v)) }
+    };
+    add(&mut sums.ke, ke);
+    add(&mut sums.mass, mv);
+    add(&mut sums.px, px);
+    add(&mut sums.py, py);
+    // SAFETY: as above
+    unsafe {
+        let at = sums.s2.as_mut_ptr().add(q);
+        _mm256_storeu_pd(at, _mm256_max_pd(s2, _mm256_loadu_pd(at)));
     }
 }
 
@@ -1149,6 +1158,50 @@ fn scatter4_avx(
     firsts
 }
 
+/// A gather block's sums for the step's figures in eight lanes: point k of the block adds
+/// to lane k mod 8, in point order, whether it is finished alone or in the lanes of a
+/// register, so that every path adds the same numbers in the same order; the lanes are
+/// then added in lane order (`total`).
+#[derive(Default)]
+struct LaneSums {
+    ke: [Real; 8],
+    mass: [Real; 8],
+    px: [Real; 8],
+    py: [Real; 8],
+    /// The largest squared speed of each lane.
+    s2: [Real; 8],
+}
+
+impl LaneSums {
+    /// One point's kinetic energy, mass, momentum and squared speed into `lane`.
+    #[inline(always)]
+    fn add(&mut self, lane: usize, ke: Real, m: Real, px: Real, py: Real, s2: Real) {
+        self.ke[lane] += ke;
+        self.mass[lane] += m;
+        self.px[lane] += px;
+        self.py[lane] += py;
+        // a NaN stays out, as in `_mm256_max_pd(s2, acc)`
+        if s2 > self.s2[lane] {
+            self.s2[lane] = s2;
+        }
+    }
+
+    /// The lanes added in order (the largest squared speed, not yet its root).
+    fn total(&self) -> FrameFigures {
+        let mut f = FrameFigures::default();
+        for l in 0..8 {
+            f.kinetic_energy += self.ke[l];
+            f.mass += self.mass[l];
+            f.momentum.x += self.px[l];
+            f.momentum.y += self.py[l];
+            if self.s2[l] > f.max_speed {
+                f.max_speed = self.s2[l];
+            }
+        }
+        f
+    }
+}
+
 /// What the end of a point's gather needs besides its sums.
 struct Finish {
     dt: Real,
@@ -1177,7 +1230,7 @@ struct Out<'a> {
 /// F (or J), position (wrapped at periodic sides, stopped at walls), and its share of the
 /// step's figures.
 #[inline(always)]
-fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, sums: &mut FrameFigures) {
+fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, lane: usize, sums: &mut LaneSums) {
     let dt = fin.dt;
     let ih = fin.ih;
     let l = Matrix::new(r[2] * ih, r[4] * ih, r[3] * ih, r[5] * ih);
@@ -1216,11 +1269,5 @@ fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, sums: &mut Fram
     *out.x = xk;
     *out.v = vk;
     let s2 = vk.x * vk.x + vk.y * vk.y;
-    sums.kinetic_energy += 0.5 * m * s2;
-    sums.mass += m;
-    sums.momentum.x += m * vk.x;
-    sums.momentum.y += m * vk.y;
-    if s2 > sums.max_speed {
-        sums.max_speed = s2;
-    }
+    sums.add(lane, 0.5 * m * s2, m, m * vk.x, m * vk.y, s2);
 }
