@@ -62,6 +62,101 @@ macro_rules! bspline4 {
     }};
 }
 
+/// Four f64 (an array) into the lanes of an AVX register. The lanes' helpers are macros,
+/// not closures: a closure called from a `target_feature` function is not always inlined,
+/// and then every intrinsic in it is a call.
+#[cfg(target_arch = "x86_64")]
+macro_rules! load4 {
+    ($v:expr) => {{
+        let v: [Real; 4] = $v;
+        // SAFETY: four f64
+        unsafe { _mm256_loadu_pd(v.as_ptr()) }
+    }};
+}
+
+/// Two AVX registers as the low and high halves of an AVX-512 one.
+#[cfg(target_arch = "x86_64")]
+macro_rules! join8 {
+    ($lo:expr, $hi:expr) => {
+        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512($lo), $hi)
+    };
+}
+
+/// Four vectors (x, y), contiguous, as the lanes [x0 x1 x2 x3], [y0 y1 y2 y3]: two loads
+/// and four shuffles (`$v` a slice of at least four `Vector`s).
+#[cfg(target_arch = "x86_64")]
+macro_rules! soa2 {
+    ($v:expr) => {{
+        let v: &[Vector] = $v;
+        assert!(v.len() >= 4);
+        let p = v.as_ptr() as *const Real;
+        // SAFETY: four vectors of two f64, contiguous (nalgebra's storage)
+        let (a, b) = unsafe { (_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4))) };
+        let (t0, t1) = (_mm256_permute2f128_pd::<0x20>(a, b), _mm256_permute2f128_pd::<0x31>(a, b));
+        (_mm256_unpacklo_pd(t0, t1), _mm256_unpackhi_pd(t0, t1))
+    }};
+}
+
+/// Four 2 × 2 matrices, contiguous (column-major: m11, m21, m12, m22), as the lanes of
+/// their entries [m11, m21, m12, m22]: four loads and eight shuffles.
+#[cfg(target_arch = "x86_64")]
+macro_rules! soa4 {
+    ($m:expr) => {{
+        let m: &[Matrix] = $m;
+        assert!(m.len() >= 4);
+        let p = m.as_ptr() as *const Real;
+        // SAFETY: four matrices of four f64, contiguous
+        let r = unsafe {
+            [_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4)), _mm256_loadu_pd(p.add(8)), _mm256_loadu_pd(p.add(12))]
+        };
+        let (t0, t1) = (_mm256_unpacklo_pd(r[0], r[1]), _mm256_unpackhi_pd(r[0], r[1]));
+        let (t2, t3) = (_mm256_unpacklo_pd(r[2], r[3]), _mm256_unpackhi_pd(r[2], r[3]));
+        [
+            _mm256_permute2f128_pd::<0x20>(t0, t2),
+            _mm256_permute2f128_pd::<0x20>(t1, t3),
+            _mm256_permute2f128_pd::<0x31>(t0, t2),
+            _mm256_permute2f128_pd::<0x31>(t1, t3),
+        ]
+    }};
+}
+
+/// The inverse of `soa2!`: the lanes [x0 x1 x2 x3], [y0 y1 y2 y3] stored as four vectors
+/// into `$to` (a slice of at least four `Vector`s).
+#[cfg(target_arch = "x86_64")]
+macro_rules! aos2 {
+    ($a:expr, $b:expr, $to:expr) => {{
+        let to: &mut [Vector] = $to;
+        assert!(to.len() >= 4);
+        let (lo, hi) = (_mm256_unpacklo_pd($a, $b), _mm256_unpackhi_pd($a, $b));
+        let p = to.as_mut_ptr() as *mut Real;
+        // SAFETY: four vectors of two f64, contiguous
+        unsafe {
+            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(lo, hi));
+            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
+        }
+    }};
+}
+
+/// The inverse of `soa4!`: four matrices from the lanes of their entries (m11, m21, m12,
+/// m22) into `$to` (a slice of at least four `Matrix`es).
+#[cfg(target_arch = "x86_64")]
+macro_rules! aos4 {
+    ($m11:expr, $m21:expr, $m12:expr, $m22:expr, $to:expr) => {{
+        let to: &mut [Matrix] = $to;
+        assert!(to.len() >= 4);
+        let (t0, t1) = (_mm256_unpacklo_pd($m11, $m21), _mm256_unpackhi_pd($m11, $m21));
+        let (t2, t3) = (_mm256_unpacklo_pd($m12, $m22), _mm256_unpackhi_pd($m12, $m22));
+        let p = to.as_mut_ptr() as *mut Real;
+        // SAFETY: four matrices of four f64, contiguous
+        unsafe {
+            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(t0, t2));
+            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x20>(t1, t3));
+            _mm256_storeu_pd(p.add(8), _mm256_permute2f128_pd::<0x31>(t0, t2));
+            _mm256_storeu_pd(p.add(12), _mm256_permute2f128_pd::<0x31>(t1, t3));
+        }
+    }};
+}
+
 /// Partial grids of the scatter: the points are split into this many parts by index, each
 /// scattered into its own grid (in parallel), and the grids are added in part order. A
 /// fixed number, so that the sums are the same bits for any number of threads.
@@ -190,7 +285,7 @@ impl Collocated {
     ) -> FrameFigures {
         let mut stress = std::mem::take(&mut pts.stress);
         let input = ScatterIn { pts, apic: transfer == Transfer::Apic, dt, grid, models, density };
-        self.scatter(&input, &mut stress);
+        self.scatter(&input, &mut stress, [bc.periodic_x(), bc.periodic_y()]);
         pts.stress = stress;
         // the points' masses never change
         let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
@@ -201,9 +296,11 @@ impl Collocated {
     }
 
     /// Particles to grid: mass, momentum (APIC) and Δt × internal force into `acc`, the
-    /// points of each part into its own grid, in parallel.
-    fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix]) {
+    /// points of each part into its own grid, in parallel; each part first clears what it
+    /// held (the grid update only reads the parts) and then folds its ghost nodes in.
+    fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix], periodic: [bool; 2]) {
         let n = input.pts.len();
+        let (nx, ny) = (self.nx, self.ny);
         let (width, avx) = (self.width, self.simd >= Simd::Avx && self.finite);
         let row0 = -(PAD as isize); // lattice row of padded row 0
         let height = self.height;
@@ -211,6 +308,8 @@ impl Collocated {
         let parts: Vec<&mut [Matrix]> = vec![s0, s1];
         self.acc.par_chunks_mut(width * height).zip(self.span.par_chunks_mut(height)).zip(parts).enumerate().for_each(
             |(k, ((grid, span), sigma))| {
+                clear_part(grid, span, width, periodic);
+                span.fill(EMPTY);
                 let pts = k * n / PARTS..(k + 1) * n / PARTS;
                 sigma.iter_mut().for_each(|s| *s = Matrix::zeros());
                 for model in input.models.iter().filter(|m| m.acts_on_points()) {
@@ -228,32 +327,26 @@ impl Collocated {
                     let s = &mut span[(by + PAD as isize) as usize];
                     *s = (s.0.min(bx), s.1.max(bx));
                 };
+                let mut p = pts.start;
                 #[cfg(target_arch = "x86_64")]
                 if avx {
-                    let mut p = pts.start;
                     while p + 4 <= pts.end {
                         let s = &sigma[p - first..p - first + 4];
-                        // SAFETY: `avx` is set only where the CPU has AVX (`Collocated::new`)
+                        // SAFETY: `avx` is set only where the CPU has AVX (`Collocated::use_simd`)
                         unsafe { scatter4_avx(grid, width, row0, input, p, s) }.into_iter().for_each(&mut note);
                         p += 4;
                     }
-                    // the last one to three points of the part
-                    for p in p..pts.end {
-                        note(scatter_point(grid, width, row0, input, p, &sigma[p - first]));
-                    }
-                    return;
                 }
-                for p in pts {
+                // the portable loop, or the last one to three points of the part
+                for p in p..pts.end {
                     note(scatter_point(grid, width, row0, input, p, &sigma[p - first]));
                 }
+                fold_part(grid, width, [nx, ny], periodic, touched_rows(span));
             },
         );
-        // a stencil starting on padded row r covers rows r, r + 1, r + 2
-        let touched = |r: usize| (0..PARTS).any(|k| self.span[k * height + r].0 <= self.span[k * height + r].1);
-        let lo = (0..height).find(|&r| touched(r));
-        let hi = (0..height).rev().find(|&r| touched(r));
-        self.rows = match (lo, hi) {
-            (Some(lo), Some(hi)) => (lo, (hi + 3).min(height)),
+        let rows: Vec<(usize, usize)> = self.span.chunks(height).map(touched_rows).filter(|r| r.0 < r.1).collect();
+        self.rows = match (rows.iter().map(|r| r.0).min(), rows.iter().map(|r| r.1).max()) {
+            (Some(lo), Some(hi)) => (lo, hi),
             _ => (0, 0),
         };
     }
@@ -283,51 +376,8 @@ impl Collocated {
         // periodic along y: ghosts wrap to rows far away; update every row
         let (r0, r1) = if py { (0, self.height) } else { self.rows };
         let plane = self.width * self.height;
-        for part in 0..PARTS {
-            let off = part * plane;
-            // fold the ghost nodes into the lattice (mirrored at walls: the normal momentum flips)
-            for r in r0..r1 {
-                let jg = r as isize - pad;
-                let ghost_row = jg < 0 || jg > ny;
-                for ig in ghost_columns(ghost_row, nx) {
-                    let k = off + self.index(ig, jg);
-                    let a = self.acc[k];
-                    if a.0 == [0.0; 4] {
-                        continue;
-                    }
-                    self.acc[k] = Node::ZERO;
-                    let (i, mx) = map_axis(ig, self.nx, true, px);
-                    let (j, my) = map_axis(jg, self.ny, true, py);
-                    let t = off + self.index(i, j);
-                    let sx = if mx { -1.0 } else { 1.0 };
-                    let sy = if my { -1.0 } else { 1.0 };
-                    self.acc[t][0] += a[0];
-                    self.acc[t][1] += sx * a[1];
-                    self.acc[t][2] += sy * a[2];
-                }
-            }
-            // periodic sides: node n is node 0
-            let (width, acc) = (self.width, &mut self.acc[off..off + plane]);
-            let at = |i: isize, j: isize| node_index(width, i, j);
-            let mut merge = |into: usize, from: usize| {
-                let v = std::mem::replace(&mut acc[from], Node::ZERO);
-                for c in 0..3 {
-                    acc[into][c] += v[c];
-                }
-            };
-            if px {
-                for jg in (r0 as isize - pad).max(0)..(r1 as isize - pad).min(ny + 1) {
-                    merge(at(0, jg), at(nx, jg));
-                }
-            }
-            if py {
-                for i in 0..=nx {
-                    merge(at(i, 0), at(i, ny));
-                }
-            }
-        }
         // the update, row by row in parallel (rows of the lattice only): the parts added in
-        // order, then zeroed for the next step
+        // order (each part is cleared by its next scatter, on the thread that fills it)
         let lo = r0.max(PAD);
         let hi = r1.min(PAD + self.ny + 1).max(lo); // no points: no rows
         let width = self.width;
@@ -360,17 +410,17 @@ impl Collocated {
             }
         };
         let avx = self.simd >= Simd::Avx;
-        let (first, second) = self.acc.split_at_mut(plane);
+        let (first, second) = self.acc.split_at(plane);
         first[lo * width..hi * width]
-            .par_chunks_mut(width)
-            .zip(second[lo * width..hi * width].par_chunks_mut(width))
+            .par_chunks(width)
+            .zip(second[lo * width..hi * width].par_chunks(width))
             .zip(self.vel[lo * width..hi * width].par_chunks_mut(width))
             .zip(ranges.par_iter())
             .enumerate()
             .for_each(|(k, (((a0, a1), vel), &(c0, c1)))| {
                 let j = lo + k - PAD;
                 let cols = c0..c1;
-                let (a, b, v) = (&mut a0[cols.clone()], &mut a1[cols.clone()], &mut vel[cols]);
+                let (a, b, v) = (&a0[cols.clone()], &a1[cols.clone()], &mut vel[cols]);
                 #[cfg(target_arch = "x86_64")]
                 if avx {
                     // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
@@ -409,7 +459,6 @@ impl Collocated {
                 self.vel[k] = v;
             }
         }
-        self.span.iter_mut().for_each(|s| *s = EMPTY);
     }
 
     /// Grid to particles: velocity (PIC or APIC), ∇v, F (or J), position; the step's sums.
@@ -582,10 +631,8 @@ impl Collocated {
         let h = grid.h;
         let ih = 1.0 / h;
         let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) * ih);
-        // SAFETY (the loads below): four f64
-        let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
-        let (bxv, fx, wx, dwx) = bspline4!(lanes(arr4(|l| xi[l].x)));
-        let (byv, fy, wy, dwy) = bspline4!(lanes(arr4(|l| xi[l].y)));
+        let (bxv, fx, wx, dwx) = bspline4!(load4!(arr4(|l| xi[l].x)));
+        let (byv, fy, wy, dwy) = bspline4!(load4!(arr4(|l| xi[l].y)));
         let (mut bx, mut by) = ([0.0; 4], [0.0; 4]);
         // SAFETY: four f64 each
         unsafe {
@@ -607,9 +654,14 @@ impl Collocated {
                 let o = b * self.width + a;
                 // SAFETY: k0[l] + o < vel.len() (`first_nodes`); a node is two f64
                 let uv = unsafe {
-                    let p = |l: usize| _mm_loadu_pd(base.add(2 * (k0[l] + o)));
-                    let v02 = _mm256_set_m128d(p(2), p(0));
-                    let v13 = _mm256_set_m128d(p(3), p(1));
+                    let p: [__m128d; 4] = [
+                        _mm_loadu_pd(base.add(2 * (k0[0] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[1] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[2] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[3] + o))),
+                    ];
+                    let v02 = _mm256_set_m128d(p[2], p[0]);
+                    let v13 = _mm256_set_m128d(p[3], p[1]);
                     [_mm256_unpacklo_pd(v02, v13), _mm256_unpackhi_pd(v02, v13)]
                 };
                 for c in 0..2 {
@@ -639,29 +691,27 @@ impl Collocated {
         let h = grid.h;
         let ih = 1.0 / h;
         let xi: [Vector; 8] = std::array::from_fn(|l| (x[l] - grid.origin) * ih);
-        // SAFETY (the loads below): four f64
-        let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
-        let join = |lo: __m256d, hi: __m256d| _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(lo), hi);
-        let (bx0, fx0, wx0, dwx0) = bspline4!(lanes(arr4(|l| xi[l].x)));
-        let (bx1, fx1, wx1, dwx1) = bspline4!(lanes(arr4(|l| xi[4 + l].x)));
-        let (by0, fy0, wy0, dwy0) = bspline4!(lanes(arr4(|l| xi[l].y)));
-        let (by1, fy1, wy1, dwy1) = bspline4!(lanes(arr4(|l| xi[4 + l].y)));
-        let (fx, fy) = (join(fx0, fx1), join(fy0, fy1));
-        let wx: [__m512d; 3] = std::array::from_fn(|a| join(wx0[a], wx1[a]));
-        let dwx: [__m512d; 3] = std::array::from_fn(|a| join(dwx0[a], dwx1[a]));
-        let wy: [__m512d; 3] = std::array::from_fn(|a| join(wy0[a], wy1[a]));
-        let dwy: [__m512d; 3] = std::array::from_fn(|a| join(dwy0[a], dwy1[a]));
+        let (bx0, fx0, wx0, dwx0) = bspline4!(load4!(arr4(|l| xi[l].x)));
+        let (bx1, fx1, wx1, dwx1) = bspline4!(load4!(arr4(|l| xi[4 + l].x)));
+        let (by0, fy0, wy0, dwy0) = bspline4!(load4!(arr4(|l| xi[l].y)));
+        let (by1, fy1, wy1, dwy1) = bspline4!(load4!(arr4(|l| xi[4 + l].y)));
+        let (fx, fy) = (join8!(fx0, fx1), join8!(fy0, fy1));
+        let wx = [join8!(wx0[0], wx1[0]), join8!(wx0[1], wx1[1]), join8!(wx0[2], wx1[2])];
+        let dwx = [join8!(dwx0[0], dwx1[0]), join8!(dwx0[1], dwx1[1]), join8!(dwx0[2], dwx1[2])];
+        let wy = [join8!(wy0[0], wy1[0]), join8!(wy0[1], wy1[1]), join8!(wy0[2], wy1[2])];
+        let dwy = [join8!(dwy0[0], dwy1[0]), join8!(dwy0[1], dwy1[1]), join8!(dwy0[2], dwy1[2])];
         let (mut bx, mut by) = ([0.0; 8], [0.0; 8]);
         // SAFETY: eight f64 each
         unsafe {
-            _mm512_storeu_pd(bx.as_mut_ptr(), join(bx0, bx1));
-            _mm512_storeu_pd(by.as_mut_ptr(), join(by0, by1));
+            _mm512_storeu_pd(bx.as_mut_ptr(), join8!(bx0, bx1));
+            _mm512_storeu_pd(by.as_mut_ptr(), join8!(by0, by1));
         }
         let k0 = self.first_nodes(bx, by);
         let hv = _mm512_set1_pd(h);
-        let wxd: [__m512d; 3] = std::array::from_fn(|a| {
-            _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(a as Real), fx), hv), wx[a])
-        });
+        let mut wxd = [_mm512_setzero_pd(); 3];
+        for a in 0..3 {
+            wxd[a] = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(a as Real), fx), hv), wx[a]);
+        }
         let z = _mm512_setzero_pd();
         let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
         let base = self.vel.as_ptr() as *const Real;
@@ -671,11 +721,20 @@ impl Collocated {
                 let o = b * self.width + a;
                 // SAFETY: k0[l] + o < vel.len() (`first_nodes`); a node is two f64
                 let uv = unsafe {
-                    let p = |l: usize| _mm_loadu_pd(base.add(2 * (k0[l] + o)));
+                    let p: [__m128d; 8] = [
+                        _mm_loadu_pd(base.add(2 * (k0[0] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[1] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[2] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[3] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[4] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[5] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[6] + o))),
+                        _mm_loadu_pd(base.add(2 * (k0[7] + o))),
+                    ];
                     // 128-bit lanes [p0 p2 p4 p6] and [p1 p3 p5 p7]: their low and high
                     // halves interleaved are [u0 … u7] and [v0 … v7]
-                    let even = join(_mm256_set_m128d(p(2), p(0)), _mm256_set_m128d(p(6), p(4)));
-                    let odd = join(_mm256_set_m128d(p(3), p(1)), _mm256_set_m128d(p(7), p(5)));
+                    let even = join8!(_mm256_set_m128d(p[2], p[0]), _mm256_set_m128d(p[6], p[4]));
+                    let odd = join8!(_mm256_set_m128d(p[3], p[1]), _mm256_set_m128d(p[7], p[5]));
                     [_mm512_unpacklo_pd(even, odd), _mm512_unpackhi_pd(even, odd)]
                 };
                 for c in 0..2 {
@@ -694,8 +753,13 @@ impl Collocated {
             }
         }
         let all = [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]];
-        sink.put(0, &all.map(|v| _mm512_castpd512_pd256(v)), &x[..4]);
-        sink.put(4, &all.map(|v| _mm512_extractf64x4_pd::<1>(v)), &x[4..]);
+        let (mut lo, mut hi) = ([_mm256_setzero_pd(); 10], [_mm256_setzero_pd(); 10]);
+        for k in 0..10 {
+            lo[k] = _mm512_castpd512_pd256(all[k]);
+            hi[k] = _mm512_extractf64x4_pd::<1>(all[k]);
+        }
+        sink.put(0, &lo, &x[..4]);
+        sink.put(4, &hi, &x[4..]);
     }
 }
 
@@ -774,56 +838,26 @@ fn finish4(
         x.len() == 4 && out.x.len() == 4 && out.v.len() == 4 && out.f.len() == 4 && out.gv.len() == 4 && m.len() == 4
     );
     assert!(out.cu.len() == 4 && out.cv.len() == 4);
-    // SAFETY (the loads and stores of four f64 below)
-    let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
-    // [x0 x1 x2 x3], [y0 y1 y2 y3] to the two-vector pairs of points 0, 1 and 2, 3
-    let pairs = |a: __m256d, b: __m256d, to: &mut [Vector]| {
-        let (lo, hi) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
-        let p = to.as_mut_ptr() as *mut Real;
-        // SAFETY: `to` holds four vectors of two f64, contiguous (nalgebra's column storage)
-        unsafe {
-            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(lo, hi));
-            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
-        }
-    };
-    // four 2 × 2 matrices from the lanes of their entries (column-major: m11, m21, m12, m22)
-    let matrices = |m11: __m256d, m21: __m256d, m12: __m256d, m22: __m256d, to: &mut [Matrix]| {
-        let (t0, t1) = (_mm256_unpacklo_pd(m11, m21), _mm256_unpackhi_pd(m11, m21));
-        let (t2, t3) = (_mm256_unpacklo_pd(m12, m22), _mm256_unpackhi_pd(m12, m22));
-        let p = to.as_mut_ptr() as *mut Real;
-        // SAFETY: `to` holds four matrices of four f64, contiguous
-        unsafe {
-            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(t0, t2));
-            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x20>(t1, t3));
-            _mm256_storeu_pd(p.add(8), _mm256_permute2f128_pd::<0x31>(t0, t2));
-            _mm256_storeu_pd(p.add(12), _mm256_permute2f128_pd::<0x31>(t1, t3));
-        }
-    };
     let (dt, one, zero) = (_mm256_set1_pd(fin.dt), _mm256_set1_pd(1.0), _mm256_setzero_pd());
     let ih = _mm256_set1_pd(fin.ih);
     let (l11, l12) = (_mm256_mul_pd(r[2], ih), _mm256_mul_pd(r[4], ih));
     let (l21, l22) = (_mm256_mul_pd(r[3], ih), _mm256_mul_pd(r[5], ih));
     if fin.apic {
         let d = _mm256_set1_pd(fin.dinv);
-        pairs(_mm256_mul_pd(r[6], d), _mm256_mul_pd(r[8], d), out.cu);
-        pairs(_mm256_mul_pd(r[7], d), _mm256_mul_pd(r[9], d), out.cv);
+        aos2!(_mm256_mul_pd(r[6], d), _mm256_mul_pd(r[8], d), out.cu);
+        aos2!(_mm256_mul_pd(r[7], d), _mm256_mul_pd(r[9], d), out.cv);
     }
     let (s11, s12) = (_mm256_add_pd(one, _mm256_mul_pd(dt, l11)), _mm256_add_pd(zero, _mm256_mul_pd(dt, l12)));
     let (s21, s22) = (_mm256_add_pd(zero, _mm256_mul_pd(dt, l21)), _mm256_add_pd(one, _mm256_mul_pd(dt, l22)));
     let det_step = _mm256_sub_pd(_mm256_mul_pd(s11, s22), _mm256_mul_pd(s21, s12));
-    let f = &*out.f;
-    let det_f = _mm256_sub_pd(
-        _mm256_mul_pd(lanes(arr4(|l| f[l].m11)), lanes(arr4(|l| f[l].m22))),
-        _mm256_mul_pd(lanes(arr4(|l| f[l].m21)), lanes(arr4(|l| f[l].m12))),
-    );
+    let [f11, f21, f12, f22] = soa4!(&*out.f);
+    let det_f = _mm256_sub_pd(_mm256_mul_pd(f11, f22), _mm256_mul_pd(f21, f12));
     let j = _mm256_mul_pd(det_f, det_step);
-    matrices(l11, l21, l12, l22, out.gv);
-    matrices(j, zero, zero, one, out.f);
+    aos4!(l11, l21, l12, l22, out.gv);
+    aos4!(j, zero, zero, one, out.f);
     let mut vel = [r[0], r[1]];
-    let mut pos = [
-        _mm256_add_pd(lanes(arr4(|l| x[l].x)), _mm256_mul_pd(dt, vel[0])),
-        _mm256_add_pd(lanes(arr4(|l| x[l].y)), _mm256_mul_pd(dt, vel[1])),
-    ];
+    let (x0, y0) = soa2!(x);
+    let mut pos = [_mm256_add_pd(x0, _mm256_mul_pd(dt, vel[0])), _mm256_add_pd(y0, _mm256_mul_pd(dt, vel[1]))];
     for axis in 0..2 {
         let lo = _mm256_set1_pd(fin.lo[axis] + fin.eps);
         let hi = _mm256_set1_pd(fin.hi[axis] - fin.eps);
@@ -832,11 +866,12 @@ fn finish4(
         pos[axis] = _mm256_blendv_pd(_mm256_blendv_pd(pos[axis], lo, below), hi, above);
         let into_low = _mm256_and_pd(below, _mm256_cmp_pd::<_CMP_LT_OQ>(vel[axis], zero));
         let into_high = _mm256_and_pd(above, _mm256_cmp_pd::<_CMP_GT_OQ>(vel[axis], zero));
-        vel[axis] = _mm256_blendv_pd(vel[axis], zero, _mm256_or_pd(into_low, into_high));
+        // the comparisons' lanes are all ones or all zeros: and-not is the blend with 0
+        vel[axis] = _mm256_andnot_pd(_mm256_or_pd(into_low, into_high), vel[axis]);
     }
-    pairs(pos[0], pos[1], out.x);
-    pairs(vel[0], vel[1], out.v);
-    let mv = lanes(arr4(|l| m[l]));
+    aos2!(pos[0], pos[1], out.x);
+    aos2!(vel[0], vel[1], out.v);
+    let mv = load4!(m.try_into().expect("four masses"));
     let s2 = _mm256_add_pd(_mm256_mul_pd(vel[0], vel[0]), _mm256_mul_pd(vel[1], vel[1]));
     let ke = _mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0.5), mv), s2);
     let (px, py) = (_mm256_mul_pd(mv, vel[0]), _mm256_mul_pd(mv, vel[1]));
@@ -857,16 +892,103 @@ fn finish4(
     }
 }
 
+/// The padded rows [lo, hi) that the stencils of one part touch, from its `span` (a
+/// stencil starting on padded row r covers rows r, r + 1, r + 2); (0, 0) if none.
+fn touched_rows(span: &[(isize, isize)]) -> (usize, usize) {
+    let touched = |r: &usize| span[*r].0 <= span[*r].1;
+    match ((0..span.len()).find(touched), (0..span.len()).rev().find(touched)) {
+        (Some(lo), Some(hi)) => (lo, (hi + 3).min(span.len())),
+        _ => (0, 0),
+    }
+}
+
+/// Zeroes what the last step left in one part's grid `acc` (padded rows of `width` nodes,
+/// `span` per padded row as in `Collocated::span`): its stencils, and along a periodic
+/// side the whole rows (x) or the whole grid (y) its ghosts wrapped into. At a wall the
+/// ghosts fold into their stencil's own nodes, except for a point clamped to the lattice's
+/// far edge (not finite): its stencil starts on node n, whose ghosts n + 1, n + 2 mirror to
+/// n − 1, n − 2.
+fn clear_part(acc: &mut [Node], span: &[(isize, isize)], width: usize, periodic: [bool; 2]) {
+    if periodic[1] {
+        acc.fill(Node::ZERO);
+        return;
+    }
+    let (height, pad) = (span.len(), PAD as isize);
+    let (nx, top) = ((width - 1 - 2 * PAD) as isize, height - 1 - PAD); // top: padded row of lattice row n
+    for q in 0..height {
+        // the stencils starting on rows q − 2 ..= q (and on row n, if q is one of its mirrors)
+        let last = if q + 2 >= top { top.max(q) } else { q };
+        let (mut lo, mut hi) = EMPTY;
+        for &(a, b) in &span[q.saturating_sub(2)..=last] {
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        if lo > hi {
+            continue;
+        }
+        let (c0, c1) = if periodic[0] {
+            (0, width)
+        } else {
+            let c0 = if hi >= nx { lo.min(nx - 2) } else { lo };
+            ((c0 + pad) as usize, ((hi + pad + 3) as usize).min(width))
+        };
+        acc[q * width + c0..q * width + c1].fill(Node::ZERO);
+    }
+}
+
+/// Folds the ghost nodes of one part's grid `acc` into its lattice of `n` cells over the
+/// padded `rows` (every row along a periodic y): mirrored at walls (the normal momentum
+/// flips), wrapped along periodic sides, where node n is node 0.
+fn fold_part(acc: &mut [Node], width: usize, n: [usize; 2], periodic: [bool; 2], rows: (usize, usize)) {
+    let [px, py] = periodic;
+    let (nx, ny, pad) = (n[0] as isize, n[1] as isize, PAD as isize);
+    let (r0, r1) = if py { (0, acc.len() / width) } else { rows };
+    let at = |i: isize, j: isize| node_index(width, i, j);
+    for r in r0..r1 {
+        let jg = r as isize - pad;
+        let ghost_row = jg < 0 || jg > ny;
+        for ig in ghost_columns(ghost_row, nx) {
+            let k = at(ig, jg);
+            let a = acc[k];
+            if a.0 == [0.0; 4] {
+                continue;
+            }
+            acc[k] = Node::ZERO;
+            let (i, mx) = map_axis(ig, n[0], true, px);
+            let (j, my) = map_axis(jg, n[1], true, py);
+            let t = at(i, j);
+            let sx = if mx { -1.0 } else { 1.0 };
+            let sy = if my { -1.0 } else { 1.0 };
+            acc[t][0] += a[0];
+            acc[t][1] += sx * a[1];
+            acc[t][2] += sy * a[2];
+        }
+    }
+    let mut merge = |into: usize, from: usize| {
+        let v = std::mem::replace(&mut acc[from], Node::ZERO);
+        for c in 0..3 {
+            acc[into][c] += v[c];
+        }
+    };
+    if px {
+        for jg in (r0 as isize - pad).max(0)..(r1 as isize - pad).min(ny + 1) {
+            merge(at(0, jg), at(nx, jg));
+        }
+    }
+    if py {
+        for i in 0..=nx {
+            merge(at(i, 0), at(i, ny));
+        }
+    }
+}
+
 /// The grid update of a run of nodes: the two parts `a` and `b` added, u = Σ m u / Σ m
-/// (0 where Σ m ≤ `tiny`) plus Δt g into `vel`, the parts zeroed for the next step.
+/// (0 where Σ m ≤ `tiny`) plus Δt g into `vel`.
 #[inline(always)]
-fn update_nodes(a: &mut [Node], b: &mut [Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
-    for ((a, b), v) in a.iter_mut().zip(b.iter_mut()).zip(vel.iter_mut()) {
+fn update_nodes(a: &[Node], b: &[Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
+    for ((a, b), v) in a.iter().zip(b).zip(vel.iter_mut()) {
         let (m, mx, my) = (a[0] + b[0], a[1] + b[1], a[2] + b[2]);
         let (ux, uy) = if m > tiny { (mx / m, my / m) } else { (0.0, 0.0) };
         *v = [ux + g[0], uy + g[1]];
-        *a = Node::ZERO;
-        *b = Node::ZERO;
     }
 }
 
@@ -874,16 +996,16 @@ fn update_nodes(a: &mut [Node], b: &mut [Node], vel: &mut [[Real; 2]], tiny: Rea
 /// at once): the same operations, the same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma")]
-fn update_nodes_avx(a: &mut [Node], b: &mut [Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
+fn update_nodes_avx(a: &[Node], b: &[Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
     use std::arch::x86_64::*;
     let n = a.len().min(b.len()).min(vel.len());
-    let (least, gx, gy, zero) = (_mm256_set1_pd(tiny), _mm256_set1_pd(g[0]), _mm256_set1_pd(g[1]), _mm256_setzero_pd());
+    let (least, gx, gy) = (_mm256_set1_pd(tiny), _mm256_set1_pd(g[0]), _mm256_set1_pd(g[1]));
     let mut k = 0;
     while k + 4 <= n {
         // SAFETY: nodes k .. k + 4 of `a`, `b` and `vel` exist (k + 4 ≤ n); a node is four
         // f64 (32-byte aligned), a velocity two
         unsafe {
-            let (pa, pb) = (a.as_mut_ptr().add(k) as *mut Real, b.as_mut_ptr().add(k) as *mut Real);
+            let (pa, pb) = (a.as_ptr().add(k) as *const Real, b.as_ptr().add(k) as *const Real);
             // rows [m, mx, my, 0] of the four nodes, the parts added
             let s: [__m256d; 4] =
                 std::array::from_fn(|l| _mm256_add_pd(_mm256_load_pd(pa.add(4 * l)), _mm256_load_pd(pb.add(4 * l))));
@@ -899,14 +1021,10 @@ fn update_nodes_avx(a: &mut [Node], b: &mut [Node], vel: &mut [[Real; 2]], tiny:
             let pv = vel.as_mut_ptr().add(k) as *mut Real;
             _mm256_storeu_pd(pv, _mm256_permute2f128_pd::<0x20>(lo, hi));
             _mm256_storeu_pd(pv.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
-            for l in 0..4 {
-                _mm256_store_pd(pa.add(4 * l), zero);
-                _mm256_store_pd(pb.add(4 * l), zero);
-            }
         }
         k += 4;
     }
-    update_nodes(&mut a[k..n], &mut b[k..n], &mut vel[k..n], tiny, g);
+    update_nodes(&a[k..n], &b[k..n], &mut vel[k..n], tiny, g);
 }
 
 /// Index of lattice node (i, j) (ghosts from −`PAD`) in a padded lattice of `width`
@@ -1067,29 +1185,29 @@ fn scatter4_avx(
     use std::arch::x86_64::*;
     let (g, pts, dt) = (input.grid, input.pts, input.dt);
     let h = g.h;
-    // SAFETY (the loads below): four f64
-    let lanes = |v: [Real; 4]| unsafe { _mm256_loadu_pd(v.as_ptr()) };
     let (hv, zero) = (_mm256_set1_pd(h), _mm256_setzero_pd());
     let ih = _mm256_set1_pd(1.0 / h);
-    let xi_x = _mm256_mul_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].x)), _mm256_set1_pd(g.origin.x)), ih);
-    let xi_y = _mm256_mul_pd(_mm256_sub_pd(lanes(arr4(|l| pts.x[p + l].y)), _mm256_set1_pd(g.origin.y)), ih);
+    let r = p..p + 4;
+    let (x, y) = soa2!(&pts.x[r.clone()]);
+    let xi_x = _mm256_mul_pd(_mm256_sub_pd(x, _mm256_set1_pd(g.origin.x)), ih);
+    let xi_y = _mm256_mul_pd(_mm256_sub_pd(y, _mm256_set1_pd(g.origin.y)), ih);
     let (bxv, fx, wx, dwx) = bspline4!(xi_x);
     let (byv, fy, wy, dwy) = bspline4!(xi_y);
-    let m = lanes(arr4(|l| pts.m[p + l]));
-    let (vx, vy) = (lanes(arr4(|l| pts.v[p + l].x)), lanes(arr4(|l| pts.v[p + l].y)));
-    let c = |v: [Real; 4]| if input.apic { lanes(v) } else { zero };
-    let (cux, cuy) = (c(arr4(|l| pts.c_u[p + l].x)), c(arr4(|l| pts.c_u[p + l].y)));
-    let (cvx, cvy) = (c(arr4(|l| pts.c_v[p + l].x)), c(arr4(|l| pts.c_v[p + l].y)));
+    let m = load4!(pts.m[r.clone()].try_into().expect("four masses"));
+    let (vx, vy) = soa2!(&pts.v[r.clone()]);
+    let ((cux, cuy), (cvx, cvy)) = if input.apic {
+        (soa2!(&pts.c_u[r.clone()]), soa2!(&pts.c_v[r.clone()]))
+    } else {
+        ((zero, zero), (zero, zero))
+    };
     // k = Δt V⁰ det F (1/h), with det F = F11 F22 − F21 F12 (`det2`)
-    let det = _mm256_sub_pd(
-        _mm256_mul_pd(lanes(arr4(|l| pts.f[p + l].m11)), lanes(arr4(|l| pts.f[p + l].m22))),
-        _mm256_mul_pd(lanes(arr4(|l| pts.f[p + l].m21)), lanes(arr4(|l| pts.f[p + l].m12))),
-    );
-    let k = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(dt), lanes(arr4(|l| pts.vol0[p + l]))), det), ih);
-    let s00 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m11)));
-    let s01 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m12)));
-    let s10 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m21)));
-    let s11 = _mm256_mul_pd(k, lanes(arr4(|l| sg[l].m22)));
+    let [f11, f21, f12, f22] = soa4!(&pts.f[r.clone()]);
+    let det = _mm256_sub_pd(_mm256_mul_pd(f11, f22), _mm256_mul_pd(f21, f12));
+    let vol0 = load4!(pts.vol0[r].try_into().expect("four volumes"));
+    let k = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(dt), vol0), det), ih);
+    let [g11, g21, g12, g22] = soa4!(sg);
+    let (s00, s01, s10, s11) =
+        (_mm256_mul_pd(k, g11), _mm256_mul_pd(k, g12), _mm256_mul_pd(k, g21), _mm256_mul_pd(k, g22));
     // rows r0..r3 (channels, one point per lane) to one register per point
     let transpose = |r0: __m256d, r1: __m256d, r2: __m256d, r3: __m256d| {
         let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
