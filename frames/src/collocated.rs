@@ -164,8 +164,8 @@ const PARTS: usize = 2;
 const _: () = assert!(PARTS == 2, "Collocated::scatter and Collocated::update split into two parts");
 /// Ghost nodes on each side of the lattice.
 const PAD: usize = 2;
-/// An empty column span.
-const EMPTY: (isize, isize) = (isize::MAX, isize::MIN);
+/// Nodes per chunk of a row in the maps of touched nodes (`Collocated::touched`).
+const CHUNK: usize = 8;
 /// Points per block of the parallel gather (its diagnostic sums are added in block order).
 const BLOCK: usize = 512;
 
@@ -210,9 +210,13 @@ pub struct Collocated {
     vel: Vec<[Real; 2]>,
     /// Padded rows [lo, hi) that the last scatter touched (all parts).
     rows: (usize, usize),
-    /// Per part and padded row, the range [min, max] of the stencils' first lattice
-    /// column over the points whose stencil starts on that row (empty: min > max).
-    span: Vec<(isize, isize)>,
+    /// Per part and padded row, a bitmap (`words` u64) of the chunks of `CHUNK` nodes in
+    /// which the stencils starting on that row begin or end: the grid update and the next
+    /// clearing visit only those (a splash that spans the box touches a few chunks per row
+    /// away from the bulk).
+    touched: Vec<u64>,
+    /// Words per row of `touched`.
+    words: usize,
     /// Masses below this are empty nodes: 1e-12 of the largest point mass.
     tiny: Option<Real>,
     /// The lanes the transfers use (at most what the CPU has; the same bits with any).
@@ -248,7 +252,8 @@ impl Collocated {
             acc: vec![Node::ZERO; PARTS * width * height],
             vel: vec![[0.0; 2]; width * height],
             rows: (0, 0),
-            span: vec![EMPTY; PARTS * height],
+            touched: vec![0; PARTS * height * width.div_ceil(CHUNK).div_ceil(64)],
+            words: width.div_ceil(CHUNK).div_ceil(64),
             tiny: None,
             simd: Simd::available(),
             finite: true,
@@ -306,10 +311,16 @@ impl Collocated {
         let height = self.height;
         let (s0, s1) = stress.split_at_mut(n / PARTS);
         let parts: Vec<&mut [Matrix]> = vec![s0, s1];
-        self.acc.par_chunks_mut(width * height).zip(self.span.par_chunks_mut(height)).zip(parts).enumerate().for_each(
-            |(k, ((grid, span), sigma))| {
-                clear_part(grid, span, width, periodic);
-                span.fill(EMPTY);
+        let words = self.words;
+        let (nxi, nyi) = (nx as isize, ny as isize);
+        self.acc
+            .par_chunks_mut(width * height)
+            .zip(self.touched.par_chunks_mut(height * words))
+            .zip(parts)
+            .enumerate()
+            .for_each(|(k, ((grid, touched), sigma))| {
+                clear_part(grid, touched, width, words, periodic);
+                touched.fill(0);
                 let pts = k * n / PARTS..(k + 1) * n / PARTS;
                 sigma.iter_mut().for_each(|s| *s = Matrix::zeros());
                 for model in input.models.iter().filter(|m| m.acts_on_points()) {
@@ -324,8 +335,12 @@ impl Collocated {
                 let sigma = &*sigma;
                 let first = pts.start;
                 let mut note = |(bx, by): (isize, isize)| {
-                    let s = &mut span[(by + PAD as isize) as usize];
-                    *s = (s.0.min(bx), s.1.max(bx));
+                    mark(touched, words, bx, by);
+                    // a point clamped to the lattice's far edge (not finite) starts its stencil
+                    // on node n, whose ghosts n + 1, n + 2 mirror to n − 1, n − 2
+                    if bx >= nxi || by >= nyi {
+                        mark(touched, words, bx.min(nxi - 2).max(-1), by.min(nyi - 2).max(-1));
+                    }
                 };
                 let mut p = pts.start;
                 #[cfg(target_arch = "x86_64")]
@@ -341,29 +356,22 @@ impl Collocated {
                 for p in p..pts.end {
                     note(scatter_point(grid, width, row0, input, p, &sigma[p - first]));
                 }
-                fold_part(grid, width, [nx, ny], periodic, touched_rows(span));
-            },
-        );
-        let rows: Vec<(usize, usize)> = self.span.chunks(height).map(touched_rows).filter(|r| r.0 < r.1).collect();
+                fold_part(grid, width, [nx, ny], periodic, touched_rows(touched, words));
+            });
+        let rows: Vec<(usize, usize)> =
+            self.touched.chunks(height * words).map(|t| touched_rows(t, words)).filter(|r| r.0 < r.1).collect();
         self.rows = match (rows.iter().map(|r| r.0).min(), rows.iter().map(|r| r.1).max()) {
             (Some(lo), Some(hi)) => (lo, hi),
             _ => (0, 0),
         };
     }
 
-    /// Padded columns [lo, hi) of padded row `r` that the last scatter touched (empty: lo ≥ hi).
-    fn columns(&self, r: usize) -> (usize, usize) {
-        let (mut lo, mut hi) = EMPTY;
-        for k in 0..PARTS {
-            for q in r.saturating_sub(2)..=r {
-                let (a, b) = self.span[k * self.height + q];
-                (lo, hi) = (lo.min(a), hi.max(b));
-            }
-        }
-        if lo > hi {
-            (0, 0)
-        } else {
-            ((lo + PAD as isize) as usize, (hi + PAD as isize) as usize + 3)
+    /// The chunks of padded row `r` that the last scatter touched, in any part (the
+    /// stencils starting on rows r − 2 ..= r), into `mask`.
+    fn row_mask(&self, r: usize, mask: &mut [u64]) {
+        mask.fill(0);
+        for part in self.touched.chunks(self.height * self.words) {
+            or_rows(mask, part, self.words, r);
         }
     }
 
@@ -383,15 +391,15 @@ impl Collocated {
         let width = self.width;
         let (gx, gy) = (dt * gravity.x, dt * gravity.y);
         let (nxu, nyu) = (self.nx, self.ny);
-        // the touched columns of each row
-        let ranges: Vec<(usize, usize)> = (lo..hi)
-            .map(|r| {
-                // every column along a periodic side: a ghost's contribution wraps to the
-                // far side of the lattice, outside the touched columns of its row
-                let (c0, c1) = if px || py { (0, width) } else { self.columns(r) };
-                (c0.max(PAD), c1.min(PAD + nxu + 1).max(c0.max(PAD)))
-            })
-            .collect();
+        // the touched chunks of each row; every column along a periodic side, where a
+        // ghost's contribution wraps to the far side of the lattice
+        let words = self.words;
+        let mut masks = vec![u64::MAX; (hi - lo) * words];
+        if !(px || py) {
+            for (r, mask) in (lo..hi).zip(masks.chunks_mut(words)) {
+                self.row_mask(r, mask);
+            }
+        }
         // the walls of lattice row j (its nodes from padded column PAD)
         let update_walls = |vel: &mut [[Real; 2]], j: usize| {
             let row = &mut vel[PAD..PAD + nxu + 1];
@@ -415,19 +423,20 @@ impl Collocated {
             .par_chunks(width)
             .zip(second[lo * width..hi * width].par_chunks(width))
             .zip(self.vel[lo * width..hi * width].par_chunks_mut(width))
-            .zip(ranges.par_iter())
+            .zip(masks.par_chunks(words))
             .enumerate()
-            .for_each(|(k, (((a0, a1), vel), &(c0, c1)))| {
+            .for_each(|(k, (((a0, a1), vel), mask))| {
                 let j = lo + k - PAD;
-                let cols = c0..c1;
-                let (a, b, v) = (&a0[cols.clone()], &a1[cols.clone()], &mut vel[cols]);
-                #[cfg(target_arch = "x86_64")]
-                if avx {
-                    // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-                    unsafe { update_nodes_avx(a, b, v, tiny, [gx, gy]) };
-                    return update_walls(vel, j);
-                }
-                update_nodes(a, b, v, tiny, [gx, gy]);
+                // the lattice's columns of the touched chunks
+                runs(mask, PAD, PAD + nxu + 1, |cols| {
+                    let (a, b, v) = (&a0[cols.clone()], &a1[cols.clone()], &mut vel[cols]);
+                    #[cfg(target_arch = "x86_64")]
+                    if avx {
+                        // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
+                        return unsafe { update_nodes_avx(a, b, v, tiny, [gx, gy]) };
+                    }
+                    update_nodes(a, b, v, tiny, [gx, gy]);
+                });
                 update_walls(vel, j);
             });
         if py {
@@ -892,46 +901,90 @@ fn finish4(
     }
 }
 
-/// The padded rows [lo, hi) that the stencils of one part touch, from its `span` (a
-/// stencil starting on padded row r covers rows r, r + 1, r + 2); (0, 0) if none.
-fn touched_rows(span: &[(isize, isize)]) -> (usize, usize) {
-    let touched = |r: &usize| span[*r].0 <= span[*r].1;
-    match ((0..span.len()).find(touched), (0..span.len()).rev().find(touched)) {
-        (Some(lo), Some(hi)) => (lo, (hi + 3).min(span.len())),
+/// Marks in one part's map `touched` (`words` per padded row) the chunks of the stencil
+/// that starts on lattice node (bx, by): its columns bx .. bx + 2 on its first row.
+#[inline(always)]
+fn mark(touched: &mut [u64], words: usize, bx: isize, by: isize) {
+    let (r, c) = ((by + PAD as isize) as usize, (bx + PAD as isize) as usize);
+    for chunk in [c / CHUNK, (c + 2) / CHUNK] {
+        touched[r * words + chunk / 64] |= 1 << (chunk % 64);
+    }
+}
+
+/// ORs into `mask` the chunks of the stencils of one part (`touched`, `words` per row)
+/// that cover padded row `r`: those starting on rows r − 2 ..= r.
+#[inline]
+fn or_rows(mask: &mut [u64], touched: &[u64], words: usize, r: usize) {
+    for row in touched[r.saturating_sub(2) * words..(r + 1) * words].chunks(words) {
+        for (m, t) in mask.iter_mut().zip(row) {
+            *m |= t;
+        }
+    }
+}
+
+/// Calls `f` on the runs of columns (merged across adjacent chunks) of the chunks set in
+/// `mask`, cut to [lo, hi).
+#[inline]
+fn runs(mask: &[u64], lo: usize, hi: usize, mut f: impl FnMut(std::ops::Range<usize>)) {
+    let mut run: Option<(usize, usize)> = None;
+    let mut emit = |(a, z): (usize, usize)| {
+        let (a, z) = (a.max(lo), z.min(hi));
+        if a < z {
+            f(a..z);
+        }
+    };
+    for (w, &word) in mask.iter().enumerate() {
+        let mut bits = word;
+        while bits != 0 {
+            let c = w * 64 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let (a, z) = (c * CHUNK, (c + 1) * CHUNK);
+            run = match run {
+                Some((s, e)) if e == a => Some((s, z)),
+                Some(done) => {
+                    emit(done);
+                    Some((a, z))
+                }
+                None => Some((a, z)),
+            };
+        }
+    }
+    if let Some(done) = run {
+        emit(done);
+    }
+}
+
+/// The padded rows [lo, hi) that the stencils of one part touch, from its map `touched`
+/// (`words` per row; a stencil starting on padded row r covers rows r, r + 1, r + 2);
+/// (0, 0) if none.
+fn touched_rows(touched: &[u64], words: usize) -> (usize, usize) {
+    let height = touched.len() / words;
+    let any = |r: &usize| touched[r * words..(r + 1) * words].iter().any(|&w| w != 0);
+    match ((0..height).find(any), (0..height).rev().find(any)) {
+        (Some(lo), Some(hi)) => (lo, (hi + 3).min(height)),
         _ => (0, 0),
     }
 }
 
 /// Zeroes what the last step left in one part's grid `acc` (padded rows of `width` nodes,
-/// `span` per padded row as in `Collocated::span`): its stencils, and along a periodic
-/// side the whole rows (x) or the whole grid (y) its ghosts wrapped into. At a wall the
-/// ghosts fold into their stencil's own nodes, except for a point clamped to the lattice's
-/// far edge (not finite): its stencil starts on node n, whose ghosts n + 1, n + 2 mirror to
-/// n − 1, n − 2.
-fn clear_part(acc: &mut [Node], span: &[(isize, isize)], width: usize, periodic: [bool; 2]) {
+/// its map `touched` with `words` per row): the chunks of its stencils, and along a
+/// periodic side the whole rows (x) or the whole grid (y) its ghosts wrapped into. At a
+/// wall the ghosts fold into their stencil's own nodes (the stencil of a point clamped to
+/// the far edge is marked with the nodes its ghosts mirror to: see the scatter's `note`).
+fn clear_part(acc: &mut [Node], touched: &[u64], width: usize, words: usize, periodic: [bool; 2]) {
     if periodic[1] {
         acc.fill(Node::ZERO);
         return;
     }
-    let (height, pad) = (span.len(), PAD as isize);
-    let (nx, top) = ((width - 1 - 2 * PAD) as isize, height - 1 - PAD); // top: padded row of lattice row n
-    for q in 0..height {
-        // the stencils starting on rows q − 2 ..= q (and on row n, if q is one of its mirrors)
-        let last = if q + 2 >= top { top.max(q) } else { q };
-        let (mut lo, mut hi) = EMPTY;
-        for &(a, b) in &span[q.saturating_sub(2)..=last] {
-            (lo, hi) = (lo.min(a), hi.max(b));
-        }
-        if lo > hi {
+    let mut mask = vec![0; words];
+    for (q, row) in acc.chunks_mut(width).enumerate() {
+        mask.fill(0);
+        or_rows(&mut mask, touched, words, q);
+        if periodic[0] && mask.iter().any(|&w| w != 0) {
+            row.fill(Node::ZERO);
             continue;
         }
-        let (c0, c1) = if periodic[0] {
-            (0, width)
-        } else {
-            let c0 = if hi >= nx { lo.min(nx - 2) } else { lo };
-            ((c0 + pad) as usize, ((hi + pad + 3) as usize).min(width))
-        };
-        acc[q * width + c0..q * width + c1].fill(Node::ZERO);
+        runs(&mask, 0, width, |cols| row[cols].fill(Node::ZERO));
     }
 }
 
