@@ -9,6 +9,7 @@
 
 use multifield::core::case::Case;
 use multifield::core::math::{Real, Vector};
+use multifield::core::plugin::{PointStressContext, StressModel};
 use multifield::core::simulation::Simulation;
 use multifield::frames::collocated::Simd;
 use multifield::frames::lagrangian::Lagrangian;
@@ -158,15 +159,72 @@ fn a_block_crossing_a_periodic_side_keeps_its_uniform_velocity() {
     }
 }
 
-/// A block in rigid rotation with no stress and no gravity: APIC on the quadratic B-spline
-/// carries an affine field exactly (the nodes get ω × (x_i − c) from every point, the
-/// gather reproduces linear fields), so after a step every point moves with ω × (x − c)
-/// of its old position, C = ∇v = [[0, −ω], [ω, 0]], and J = det(I + Δt ∇v) = 1 + (ωΔt)².
+/// A point stress of zero that reads the points' velocity gradient, so that the
+/// collocated grid writes ∇v at the points (no built-in point stress reads it).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RateProbe {}
+
+impl RateProbe {
+    fn validate(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+impl StressModel for RateProbe {
+    fn model(&self) -> &'static str {
+        "rate_probe"
+    }
+    fn params(&self) -> serde_json::Value {
+        serde_json::json!({})
+    }
+    fn acts_on_points(&self) -> bool {
+        true
+    }
+    fn point_stress(&self, _ctx: &mut PointStressContext) {}
+}
+
+multifield::core::register!(Stress, "rate_probe", RateProbe, "test: a zero point stress that reads ∇v", &[]);
+
+/// A block in rigid rotation with no gravity and no stress (or the zero `rate_probe`):
+/// APIC on the quadratic B-spline carries an affine field exactly (the nodes get
+/// ω × (x_i − c) from every point, the gather reproduces linear fields), so after a step
+/// every point moves with ω × (x − c) of its old position, C = [[0, −ω], [ω, 0]] and
+/// J = det(I + Δt ∇v) = 1 + (ωΔt)²; with a stress that reads it, ∇v = C is written at the
+/// points, with the same bits by the portable loops and the lanes.
 #[test]
 #[allow(clippy::needless_range_loop)] // indexes the points and their start positions
 fn apic_carries_a_rigid_rotation_exactly() {
+    for stress in ["[]", "[(model: \"rate_probe\", params: ())]"] {
+        let mut grad_v_bits = Vec::new();
+        for simd in [Simd::Portable, Simd::available()] {
+            let gv = rotation_step(stress, simd);
+            grad_v_bits
+                .push(gv.iter().flat_map(|m| m.iter().map(|x| x.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>());
+            let probe = stress != "[]";
+            let w: Real = 2.0;
+            let dg = gv.iter().map(|m| (m - nalgebra::Matrix2::new(0.0, -w, w, 0.0)).norm()).fold(0.0, Real::max);
+            eprintln!("{stress}, {simd:?}: |∇v − [[0, −ω], [ω, 0]]| at most {dg:e}");
+            if probe {
+                // as C: the initial C's rounding (about 1e-9); a wrong ∇S would be off by O(ω)
+                assert!(dg < 5e-9, "∇v off the rotation by {dg:e}");
+            } else {
+                // nothing reads ∇v: the points keep the zero they started with
+                assert!(gv.iter().all(|m| *m == nalgebra::Matrix2::zeros()), "∇v written though no stress reads it");
+            }
+        }
+        assert!(grad_v_bits[0] == grad_v_bits[1], "{stress}: ∇v differs between the portable loops and the lanes");
+    }
+}
+
+/// One step of the rotating block with `stress` and at most the lanes `simd`: checks the
+/// velocity, C, J and positions (see `apic_carries_a_rigid_rotation_exactly`) and returns
+/// the points' ∇v.
+#[allow(clippy::needless_range_loop)] // indexes the points and their start positions
+fn rotation_step(stress: &str, simd: Simd) -> Vec<nalgebra::Matrix2<Real>> {
     multifield::link_all();
-    let text = r#"(
+    let text = format!(
+        r#"(
     name: "spin",
     domain: (size: (1.0, 1.0), cells: (32, 32)),
     boundaries: (left: FreeSlip, right: FreeSlip, bottom: FreeSlip, top: FreeSlip),
@@ -178,13 +236,15 @@ fn apic_carries_a_rigid_rotation_exactly() {
         frame: (model: "lagrangian", params: (points_per_cell: 2, shape: "quadratic", transfer: "apic", grid: "collocated")),
         region: Rectangle(min: (0.3, 0.3), max: (0.7, 0.6)),
         velocity: RigidRotation(center: (0.45, 0.5), angular_velocity: 2.0),
-        stress: [],
+        stress: {stress},
     )],
     pressure: None,
     output: (interval: 0.01),
-)"#;
-    let case = Case::from_ron(text, Path::new("spin.ron")).unwrap();
+)"#
+    );
+    let case = Case::from_ron(&text, Path::new("spin.ron")).unwrap();
     let mut sim = Simulation::new(&case).unwrap();
+    assert_eq!(frame_mut(&mut sim).set_simd(simd), simd);
     let (w, c, dt) = (2.0, Vector::new(0.45, 0.5), 1e-3);
     let before = frame(&sim).points.x.clone();
     sim.step().unwrap();
@@ -206,6 +266,7 @@ fn apic_carries_a_rigid_rotation_exactly() {
     assert!(dv < 2e-10, "velocity off the rigid rotation by {dv:e}");
     assert!(dc < 5e-9, "C off ∇v by {dc:e}");
     assert!(dj < 1e-12, "J off 1 + (ωΔt)² by {dj:e}");
+    p.grad_v.clone()
 }
 
 /// Before it reaches the floor (t ≈ 0.12) mpm88's block falls freely: J stays 1, so no

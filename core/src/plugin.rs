@@ -452,6 +452,14 @@ pub trait StressModel: Send + Sync {
     fn volumetric_only(&self) -> bool {
         false
     }
+    /// Whether this model's point stress reads the points' velocity gradient
+    /// ([`PointStressContext::velocity_gradient`]; a rate-dependent stress). A frame may
+    /// leave ∇v at the points unwritten when no point-stress model of the field reads it
+    /// (the collocated grid does: a quarter of the bytes its gather stores). Default: true,
+    /// so that a model that does not say is given ∇v.
+    fn uses_velocity_gradient(&self) -> bool {
+        true
+    }
     /// Whether this model makes the field's bodies move rigidly.
     fn is_rigid(&self) -> bool {
         false

@@ -295,7 +295,9 @@ impl Collocated {
         // the points' masses never change
         let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
         self.update(bc, dt, gravity, tiny);
-        let figures = self.gather(grid, bc, pts, transfer, volumetric_only, dt);
+        // ∇v at the points only for a point stress that reads it
+        let velocity_gradient = models.iter().any(|m| m.acts_on_points() && m.uses_velocity_gradient());
+        let figures = self.gather(grid, bc, pts, transfer, volumetric_only, velocity_gradient, dt);
         self.finite = figures.kinetic_energy.is_finite() && figures.max_speed.is_finite();
         figures
     }
@@ -470,7 +472,9 @@ impl Collocated {
         }
     }
 
-    /// Grid to particles: velocity (PIC or APIC), ∇v, F (or J), position; the step's sums.
+    /// Grid to particles: velocity (PIC or APIC), ∇v (where a point stress reads it), F (or
+    /// J), position; the step's sums.
+    #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
         grid: &Grid,
@@ -478,12 +482,14 @@ impl Collocated {
         pts: &mut Points,
         transfer: Transfer,
         volumetric_only: bool,
+        velocity_gradient: bool,
         dt: Real,
     ) -> FrameFigures {
         let (px, py) = (bc.periodic_x(), bc.periodic_y());
         let fin = Finish {
             dt,
             ih: 1.0 / grid.h,
+            velocity_gradient,
             dinv: Shape::Quadratic.apic_d_inverse(grid.h).unwrap_or(0.0),
             apic: transfer == Transfer::Apic,
             volumetric_only,
@@ -862,7 +868,9 @@ fn finish4(
     let [f11, f21, f12, f22] = soa4!(&*out.f);
     let det_f = _mm256_sub_pd(_mm256_mul_pd(f11, f22), _mm256_mul_pd(f21, f12));
     let j = _mm256_mul_pd(det_f, det_step);
-    aos4!(l11, l21, l12, l22, out.gv);
+    if fin.velocity_gradient {
+        aos4!(l11, l21, l12, l22, out.gv);
+    }
     aos4!(j, zero, zero, one, out.f);
     let mut vel = [r[0], r[1]];
     let (x0, y0) = soa2!(x);
@@ -1378,6 +1386,8 @@ struct Finish {
     dt: Real,
     /// 1/h (a product, not a quotient, in every lane: no division in the loops)
     ih: Real,
+    /// Whether to write ∇v at the points (a point-stress model reads it).
+    velocity_gradient: bool,
     dinv: Real,
     apic: bool,
     volumetric_only: bool,
@@ -1410,7 +1420,9 @@ fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, lane: usize, su
         *out.cu = Vector::new(r[6] * fin.dinv, r[8] * fin.dinv);
         *out.cv = Vector::new(r[7] * fin.dinv, r[9] * fin.dinv);
     }
-    *out.gv = l;
+    if fin.velocity_gradient {
+        *out.gv = l;
+    }
     let step = Matrix::new(1.0 + dt * l.m11, 0.0 + dt * l.m12, 0.0 + dt * l.m21, 1.0 + dt * l.m22);
     *out.f = if fin.volumetric_only {
         // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)

@@ -98,6 +98,9 @@ impl StressModel for NeoHookean {
     fn acts_on_points(&self) -> bool {
         true
     }
+    fn uses_velocity_gradient(&self) -> bool {
+        false
+    }
     fn point_stress(&self, ctx: &mut PointStressContext) {
         ctx.stress.par_iter_mut().zip(ctx.deformation_gradient.par_iter()).for_each(|(s, f)| *s += self.stress(f));
     }

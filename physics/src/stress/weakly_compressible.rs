@@ -113,6 +113,9 @@ impl StressModel for WeaklyCompressible {
     fn acts_on_points(&self) -> bool {
         true
     }
+    fn uses_velocity_gradient(&self) -> bool {
+        false
+    }
     fn volumetric_only(&self) -> bool {
         true
     }
