@@ -862,8 +862,8 @@ fn finish4(
         aos2!(_mm256_mul_pd(r[6], d), _mm256_mul_pd(r[8], d), out.cu);
         aos2!(_mm256_mul_pd(r[7], d), _mm256_mul_pd(r[9], d), out.cv);
     }
-    let (s11, s12) = (_mm256_add_pd(one, _mm256_mul_pd(dt, l11)), _mm256_add_pd(zero, _mm256_mul_pd(dt, l12)));
-    let (s21, s22) = (_mm256_add_pd(zero, _mm256_mul_pd(dt, l21)), _mm256_add_pd(one, _mm256_mul_pd(dt, l22)));
+    let (s11, s12) = (_mm256_fmadd_pd(dt, l11, one), _mm256_fmadd_pd(dt, l12, zero));
+    let (s21, s22) = (_mm256_fmadd_pd(dt, l21, zero), _mm256_fmadd_pd(dt, l22, one));
     let det_step = _mm256_sub_pd(_mm256_mul_pd(s11, s22), _mm256_mul_pd(s21, s12));
     let [f11, f21, f12, f22] = soa4!(&*out.f);
     let det_f = _mm256_sub_pd(_mm256_mul_pd(f11, f22), _mm256_mul_pd(f21, f12));
@@ -874,7 +874,7 @@ fn finish4(
     aos4!(j, zero, zero, one, out.f);
     let mut vel = [r[0], r[1]];
     let (x0, y0) = soa2!(x);
-    let mut pos = [_mm256_add_pd(x0, _mm256_mul_pd(dt, vel[0])), _mm256_add_pd(y0, _mm256_mul_pd(dt, vel[1]))];
+    let mut pos = [_mm256_fmadd_pd(dt, vel[0], x0), _mm256_fmadd_pd(dt, vel[1], y0)];
     for axis in 0..2 {
         let lo = _mm256_set1_pd(fin.lo[axis] + fin.eps);
         let hi = _mm256_set1_pd(fin.hi[axis] - fin.eps);
@@ -1423,14 +1423,15 @@ fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, lane: usize, su
     if fin.velocity_gradient {
         *out.gv = l;
     }
-    let step = Matrix::new(1.0 + dt * l.m11, 0.0 + dt * l.m12, 0.0 + dt * l.m21, 1.0 + dt * l.m22);
+    let step =
+        Matrix::new(dt.mul_add(l.m11, 1.0), dt.mul_add(l.m12, 0.0), dt.mul_add(l.m21, 0.0), dt.mul_add(l.m22, 1.0));
     *out.f = if fin.volumetric_only {
         // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)
         Matrix::new(det2(out.f) * det2(&step), 0.0, 0.0, 1.0)
     } else {
         step * *out.f
     };
-    let mut xk = Vector::new(out.x.x + dt * vk.x, out.x.y + dt * vk.y);
+    let mut xk = Vector::new(dt.mul_add(vk.x, out.x.x), dt.mul_add(vk.y, out.x.y));
     for axis in 0..2 {
         let (lo, hi) = (fin.lo[axis], fin.hi[axis]);
         if fin.periodic[axis] {
