@@ -20,13 +20,16 @@
 //! Parallel and deterministic: the points are split by index into `PARTS` fixed parts,
 //! each scattered into its own grid on its own thread; the grid update adds the parts node
 //! by node in part order, and the gather's per-block sums of the diagnostics are added in
-//! block order. The same bits on any number of threads. With AVX (x86-64, detected at run
-//! time) the scatter adds a node's four sums in one register and the gather takes four
-//! points at a time, by the same operations in the same order as the portable loops: the
-//! same bits with or without it.
+//! block order (each block's in four lanes, point k in lane k mod 4). The same bits on any
+//! number of threads. With AVX and FMA (x86-64, detected at run time) the scatter adds a
+//! node's four sums in one register and the gather takes four points at a time, by the
+//! same operations in the same order as the portable loops, which use `mul_add` where the
+//! lanes fuse a multiply-add: the same bits with or without AVX.
 //!
-//! Only the rows and columns the points reached are updated and cleared: a splash that
-//! spans the box touches a few nodes per row away from the bulk.
+//! Each part clears the grid it filled at its next scatter, on its own thread, and folds
+//! its ghost nodes in there too; the grid update only reads the parts. Only the chunks of
+//! 8 nodes that the points' stencils reached are updated and cleared (a map per row): a
+//! splash that spans the box touches a few chunks per row away from the bulk.
 use crate::lagrangian::{Points, Transfer};
 use crate::scatter::map_axis;
 use crate::shape::Shape;
@@ -72,14 +75,6 @@ macro_rules! load4 {
         // SAFETY: four f64
         unsafe { _mm256_loadu_pd(v.as_ptr()) }
     }};
-}
-
-/// Two AVX registers as the low and high halves of an AVX-512 one.
-#[cfg(target_arch = "x86_64")]
-macro_rules! join8 {
-    ($lo:expr, $hi:expr) => {
-        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512($lo), $hi)
-    };
 }
 
 /// Four vectors (x, y), contiguous, as the lanes [x0 x1 x2 x3], [y0 y1 y2 y3]: two loads
@@ -515,19 +510,14 @@ impl Collocated {
                 let mut sums = LaneSums::default();
                 let mut k0 = 0;
                 while k0 < x.len() {
-                    // eight points at a time with AVX-512, four with AVX, then one at a time
-                    let n = match (simd, x.len() - k0) {
-                        (Simd::Avx512, left) if left >= 8 => 8,
-                        (Simd::Avx | Simd::Avx512, left) if left >= 4 => 4,
-                        _ => 1,
-                    };
+                    // four points at a time with AVX, then one at a time
+                    let n = if simd == Simd::Avx && x.len() - k0 >= 4 { 4 } else { 1 };
                     let r = k0..k0 + n;
                     k0 += n;
                     #[cfg(target_arch = "x86_64")]
                     if n > 1 {
-                        let mut xs = [Vector::zeros(); 8];
-                        xs[..n].copy_from_slice(&x[r.clone()]);
-                        let mut raw = [[0.0; 10]; 8];
+                        let xs = [x[r.start], x[r.start + 1], x[r.start + 2], x[r.start + 3]];
+                        let mut raw = [[0.0; 10]; 4];
                         let out = Outs {
                             x: &mut x[r.clone()],
                             v: &mut v[r.clone()],
@@ -537,18 +527,12 @@ impl Collocated {
                             cv: &mut cv[r.clone()],
                         };
                         let mut sink = if lanes_finish {
-                            Sink::Finish { fin: &fin, out, m: &m[r.clone()], lane0: r.start % 8, sums: &mut sums }
+                            Sink::Finish { fin: &fin, out, m: &m[r.clone()], sums: &mut sums }
                         } else {
-                            Sink::Raw(&mut raw[..n])
+                            Sink::Raw(&mut raw)
                         };
                         // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-                        unsafe {
-                            if n == 8 {
-                                self.gather8_avx512(grid, &xs[..8], &mut sink);
-                            } else {
-                                self.gather4_avx(grid, &xs[..4], &mut sink);
-                            }
-                        }
+                        unsafe { self.gather4_avx(grid, &xs, &mut sink) };
                         if !lanes_finish {
                             for (k, r) in r.zip(&raw) {
                                 let out = Out {
@@ -559,7 +543,7 @@ impl Collocated {
                                     cu: &mut cu[k],
                                     cv: &mut cv[k],
                                 };
-                                finish_point(&fin, r, m[k], out, k % 8, &mut sums);
+                                finish_point(&fin, r, m[k], out, k % 4, &mut sums);
                             }
                         }
                         continue;
@@ -574,7 +558,7 @@ impl Collocated {
                         cu: &mut cu[k],
                         cv: &mut cv[k],
                     };
-                    finish_point(&fin, &raw, m[k], out, k % 8, &mut sums);
+                    finish_point(&fin, &raw, m[k], out, k % 4, &mut sums);
                 }
                 sums.total()
             })
@@ -592,8 +576,8 @@ impl Collocated {
 
     /// The raw sums of one point's gather, 10 of them: Σ S u (2), Σ u ∂S/∂ξ (2),
     /// Σ u ∂S/∂η (2), Σ S u (x_i − x_p) (2), Σ S u (y_i − y_p) (2), each for the
-    /// components (x, y). `gather4_avx` and `gather8_avx512` compute them for four and eight
-    /// points in the lanes of a register, by the same operations in the same order: the
+    /// components (x, y). `gather4_avx` computes them for four points in the lanes of a
+    /// register, by the same operations in the same order: the
     /// same bits.
     #[inline(always)]
     fn gather_point(&self, grid: &Grid, x: Vector) -> [Real; 10] {
@@ -694,87 +678,7 @@ impl Collocated {
                 ay[c] = _mm256_fmadd_pd(wdy, s[c], ay[c]);
             }
         }
-        sink.put(0, &[u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]], x);
-    }
-
-    /// `gather_point` for the eight points at `x`, one per lane of an AVX-512 register: the
-    /// weights by `bspline4!` on each half, the sums as in `gather4_avx`.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,fma")]
-    fn gather8_avx512(&self, grid: &Grid, x: &[Vector], sink: &mut Sink) {
-        use std::arch::x86_64::*;
-        let h = grid.h;
-        let ih = 1.0 / h;
-        let xi: [Vector; 8] = std::array::from_fn(|l| (x[l] - grid.origin) * ih);
-        let (bx0, fx0, wx0, dwx0) = bspline4!(load4!(arr4(|l| xi[l].x)));
-        let (bx1, fx1, wx1, dwx1) = bspline4!(load4!(arr4(|l| xi[4 + l].x)));
-        let (by0, fy0, wy0, dwy0) = bspline4!(load4!(arr4(|l| xi[l].y)));
-        let (by1, fy1, wy1, dwy1) = bspline4!(load4!(arr4(|l| xi[4 + l].y)));
-        let (fx, fy) = (join8!(fx0, fx1), join8!(fy0, fy1));
-        let wx = [join8!(wx0[0], wx1[0]), join8!(wx0[1], wx1[1]), join8!(wx0[2], wx1[2])];
-        let dwx = [join8!(dwx0[0], dwx1[0]), join8!(dwx0[1], dwx1[1]), join8!(dwx0[2], dwx1[2])];
-        let wy = [join8!(wy0[0], wy1[0]), join8!(wy0[1], wy1[1]), join8!(wy0[2], wy1[2])];
-        let dwy = [join8!(dwy0[0], dwy1[0]), join8!(dwy0[1], dwy1[1]), join8!(dwy0[2], dwy1[2])];
-        let (mut bx, mut by) = ([0.0; 8], [0.0; 8]);
-        // SAFETY: eight f64 each
-        unsafe {
-            _mm512_storeu_pd(bx.as_mut_ptr(), join8!(bx0, bx1));
-            _mm512_storeu_pd(by.as_mut_ptr(), join8!(by0, by1));
-        }
-        let k0 = self.first_nodes(bx, by);
-        let hv = _mm512_set1_pd(h);
-        let mut wxd = [_mm512_setzero_pd(); 3];
-        for a in 0..3 {
-            wxd[a] = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_set1_pd(a as Real), fx), hv), wx[a]);
-        }
-        let z = _mm512_setzero_pd();
-        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
-        let base = self.vel.as_ptr() as *const Real;
-        for b in 0..3 {
-            let (mut s, mut t, mut r) = ([z; 2], [z; 2], [z; 2]);
-            for a in 0..3 {
-                let o = b * self.width + a;
-                // SAFETY: k0[l] + o < vel.len() (`first_nodes`); a node is two f64
-                let uv = unsafe {
-                    let p: [__m128d; 8] = [
-                        _mm_loadu_pd(base.add(2 * (k0[0] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[1] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[2] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[3] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[4] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[5] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[6] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[7] + o))),
-                    ];
-                    // 128-bit lanes [p0 p2 p4 p6] and [p1 p3 p5 p7]: their low and high
-                    // halves interleaved are [u0 … u7] and [v0 … v7]
-                    let even = join8!(_mm256_set_m128d(p[2], p[0]), _mm256_set_m128d(p[6], p[4]));
-                    let odd = join8!(_mm256_set_m128d(p[3], p[1]), _mm256_set_m128d(p[7], p[5]));
-                    [_mm512_unpacklo_pd(even, odd), _mm512_unpackhi_pd(even, odd)]
-                };
-                for c in 0..2 {
-                    s[c] = _mm512_fmadd_pd(wx[a], uv[c], s[c]);
-                    t[c] = _mm512_fmadd_pd(dwx[a], uv[c], t[c]);
-                    r[c] = _mm512_fmadd_pd(wxd[a], uv[c], r[c]);
-                }
-            }
-            let wdy = _mm512_mul_pd(_mm512_mul_pd(wy[b], _mm512_sub_pd(_mm512_set1_pd(b as Real), fy)), hv);
-            for c in 0..2 {
-                u[c] = _mm512_fmadd_pd(wy[b], s[c], u[c]);
-                gx[c] = _mm512_fmadd_pd(wy[b], t[c], gx[c]);
-                gy[c] = _mm512_fmadd_pd(dwy[b], s[c], gy[c]);
-                ax[c] = _mm512_fmadd_pd(wy[b], r[c], ax[c]);
-                ay[c] = _mm512_fmadd_pd(wdy, s[c], ay[c]);
-            }
-        }
-        let all = [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]];
-        let (mut lo, mut hi) = ([_mm256_setzero_pd(); 10], [_mm256_setzero_pd(); 10]);
-        for k in 0..10 {
-            lo[k] = _mm512_castpd512_pd256(all[k]);
-            hi[k] = _mm512_extractf64x4_pd::<1>(all[k]);
-        }
-        sink.put(0, &lo, &x[..4]);
-        sink.put(4, &hi, &x[4..]);
+        sink.put(&[u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]], x);
     }
 }
 
@@ -783,21 +687,14 @@ impl Collocated {
 /// walls on every side).
 enum Sink<'a> {
     Raw(&'a mut [[Real; 10]]),
-    /// `lane0`: the first point's lane in `sums` (its index in the block mod 8)
-    Finish {
-        fin: &'a Finish,
-        out: Outs<'a>,
-        m: &'a [Real],
-        lane0: usize,
-        sums: &'a mut LaneSums,
-    },
+    Finish { fin: &'a Finish, out: Outs<'a>, m: &'a [Real], sums: &'a mut LaneSums },
 }
 
 impl Sink<'_> {
-    /// The sums `all` of the four points from `q` on (start positions `x`), one per lane.
+    /// The sums `all` of the four points (start positions `x`), one per lane.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx,fma")]
-    fn put(&mut self, q: usize, all: &[std::arch::x86_64::__m256d; 10], x: &[Vector]) {
+    fn put(&mut self, all: &[std::arch::x86_64::__m256d; 10], x: &[Vector]) {
         match self {
             Sink::Raw(out) => {
                 for (k, v) in all.iter().enumerate() {
@@ -805,22 +702,11 @@ impl Sink<'_> {
                     // SAFETY: four f64
                     unsafe { std::arch::x86_64::_mm256_storeu_pd(lane.as_mut_ptr(), *v) };
                     for l in 0..4 {
-                        out[q + l][k] = lane[l];
+                        out[l][k] = lane[l];
                     }
                 }
             }
-            Sink::Finish { fin, out, m, lane0, sums } => {
-                let r = q..q + 4;
-                let four = Outs {
-                    x: &mut out.x[r.clone()],
-                    v: &mut out.v[r.clone()],
-                    f: &mut out.f[r.clone()],
-                    gv: &mut out.gv[r.clone()],
-                    cu: &mut out.cu[r.clone()],
-                    cv: &mut out.cv[r.clone()],
-                };
-                finish4(fin, all, x, four, &m[r], (*lane0 + q) % 8, sums)
-            }
+            Sink::Finish { fin, out, m, sums } => finish4(fin, all, x, out, m, sums),
         }
     }
 }
@@ -843,9 +729,8 @@ fn finish4(
     fin: &Finish,
     r: &[std::arch::x86_64::__m256d; 10],
     x: &[Vector],
-    out: Outs,
+    out: &mut Outs,
     m: &[Real],
-    q: usize,
     sums: &mut LaneSums,
 ) {
     use std::arch::x86_64::*;
@@ -892,21 +777,13 @@ fn finish4(
     let s2 = _mm256_add_pd(_mm256_mul_pd(vel[0], vel[0]), _mm256_mul_pd(vel[1], vel[1]));
     let ke = _mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0.5), mv), s2);
     let (px, py) = (_mm256_mul_pd(mv, vel[0]), _mm256_mul_pd(mv, vel[1]));
-    // lanes q .. q + 4 of the block's sums (`LaneSums::add`); max(s2, acc) is acc unless s2 > acc
-    assert!(q == 0 || q == 4);
-    let add = |acc: &mut [Real; 8], v: __m256d| {
-        // SAFETY: q + 4 ≤ 8 (asserted)
-        unsafe { _mm256_storeu_pd(acc.as_mut_ptr().add(q), _mm256_add_pd(_mm256_loadu_pd(acc.as_ptr().add(q)), v)) }
-    };
-    add(&mut sums.ke, ke);
-    add(&mut sums.mass, mv);
-    add(&mut sums.px, px);
-    add(&mut sums.py, py);
-    // SAFETY: as above
-    unsafe {
-        let at = sums.s2.as_mut_ptr().add(q);
-        _mm256_storeu_pd(at, _mm256_max_pd(s2, _mm256_loadu_pd(at)));
+    // the block's sums, lane by lane (`LaneSums::add`); max(s2, acc) is acc unless s2 > acc
+    for (acc, v) in [(&mut sums.ke, ke), (&mut sums.mass, mv), (&mut sums.px, px), (&mut sums.py, py)] {
+        // SAFETY: four f64
+        unsafe { _mm256_storeu_pd(acc.as_mut_ptr(), _mm256_add_pd(_mm256_loadu_pd(acc.as_ptr()), v)) };
     }
+    // SAFETY: four f64
+    unsafe { _mm256_storeu_pd(sums.s2.as_mut_ptr(), _mm256_max_pd(s2, _mm256_loadu_pd(sums.s2.as_ptr()))) };
 }
 
 /// Marks in one part's map `touched` (`words` per padded row) the chunks of the stencil
@@ -1103,17 +980,17 @@ fn ghost_columns(ghost_row: bool, nx: isize) -> impl Iterator<Item = isize> {
     (-pad..left).chain(right..=nx + pad)
 }
 
-/// The lanes of the transfers: the portable loops, four points per AVX register or eight
-/// per AVX-512 register. All give the same bits (the same operations in the same order per
-/// point, no fused multiply-add).
+/// The lanes of the transfers: the portable loops, or four points per AVX register. Both
+/// give the same bits: the same operations in the same order per point, with a fused
+/// multiply-add (`mul_add`) in the portable loops wherever the lanes fuse one. (Eight
+/// points per AVX-512 register in the gather measured 0.5 % faster on the 2-core Xeon, within
+/// the noise: not kept.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Simd {
     /// One point at a time, in plain Rust (any CPU).
     Portable,
-    /// Four points in the lanes of an AVX register.
+    /// Four points in the lanes of an AVX register (with FMA).
     Avx,
-    /// Eight points in the lanes of an AVX-512 register (the gather; the scatter's nodes).
-    Avx512,
 }
 
 impl Simd {
@@ -1124,9 +1001,6 @@ impl Simd {
             // the lanes use fused multiply-adds where the portable loops use `mul_add`
             if !std::arch::is_x86_feature_detected!("fma") {
                 return Simd::Portable;
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                return Simd::Avx512;
             }
             if std::arch::is_x86_feature_detected!("avx") {
                 return Simd::Avx;
@@ -1337,18 +1211,18 @@ fn scatter4_avx(
     firsts
 }
 
-/// A gather block's sums for the step's figures in eight lanes: point k of the block adds
-/// to lane k mod 8, in point order, whether it is finished alone or in the lanes of a
+/// A gather block's sums for the step's figures in four lanes: point k of the block adds
+/// to lane k mod 4, in point order, whether it is finished alone or in the lanes of a
 /// register, so that every path adds the same numbers in the same order; the lanes are
 /// then added in lane order (`total`).
 #[derive(Default)]
 struct LaneSums {
-    ke: [Real; 8],
-    mass: [Real; 8],
-    px: [Real; 8],
-    py: [Real; 8],
+    ke: [Real; 4],
+    mass: [Real; 4],
+    px: [Real; 4],
+    py: [Real; 4],
     /// The largest squared speed of each lane.
-    s2: [Real; 8],
+    s2: [Real; 4],
 }
 
 impl LaneSums {
@@ -1368,7 +1242,7 @@ impl LaneSums {
     /// The lanes added in order (the largest squared speed, not yet its root).
     fn total(&self) -> FrameFigures {
         let mut f = FrameFigures::default();
-        for l in 0..8 {
+        for l in 0..4 {
             f.kinetic_energy += self.ke[l];
             f.mass += self.mass[l];
             f.momentum.x += self.px[l];

@@ -225,8 +225,8 @@ impl Lagrangian {
     }
 
     /// The most lanes the collocated grid's transfers may use: `Simd::Portable` forces the
-    /// portable loops, `Simd::Avx512` (the default is what the CPU has) the widest; all give
-    /// the same bits. Returns the lanes that will be used.
+    /// portable loops, `Simd::Avx` (the default is what the CPU has) four points per
+    /// register; both give the same bits. Returns the lanes that will be used.
     pub fn set_simd(&mut self, simd: Simd) -> Simd {
         self.simd = simd.min(Simd::available());
         if let Some(c) = self.collocated.as_mut() {
