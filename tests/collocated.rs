@@ -30,13 +30,14 @@ fn frame_mut(sim: &mut Simulation) -> &mut Lagrangian {
     sim.fields[0].frame.as_any_mut().downcast_mut::<Lagrangian>().unwrap()
 }
 
-/// The points' state as bits: positions, velocities, APIC matrices and J.
+/// The points' state as bits: positions, velocities, APIC matrices, J and ∇v.
 fn state_bits(sim: &Simulation) -> Vec<u64> {
     let p = &frame(sim).points;
     let mut out = Vec::new();
     for k in 0..p.len() {
         out.extend([p.x[k].x, p.x[k].y, p.v[k].x, p.v[k].y, p.c_u[k].x, p.c_u[k].y, p.c_v[k].x, p.c_v[k].y]);
         out.push(p.f[k].determinant());
+        out.extend(p.grad_v[k].iter());
     }
     out.iter().map(|x| x.to_bits()).collect()
 }
@@ -85,6 +86,13 @@ fn portable_and_simd_loops_and_thread_counts_give_the_same_bits() {
     let elastic =
         "fields.fluid.stress=[(model: \"linear_elastic\", params: (young_modulus: 400.0, poisson_ratio: 0.3))]";
     assert_same_bits("elastic block", &mpm88(&[elastic]), 800);
+    // ∇v written by the lanes' end of the gather (a volumetric stress that reads it)
+    let probe = "fields.fluid.stress=[(model: \"weakly_compressible\", params: (stiffness: 400.0)), \
+                 (model: \"rate_probe\", params: (volumetric: true))]";
+    assert_same_bits("mpm88 with ∇v", &mpm88(&["time.end=0.08", probe]), 400);
+    // a periodic side along x: whole rows cleared, node n merged into node 0
+    let case = crossing("left: Periodic, right: Periodic, bottom: FreeSlip, top: FreeSlip", [2.0, 0.0]);
+    assert_same_bits("periodic crossing along x", &case, 200);
     let periodic = "left: FreeSlip, right: FreeSlip, bottom: Periodic, top: Periodic";
     let case = crossing_in(periodic, [0.0, 2.0], "(min: (0.31, 0.62), max: (0.71, 0.93))");
     let n = Simulation::new(&case).map(|s| frame(&s).points.len()).unwrap();
@@ -159,10 +167,15 @@ fn a_block_crossing_a_periodic_side_keeps_its_uniform_velocity() {
 }
 
 /// A point stress of zero that reads the points' velocity gradient, so that the
-/// collocated grid writes ∇v at the points (no built-in point stress reads it).
+/// collocated grid writes ∇v at the points (no built-in point stress reads it);
+/// `volumetric`: whether it says it depends on F through J only (then the lanes end the
+/// gather themselves).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RateProbe {}
+struct RateProbe {
+    #[serde(default)]
+    volumetric: bool,
+}
 
 impl RateProbe {
     fn validate(&mut self) -> Result<(), String> {
@@ -175,10 +188,13 @@ impl StressModel for RateProbe {
         "rate_probe"
     }
     fn params(&self) -> serde_json::Value {
-        serde_json::json!({})
+        serde_json::json!({ "volumetric": self.volumetric })
     }
     fn acts_on_points(&self) -> bool {
         true
+    }
+    fn volumetric_only(&self) -> bool {
+        self.volumetric
     }
     fn point_stress(&self, _ctx: &mut PointStressContext) {}
 }
@@ -194,7 +210,9 @@ multifield::core::register!(Stress, "rate_probe", RateProbe, "test: a zero point
 #[test]
 #[allow(clippy::needless_range_loop)] // indexes the points and their start positions
 fn apic_carries_a_rigid_rotation_exactly() {
-    for stress in ["[]", "[(model: \"rate_probe\", params: ())]"] {
+    for stress in
+        ["[]", "[(model: \"rate_probe\", params: ())]", "[(model: \"rate_probe\", params: (volumetric: true))]"]
+    {
         let mut grad_v_bits = Vec::new();
         for simd in [Simd::Portable, Simd::available()] {
             let gv = rotation_step(stress, simd);

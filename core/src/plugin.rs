@@ -456,7 +456,8 @@ pub trait StressModel: Send + Sync {
     /// ([`PointStressContext::velocity_gradient`]; a rate-dependent stress). A frame may
     /// leave ∇v at the points unwritten when no point-stress model of the field reads it
     /// (the collocated grid does: a quarter of the bytes its gather stores). Default: true,
-    /// so that a model that does not say is given ∇v.
+    /// so that a model that does not say is given ∇v. A model that returns false but reads
+    /// ∇v gets stale values (zero on the collocated grid), with no error.
     fn uses_velocity_gradient(&self) -> bool {
         true
     }

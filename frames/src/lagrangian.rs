@@ -63,7 +63,10 @@ pub struct Points {
     pub vol0: Vec<Real>,
     /// Deformation gradients.
     pub f: Vec<Matrix>,
-    /// Velocity gradients of the last step.
+    /// Velocity gradients of the last step. On the collocated grid they are written only
+    /// when a point-stress model of the field reads them
+    /// (`StressModel::uses_velocity_gradient`); otherwise they keep their last value (zero
+    /// from the start).
     pub grad_v: Vec<Matrix>,
     /// Cauchy stress of the last evaluation.
     pub stress: Vec<Matrix>,
@@ -226,7 +229,8 @@ impl Lagrangian {
 
     /// The most lanes the collocated grid's transfers may use: `Simd::Portable` forces the
     /// portable loops, `Simd::Avx` (the default is what the CPU has) four points per
-    /// register; both give the same bits. Returns the lanes that will be used.
+    /// register; both give the same bits. Returns the most lanes that will be used: after a
+    /// step that was not finite the portable loops run until one is.
     pub fn set_simd(&mut self, simd: Simd) -> Simd {
         self.simd = simd.min(Simd::available());
         if let Some(c) = self.collocated.as_mut() {
