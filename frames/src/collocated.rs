@@ -444,7 +444,7 @@ impl Collocated {
             .zip(self.vel[lo * width..hi * width].par_chunks_mut(width))
             .zip(masks.par_chunks(words))
             .enumerate()
-            // rows of a few chunks each: eight to a task (2 threads, mpm88: 13.7 against 14.7 us a step)
+            // rows of a few chunks each: eight to a task (2 threads, mpm88: 13.7 against 14.8 us a step)
             .with_min_len(8)
             .for_each(|(k, (((a0, a1), vel), mask))| {
                 let j = lo + k - PAD;
