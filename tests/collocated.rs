@@ -116,28 +116,44 @@ fn crossing(boundaries: &str, velocity: [Real; 2]) -> Case {
 
 /// `crossing` with the block in `region`.
 fn crossing_in(boundaries: &str, velocity: [Real; 2], region: &str) -> Case {
+    let velocity = format!("Uniform(({}, {}))", velocity[0], velocity[1]);
+    let stress = "[(model: \"weakly_compressible\", params: (stiffness: 400.0))]";
+    lone_block("crossing", boundaries, 0.2, 3, region, &velocity, stress)
+}
+
+/// A block of fluid alone in a unit box of 32 × 32 cells on the collocated grid, with no
+/// gravity and Δt = 1e-3: `points_per_cell` along each axis, in the rectangle `region`
+/// (RON), with initial `velocity` and `stress` (RON).
+fn lone_block(
+    name: &str,
+    boundaries: &str,
+    end: Real,
+    points_per_cell: usize,
+    region: &str,
+    velocity: &str,
+    stress: &str,
+) -> Case {
     multifield::link_all();
     let text = format!(
         r#"(
-    name: "crossing",
+    name: "{name}",
     domain: (size: (1.0, 1.0), cells: (32, 32)),
     boundaries: ({boundaries}),
     gravity: (0.0, 0.0),
-    time: (end: 0.2, max_dt: 1e-3, fixed_dt: Some(1e-3)),
+    time: (end: {end}, max_dt: 1e-3, fixed_dt: Some(1e-3)),
     fields: [(
         name: "fluid",
         density: 1.0,
-        frame: (model: "lagrangian", params: (points_per_cell: 3, shape: "quadratic", transfer: "apic", grid: "collocated")),
+        frame: (model: "lagrangian", params: (points_per_cell: {points_per_cell}, shape: "quadratic", transfer: "apic", grid: "collocated")),
         region: Rectangle{region},
-        velocity: Uniform(({}, {})),
-        stress: [(model: "weakly_compressible", params: (stiffness: 400.0))],
+        velocity: {velocity},
+        stress: {stress},
     )],
     pressure: None,
     output: (interval: 0.01),
-)"#,
-        velocity[0], velocity[1]
+)"#
     );
-    Case::from_ron(&text, Path::new("crossing.ron")).unwrap()
+    Case::from_ron(&text, Path::new(&format!("{name}.ron"))).unwrap()
 }
 
 /// APIC carries a uniform velocity exactly, so a block translating through a periodic side
@@ -239,27 +255,10 @@ fn apic_carries_a_rigid_rotation_exactly() {
 /// the points' ∇v.
 #[allow(clippy::needless_range_loop)] // indexes the points and their start positions
 fn rotation_step(stress: &str, simd: Simd) -> Vec<nalgebra::Matrix2<Real>> {
-    multifield::link_all();
-    let text = format!(
-        r#"(
-    name: "spin",
-    domain: (size: (1.0, 1.0), cells: (32, 32)),
-    boundaries: (left: FreeSlip, right: FreeSlip, bottom: FreeSlip, top: FreeSlip),
-    gravity: (0.0, 0.0),
-    time: (end: 0.01, max_dt: 1e-3, fixed_dt: Some(1e-3)),
-    fields: [(
-        name: "fluid",
-        density: 1.0,
-        frame: (model: "lagrangian", params: (points_per_cell: 2, shape: "quadratic", transfer: "apic", grid: "collocated")),
-        region: Rectangle(min: (0.3, 0.3), max: (0.7, 0.6)),
-        velocity: RigidRotation(center: (0.45, 0.5), angular_velocity: 2.0),
-        stress: {stress},
-    )],
-    pressure: None,
-    output: (interval: 0.01),
-)"#
-    );
-    let case = Case::from_ron(&text, Path::new("spin.ron")).unwrap();
+    let walls = "left: FreeSlip, right: FreeSlip, bottom: FreeSlip, top: FreeSlip";
+    let region = "(min: (0.3, 0.3), max: (0.7, 0.6))";
+    let velocity = "RigidRotation(center: (0.45, 0.5), angular_velocity: 2.0)";
+    let case = lone_block("spin", walls, 0.01, 2, region, velocity, stress);
     let mut sim = Simulation::new(&case).unwrap();
     assert_eq!(frame_mut(&mut sim).set_simd(simd), simd);
     let (w, c, dt) = (2.0, Vector::new(0.45, 0.5), 1e-3);

@@ -531,27 +531,21 @@ impl Collocated {
             .zip(pts.c_u.par_chunks_mut(BLOCK).zip(pts.c_v.par_chunks_mut(BLOCK)))
             .zip(m.par_chunks(BLOCK))
             .map(|((((x, v), (f, gv)), (cu, cv)), m)| {
+                let mut block = Outs { x, v, f, gv, cu, cv };
                 let mut sums = LaneSums::default();
                 let mut k0 = 0;
-                while k0 < x.len() {
+                while k0 < m.len() {
                     // four points at a time with AVX, then one at a time
-                    let n = if simd == Simd::Avx && x.len() - k0 >= 4 { 4 } else { 1 };
+                    let n = if simd == Simd::Avx && m.len() - k0 >= 4 { 4 } else { 1 };
                     let r = k0..k0 + n;
                     k0 += n;
                     #[cfg(target_arch = "x86_64")]
                     if n > 1 {
+                        let x = &block.x;
                         let xs = [x[r.start], x[r.start + 1], x[r.start + 2], x[r.start + 3]];
                         let mut raw = [[0.0; 10]; 4];
-                        let out = Outs {
-                            x: &mut x[r.clone()],
-                            v: &mut v[r.clone()],
-                            f: &mut f[r.clone()],
-                            gv: &mut gv[r.clone()],
-                            cu: &mut cu[r.clone()],
-                            cv: &mut cv[r.clone()],
-                        };
                         let mut sink = if lanes_finish {
-                            Sink::Finish { fin: &fin, out, m: &m[r.clone()], sums: &mut sums }
+                            Sink::Finish { fin: &fin, out: block.four(r.clone()), m: &m[r.clone()], sums: &mut sums }
                         } else {
                             Sink::Raw(&mut raw)
                         };
@@ -559,31 +553,15 @@ impl Collocated {
                         unsafe { self.gather4_avx(grid, &xs, &mut sink) };
                         if !lanes_finish {
                             for (k, r) in r.zip(&raw) {
-                                let out = Out {
-                                    x: &mut x[k],
-                                    v: &mut v[k],
-                                    f: &mut f[k],
-                                    gv: &mut gv[k],
-                                    cu: &mut cu[k],
-                                    cv: &mut cv[k],
-                                };
                                 // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-                                unsafe { finish_point_fma(&fin, r, m[k], out, k % 4, &mut sums) };
+                                unsafe { finish_point_fma(&fin, r, m[k], block.point(k), k % 4, &mut sums) };
                             }
                         }
                         continue;
                     }
                     let k = r.start;
-                    let raw = self.gather_point(grid, x[k]);
-                    let out = Out {
-                        x: &mut x[k],
-                        v: &mut v[k],
-                        f: &mut f[k],
-                        gv: &mut gv[k],
-                        cu: &mut cu[k],
-                        cv: &mut cv[k],
-                    };
-                    finish_point(&fin, &raw, m[k], out, k % 4, &mut sums);
+                    let raw = self.gather_point(grid, block.x[k]);
+                    finish_point(&fin, &raw, m[k], block.point(k), k % 4, &mut sums);
                 }
                 sums.total()
             })
@@ -739,8 +717,7 @@ impl Sink<'_> {
     }
 }
 
-/// What the end of four points' gathers writes.
-#[cfg(target_arch = "x86_64")]
+/// What the end of the gathers of a run of points writes (a block, or four of its points).
 struct Outs<'a> {
     x: &'a mut [Vector],
     v: &'a mut [Vector],
@@ -748,6 +725,33 @@ struct Outs<'a> {
     gv: &'a mut [Matrix],
     cu: &'a mut [Vector],
     cv: &'a mut [Vector],
+}
+
+impl Outs<'_> {
+    /// Point `k`'s share.
+    fn point(&mut self, k: usize) -> Out<'_> {
+        Out {
+            x: &mut self.x[k],
+            v: &mut self.v[k],
+            f: &mut self.f[k],
+            gv: &mut self.gv[k],
+            cu: &mut self.cu[k],
+            cv: &mut self.cv[k],
+        }
+    }
+
+    /// The points `r`'s shares.
+    #[cfg(target_arch = "x86_64")]
+    fn four(&mut self, r: std::ops::Range<usize>) -> Outs<'_> {
+        Outs {
+            x: &mut self.x[r.clone()],
+            v: &mut self.v[r.clone()],
+            f: &mut self.f[r.clone()],
+            gv: &mut self.gv[r.clone()],
+            cu: &mut self.cu[r.clone()],
+            cv: &mut self.cv[r],
+        }
+    }
 }
 /// `finish_point` for four points of a `volumetric_only` field with walls on every side,
 /// one point per lane, from their sums `r` (the registers of `gather_point`'s ten sums) and
