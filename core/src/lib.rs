@@ -15,6 +15,7 @@ pub mod exchange;
 pub mod field;
 pub mod geometry;
 pub mod grid;
+pub mod immersed;
 pub mod math;
 pub mod plugin;
 pub mod poisson;
