@@ -224,11 +224,27 @@ fn a_fixed_step_beyond_a_stable_limit_is_reported() {
         .unwrap();
     let sim = Simulation::new(&case).unwrap();
     assert_eq!(sim.choose_dt(), (0.01, "fixed".to_string()));
-    let case = case.with_overrides(&["time.fixed_dt=0.08".into(), "time.max_dt=0.08".into()]).unwrap();
-    let sim = Simulation::new(&case).unwrap();
+    // the explicit viscosity's limit; Crank–Nicolson's (the default) is an accuracy bound of
+    // diffusion number νΔt/h² ≤ 2, 2 h²/ν ≈ 0.617 here
+    let explicit = case
+        .with_overrides(&[
+            "time.fixed_dt=0.08".into(),
+            "time.max_dt=0.08".into(),
+            "fields.fluid.frame.params.diffusion=\"explicit\"".into(),
+        ])
+        .unwrap();
+    let sim = Simulation::new(&explicit).unwrap();
     let (dt, label) = sim.choose_dt();
     assert_eq!(dt, 0.08);
     let h = std::f64::consts::TAU / 16.0;
     let limit = 0.9 * h * h / (4.0 * 0.5);
+    assert_eq!(label, format!("fixed (exceeds the newtonian(fluid) limit {limit:.3e})"));
+    let case = case.with_overrides(&["time.fixed_dt=0.08".into(), "time.max_dt=0.08".into()]).unwrap();
+    assert_eq!(Simulation::new(&case).unwrap().choose_dt(), (0.08, "fixed".to_string()));
+    // at ν = 5 the Crank–Nicolson bound 2 h²/ν ≈ 0.0617 binds before the CFL's
+    let case = case.with_overrides(&["fields.fluid.stress.0.params.viscosity=5.0".into()]).unwrap();
+    let (dt, label) = Simulation::new(&case).unwrap().choose_dt();
+    assert_eq!(dt, 0.08);
+    let limit = 2.0 * h * h / 5.0;
     assert_eq!(label, format!("fixed (exceeds the newtonian(fluid) limit {limit:.3e})"));
 }

@@ -140,9 +140,12 @@ pub trait Frame: Send + Sync {
     /// Step 1–2: mass, velocity, volume fraction (and internal forces of point stresses)
     /// onto the grid state; must also set `state.velocity_old`.
     fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String>;
-    /// Step 3: the frame's own part of the predictor (advection for an Eulerian field).
-    fn predict(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {
-        Ok(())
+    /// Step 3: the frame's predictor: its own terms (advection for an Eulerian field) and
+    /// the field's grid stresses ([`StressModel::apply_on_grid`]), in the frame's own time
+    /// discretisation; the core adds Δt g afterwards. Default: the grid stresses applied
+    /// once to the provisional velocity ([`apply_grid_stresses`]).
+    fn predict(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        apply_grid_stresses(ctx, ctx.dt)
     }
     /// Step 7: take the corrected grid velocity back (grid to particles, point stresses).
     #[allow(clippy::wrong_self_convention)]
@@ -168,6 +171,13 @@ pub trait Frame: Send + Sync {
     /// nothing.
     fn refresh_grid_state(&mut self, _ctx: &mut FrameContext) -> Result<(), String> {
         Ok(())
+    }
+    /// The largest diffusion number νΔt/h² of these stress models' viscosity when the frame
+    /// integrates it implicitly (the Eulerian frame's Crank–Nicolson), which replaces their
+    /// explicit Δt limits ([`TimeStepContext::implicit_viscosity`]); `None` (the default):
+    /// the frame leaves them explicit.
+    fn implicit_diffusion_number(&self, _stress: &[Box<dyn StressModel>]) -> Option<Real> {
+        None
     }
     /// Largest speed, for the CFL limit.
     fn max_speed(&self) -> Real;
@@ -205,6 +215,22 @@ pub trait Frame: Send + Sync {
             self.model()
         ))
     }
+}
+
+/// Applies every grid stress of the field ([`StressModel::apply_on_grid`]), in order, to
+/// `ctx.state.velocity` for a step of `dt`; an error names the model.
+pub fn apply_grid_stresses(ctx: &mut FrameContext, dt: Real) -> Result<(), String> {
+    for m in ctx.stress {
+        let mut sc = GridStressContext {
+            grid: ctx.grid,
+            boundaries: ctx.boundaries,
+            dt,
+            density: ctx.density,
+            state: &mut *ctx.state,
+        };
+        m.apply_on_grid(&mut sc).map_err(|e| format!("stress `{}`: {e}", m.model()))?;
+    }
+    Ok(())
 }
 
 /// Encoder of checkpoint state: little-endian `u64` and `f64`, length-prefixed arrays,
@@ -392,6 +418,10 @@ pub struct TimeStepContext<'a> {
     pub density: Real,
     /// Largest speed in the field.
     pub max_speed: Real,
+    /// When the field's frame integrates a Newtonian viscosity implicitly, the largest
+    /// diffusion number νΔt/h² it takes ([`Frame::implicit_diffusion_number`]), in place
+    /// of the explicit viscous limit.
+    pub implicit_viscosity: Option<Real>,
 }
 
 /// A grid-level stress evaluation (viscosity on face velocities).
@@ -460,6 +490,12 @@ pub trait StressModel: Send + Sync {
     /// ∇v gets stale values (zero on the collocated grid), with no error.
     fn uses_velocity_gradient(&self) -> bool {
         true
+    }
+    /// The dynamic viscosity μ of a Newtonian stress σ = 2μD, whose [`StressModel::apply_on_grid`]
+    /// is `u ← u + Δt (μ/ρ⁰) ∇²u`: a frame may integrate it implicitly instead
+    /// ([`Frame::implicit_diffusion_number`]). Default: `None` (not Newtonian).
+    fn newtonian_viscosity(&self) -> Option<Real> {
+        None
     }
     /// Whether this model makes the field's bodies move rigidly.
     fn is_rigid(&self) -> bool {

@@ -13,8 +13,7 @@ use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
     BodyState, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
-    FrameFigures, GridStressContext, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel,
-    TimeStepContext,
+    FrameFigures, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel, TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -564,7 +563,12 @@ impl Simulation {
             best = (cfl, "cfl".into());
         }
         for f in &self.fields {
-            let ctx = TimeStepContext { grid: &self.grid, density: f.density, max_speed: f.frame.max_speed() };
+            let ctx = TimeStepContext {
+                grid: &self.grid,
+                density: f.density,
+                max_speed: f.frame.max_speed(),
+                implicit_viscosity: f.frame.implicit_diffusion_number(&f.stress),
+            };
             for s in &f.stress {
                 if let Some(dt) = s.stable_dt(&ctx) {
                     if dt < best.0 {
@@ -775,23 +779,13 @@ impl Simulation {
         err
     }
 
-    /// Phase 3: frame predictors (advection), grid stresses, gravity.
+    /// Phase 3: frame predictors (advection and grid stresses, in each frame's own time
+    /// discretisation), then gravity.
     fn predictor(&mut self, dt: Real) -> Result<()> {
         self.frame_phase(dt, "predictor", |fr, ctx| fr.predict(ctx))?;
         let g = self.gravity;
         for f in &mut self.fields {
             let s = &mut f.state;
-            for m in &f.stress {
-                let mut ctx = GridStressContext {
-                    grid: &self.grid,
-                    boundaries: &self.boundaries,
-                    dt,
-                    density: f.density,
-                    state: s,
-                };
-                m.apply_on_grid(&mut ctx)
-                    .map_err(|e| Error::Model(format!("stress `{}` of field `{}`: {e}", m.model(), f.name)))?;
-            }
             // gravity after the stresses: a viscous stencil must not act on the gravity
             // increment Δt g, which the pressure cancels at rest (hydrostatic box with walls)
             s.velocity.u.iter_mut().for_each(|u| *u += dt * g.x);

@@ -13,6 +13,7 @@ pub mod lagrangian;
 pub mod mass_point;
 pub mod scatter;
 pub mod shape;
+pub mod viscous;
 
 /// The frame names this crate registers.
 pub const SHIPPED: &[&str] = &["eulerian", "lagrangian", "mass_point"];

@@ -185,7 +185,9 @@ mod tests {
     fn stable_dt_is_the_wave_speed_limit() {
         let m = model();
         let grid = Grid::new(20, 20, 0.05, Vector::zeros());
-        let dt = m.stable_dt(&TimeStepContext { grid: &grid, density: 1000.0, max_speed: 0.2 }).unwrap();
+        let dt = m
+            .stable_dt(&TimeStepContext { grid: &grid, density: 1000.0, max_speed: 0.2, implicit_viscosity: None })
+            .unwrap();
         let c = ((m.bulk_modulus + 4.0 * m.mu / 3.0) / 1000.0).sqrt();
         assert!((dt - 0.4 * 0.05 / (c + 0.2)).abs() < 1e-15);
     }

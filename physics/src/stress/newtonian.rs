@@ -56,8 +56,15 @@ impl StressModel for Newtonian {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn newtonian_viscosity(&self) -> Option<Real> {
+        Some(self.viscosity)
+    }
     fn stable_dt(&self, ctx: &TimeStepContext) -> Option<Real> {
-        (self.viscosity > 0.0).then(|| self.safety * ctx.grid.h * ctx.grid.h * ctx.density / (4.0 * self.viscosity))
+        let h2 = ctx.grid.h * ctx.grid.h;
+        (self.viscosity > 0.0).then(|| match ctx.implicit_viscosity {
+            Some(k) => k * h2 * ctx.density / self.viscosity,
+            None => self.safety * h2 * ctx.density / (4.0 * self.viscosity),
+        })
     }
     fn apply_on_grid(&self, ctx: &mut GridStressContext) -> Result<(), String> {
         if self.viscosity == 0.0 {

@@ -228,10 +228,14 @@ mod tests {
     fn stable_dt_is_the_sound_speed_limit() {
         let m = model();
         let grid = Grid::new(128, 128, 1.0 / 128.0, Vector::zeros());
-        let dt = m.stable_dt(&TimeStepContext { grid: &grid, density: 1.0, max_speed: 0.0 }).unwrap();
+        let dt = m
+            .stable_dt(&TimeStepContext { grid: &grid, density: 1.0, max_speed: 0.0, implicit_viscosity: None })
+            .unwrap();
         // c = sqrt(400/1) = 20: Δt = 0.5 h / 20
         assert!((dt - 0.5 / 128.0 / 20.0).abs() < 1e-15);
-        let dt = m.stable_dt(&TimeStepContext { grid: &grid, density: 4.0, max_speed: 3.0 }).unwrap();
+        let dt = m
+            .stable_dt(&TimeStepContext { grid: &grid, density: 4.0, max_speed: 3.0, implicit_viscosity: None })
+            .unwrap();
         assert!((dt - 0.5 / 128.0 / (10.0 + 3.0)).abs() < 1e-15);
     }
 

@@ -1,0 +1,428 @@
+//! Implicit viscosity on the MAC faces: the 5-point Laplacian of a velocity component with
+//! the boundary ghosts of the explicit `newtonian` stencil, and the solve of
+//!
+//! ```text
+//!   (I − c L) x = r,    c = (Δt/2) ν / h²,  L u = Σ_neighbours u − 4 u
+//! ```
+//!
+//! for the Crank–Nicolson (and midpoint backward-Euler) steps of the Eulerian frame.
+//!
+//! Neighbours of a face are other faces of its lattice (wrapped on periodic sides; face n of
+//! a periodic lattice is face 0), a fixed face (wall or inflow; its value is known), or a
+//! ghost half a cell beyond a wall, `α u + β`: −u on a no-slip wall, u on a free-slip wall,
+//! outflow or along the normal at an outflow, 2 u_w − u on a moving wall. The fixed faces
+//! and the periodic copies are not unknowns. The operator on the unknowns is symmetric and
+//! strictly diagonally dominant (diagonal 1 + c (4 − Σα) ≥ 1 + c · #faces), so a
+//! Jacobi-preconditioned conjugate gradient converges in a few iterations for the usual
+//! c ≲ 1. Every loop writes disjoint faces and every dot product sums fixed chunks in order:
+//! the same bits on any number of threads.
+
+use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::grid::Grid;
+use multifield_core::math::Real;
+use rayon::prelude::*;
+
+/// One of the four neighbours of a face in the Laplacian.
+#[derive(Clone, Copy, Debug)]
+enum Neighbour {
+    /// An unknown face of the lattice.
+    Face(u32),
+    /// A fixed face: its value is read from the array and is a constant of the solve.
+    Known(u32),
+    /// A ghost α u_self + β beyond a wall.
+    Ghost(Real, Real),
+}
+
+/// The Laplacian of one face lattice and the work space of its solves.
+#[derive(Clone, Debug, Default)]
+struct LatticeOperator {
+    /// Whether each face is an unknown.
+    active: Vec<bool>,
+    /// The four neighbours of each face (unused for inactive faces).
+    neighbours: Vec<[Neighbour; 4]>,
+    /// Periodic copies: (copy, master) pairs, set after each solve.
+    copies: Vec<(usize, usize)>,
+    r: Vec<Real>,
+    z: Vec<Real>,
+    p: Vec<Real>,
+    q: Vec<Real>,
+    b: Vec<Real>,
+    inverse_diagonal: Vec<Real>,
+}
+
+/// Chunk length of the ordered reductions.
+const CHUNK: usize = 4096;
+
+impl LatticeOperator {
+    /// The operator of the x-face lattice (`x_faces`) or the y-face lattice.
+    fn new(grid: &Grid, bc: &Boundaries, x_faces: bool) -> Self {
+        let (nx, ny) = (grid.nx, grid.ny);
+        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        // lattice shape and the index of node (i, j); the normal axis is x for x-faces
+        let (cols, rows) = if x_faces { (nx + 1, ny) } else { (nx, ny + 1) };
+        let idx = |i: usize, j: usize| (i + j * cols) as u32;
+        let n = cols * rows;
+        let mut active = vec![true; n];
+        let mut copies = Vec::new();
+        for j in 0..rows {
+            for i in 0..cols {
+                let k = idx(i, j) as usize;
+                let (fixed, copy) = if x_faces {
+                    (bc.xface_fixed(grid, i), px && i == nx)
+                } else {
+                    (bc.yface_fixed(grid, j), py && j == ny)
+                };
+                if copy {
+                    copies.push((k, if x_faces { idx(0, j) } else { idx(i, 0) } as usize));
+                }
+                active[k] = !(fixed || copy);
+            }
+        }
+        let face = |i: usize, j: usize| {
+            let (i, j) = if x_faces && px && i == nx {
+                (0, j)
+            } else if !x_faces && py && j == ny {
+                (i, 0)
+            } else {
+                (i, j)
+            };
+            let k = idx(i, j);
+            if active[k as usize] {
+                Neighbour::Face(k)
+            } else {
+                Neighbour::Known(k)
+            }
+        };
+        let ghost = |side: Side, s: Real| {
+            let beta = bc.tangential_ghost(side, 0.0, s);
+            Neighbour::Ghost(bc.tangential_ghost(side, 1.0, s) - beta, beta)
+        };
+        let mut neighbours = vec![[Neighbour::Ghost(0.0, 0.0); 4]; n];
+        for j in 0..rows {
+            for i in 0..cols {
+                let k = idx(i, j) as usize;
+                if !active[k] {
+                    continue;
+                }
+                // along the component (normal neighbours): the next faces, or at an open end
+                // (outflow) the face itself; across it (tangential): the next faces or a ghost
+                let nb = if x_faces {
+                    let sx = i as Real / nx as Real;
+                    let west = if i > 0 {
+                        face(i - 1, j)
+                    } else if px {
+                        face(nx - 1, j)
+                    } else {
+                        Neighbour::Ghost(1.0, 0.0)
+                    };
+                    let east = if i < nx { face(i + 1, j) } else { Neighbour::Ghost(1.0, 0.0) };
+                    let south = if j > 0 {
+                        face(i, j - 1)
+                    } else if py {
+                        face(i, ny - 1)
+                    } else {
+                        ghost(Side::Bottom, sx)
+                    };
+                    let north = if j + 1 < ny {
+                        face(i, j + 1)
+                    } else if py {
+                        face(i, 0)
+                    } else {
+                        ghost(Side::Top, sx)
+                    };
+                    [west, east, south, north]
+                } else {
+                    let sy = j as Real / ny as Real;
+                    let south = if j > 0 {
+                        face(i, j - 1)
+                    } else if py {
+                        face(i, ny - 1)
+                    } else {
+                        Neighbour::Ghost(1.0, 0.0)
+                    };
+                    let north = if j < ny { face(i, j + 1) } else { Neighbour::Ghost(1.0, 0.0) };
+                    let west = if i > 0 {
+                        face(i - 1, j)
+                    } else if px {
+                        face(nx - 1, j)
+                    } else {
+                        ghost(Side::Left, sy)
+                    };
+                    let east = if i + 1 < nx {
+                        face(i + 1, j)
+                    } else if px {
+                        face(0, j)
+                    } else {
+                        ghost(Side::Right, sy)
+                    };
+                    [west, east, south, north]
+                };
+                neighbours[k] = nb;
+            }
+        }
+        LatticeOperator { active, neighbours, copies, ..Default::default() }
+    }
+
+    /// `out = L u` on the unknown faces (0 elsewhere), with the fixed faces' values from `u`.
+    fn laplacian(&self, u: &[Real], out: &mut [Real]) {
+        let (act, nb) = (&self.active, &self.neighbours);
+        out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
+            for (o, y) in out.iter_mut().enumerate() {
+                let k = c * CHUNK + o;
+                *y = if act[k] { stencil(&nb[k], u, u[k], true) - 4.0 * u[k] } else { 0.0 };
+            }
+        });
+    }
+
+    /// `out = (I − c L₀) x` on the unknown faces: the linear part of the operator (fixed
+    /// faces and ghost offsets β left out), 0 elsewhere.
+    fn apply(&self, c: Real, x: &[Real], out: &mut [Real]) {
+        let (act, nb) = (&self.active, &self.neighbours);
+        out.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
+            for (o, y) in out.iter_mut().enumerate() {
+                let k = ch * CHUNK + o;
+                *y = if act[k] { x[k] - c * (stencil(&nb[k], x, x[k], false) - 4.0 * x[k]) } else { 0.0 };
+            }
+        });
+    }
+
+    /// The diagonal of `(I − c L₀)` at face `k`.
+    fn diagonal(&self, c: Real, k: usize) -> Real {
+        let alpha: Real =
+            self.neighbours[k].iter().map(|n| if let Neighbour::Ghost(a, _) = n { *a } else { 0.0 }).sum();
+        1.0 + c * (4.0 - alpha)
+    }
+
+    /// Solves `(I − c L) x = rhs` for the unknown faces of `x` (the fixed faces of `x` hold
+    /// their values and are kept; the periodic copies are set from their masters), by
+    /// Jacobi-preconditioned conjugate gradients from the initial guess in `x`, to a
+    /// residual of `tolerance` relative to the right-hand side. Returns the iterations.
+    fn solve(&mut self, c: Real, rhs: &[Real], x: &mut [Real], tolerance: Real) -> Result<usize, String> {
+        let n = x.len();
+        for v in [&mut self.r, &mut self.z, &mut self.p, &mut self.q, &mut self.b, &mut self.inverse_diagonal] {
+            v.resize(n, 0.0);
+        }
+        // b = rhs + c (known neighbours + ghost offsets), the constant part moved right
+        let (act, nb) = (&self.active, &self.neighbours);
+        let known: &[Real] = x;
+        let mut b = std::mem::take(&mut self.b);
+        b.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
+            for (o, y) in out.iter_mut().enumerate() {
+                let k = ch * CHUNK + o;
+                *y = if act[k] { rhs[k] + c * constants(&nb[k], known) } else { 0.0 };
+            }
+        });
+        let mut diag = std::mem::take(&mut self.inverse_diagonal);
+        for (k, d) in diag.iter_mut().enumerate() {
+            *d = if act[k] { 1.0 / self.diagonal(c, k) } else { 0.0 };
+        }
+        let norm_b = dot(&b, &b).sqrt();
+        let mut q = std::mem::take(&mut self.q);
+        self.apply(c, x, &mut q);
+        let (r, z, p) = (&mut self.r, &mut self.z, &mut self.p);
+        for k in 0..n {
+            r[k] = b[k] - q[k];
+            z[k] = diag[k] * r[k];
+            p[k] = z[k];
+        }
+        let mut rz = dot(r, z);
+        let mut iterations = 0;
+        let target = tolerance * norm_b;
+        while dot(r, r).sqrt() > target {
+            if iterations >= 1000 {
+                let residual = dot(r, r).sqrt();
+                (self.q, self.b, self.inverse_diagonal) = (q, b, diag);
+                return Err(format!(
+                    "the implicit viscous solve did not converge in 1000 iterations (residual {residual:.2e} \
+                     of {norm_b:.2e})"
+                ));
+            }
+            let p_ref: &[Real] = p;
+            // q = A p
+            let (act, nb) = (&self.active, &self.neighbours);
+            q.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
+                for (o, y) in out.iter_mut().enumerate() {
+                    let k = ch * CHUNK + o;
+                    *y = if act[k] {
+                        p_ref[k] - c * (stencil(&nb[k], p_ref, p_ref[k], false) - 4.0 * p_ref[k])
+                    } else {
+                        0.0
+                    };
+                }
+            });
+            let alpha = rz / dot(p, &q);
+            if !alpha.is_finite() {
+                break;
+            }
+            x.par_iter_mut().zip(p.par_iter()).zip(act.par_iter()).with_min_len(CHUNK).for_each(|((x, p), a)| {
+                if *a {
+                    *x += alpha * p;
+                }
+            });
+            r.par_iter_mut().zip(q.par_iter()).with_min_len(CHUNK).for_each(|(r, q)| *r -= alpha * q);
+            z.par_iter_mut()
+                .zip(r.par_iter().zip(diag.par_iter()))
+                .with_min_len(CHUNK)
+                .for_each(|(z, (r, d))| *z = d * r);
+            let rz_new = dot(r, z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            p.par_iter_mut().zip(z.par_iter()).with_min_len(CHUNK).for_each(|(p, z)| *p = z + beta * *p);
+            iterations += 1;
+        }
+        (self.q, self.b, self.inverse_diagonal) = (q, b, diag);
+        for &(copy, master) in &self.copies {
+            x[copy] = x[master];
+        }
+        Ok(iterations)
+    }
+}
+
+/// Σ over the neighbours of the values they stand for, at a face of value `own`: unknown
+/// faces and (with `constants`) fixed faces from `u`, ghosts α own (+ β with `constants`).
+#[inline]
+fn stencil(nb: &[Neighbour; 4], u: &[Real], own: Real, constants: bool) -> Real {
+    let mut s = 0.0;
+    for n in nb {
+        s += match *n {
+            Neighbour::Face(i) => u[i as usize],
+            Neighbour::Known(i) if constants => u[i as usize],
+            Neighbour::Known(_) => 0.0,
+            Neighbour::Ghost(a, b) => a * own + if constants { b } else { 0.0 },
+        };
+    }
+    s
+}
+
+/// Σ over the neighbours of their constant parts: fixed faces' values and ghost offsets β.
+#[inline]
+fn constants(nb: &[Neighbour; 4], u: &[Real]) -> Real {
+    nb.iter()
+        .map(|n| match *n {
+            Neighbour::Known(i) => u[i as usize],
+            Neighbour::Ghost(_, b) => b,
+            Neighbour::Face(_) => 0.0,
+        })
+        .sum()
+}
+
+/// Σ a b, summed in fixed chunks in order (the same bits on any number of threads).
+fn dot(a: &[Real], b: &[Real]) -> Real {
+    let parts: Vec<Real> =
+        a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)).map(|(a, b)| a.iter().zip(b).map(|(x, y)| x * y).sum()).collect();
+    parts.iter().sum()
+}
+
+/// The Laplacians and solves of both face lattices of a grid.
+#[derive(Clone, Debug, Default)]
+pub struct FaceDiffusion {
+    x: LatticeOperator,
+    y: LatticeOperator,
+}
+
+impl FaceDiffusion {
+    /// The operators of `grid` under `bc`.
+    pub fn new(grid: &Grid, bc: &Boundaries) -> Self {
+        Self { x: LatticeOperator::new(grid, bc, true), y: LatticeOperator::new(grid, bc, false) }
+    }
+
+    /// `out = L u` (Σ neighbours − 4 u, without the 1/h²) on the unknown faces of the
+    /// x-face lattice (`x_faces`) or the y-face lattice, 0 on the others.
+    pub fn laplacian(&self, x_faces: bool, u: &[Real], out: &mut [Real]) {
+        if x_faces { &self.x } else { &self.y }.laplacian(u, out);
+    }
+
+    /// Whether face `k` of a lattice is an unknown (neither fixed nor a periodic copy).
+    pub fn is_unknown(&self, x_faces: bool, k: usize) -> bool {
+        if x_faces { &self.x } else { &self.y }.active[k]
+    }
+
+    /// Solves `(I − c L) x = rhs` on a lattice (see the module doc); `x` holds the initial
+    /// guess and the fixed faces' values. Returns the iterations.
+    pub fn solve(&mut self, x_faces: bool, c: Real, rhs: &[Real], x: &mut [Real]) -> Result<usize, String> {
+        if x_faces { &mut self.x } else { &mut self.y }.solve(c, rhs, x, 1e-13)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use multifield_core::boundary::{Boundary, Profile};
+    use multifield_core::math::Vector;
+
+    fn boundaries() -> Boundaries {
+        Boundaries {
+            left: Boundary::Periodic,
+            right: Boundary::Periodic,
+            bottom: Boundary::NoSlip,
+            top: Boundary::Velocity { velocity: [2.0, 0.0], profile: Profile::Uniform },
+        }
+    }
+
+    /// The solve inverts the operator: (I − c L) x = rhs to round-off, for a lattice with
+    /// periodic, no-slip and moving-wall sides, and for an outflow.
+    #[test]
+    fn the_solve_inverts_the_operator() {
+        let g = Grid::new(12, 9, 0.1, Vector::zeros());
+        for bc in [
+            boundaries(),
+            Boundaries { right: Boundary::Outflow { pressure: 0.0 }, left: Boundary::NoSlip, ..boundaries() },
+        ] {
+            let mut d = FaceDiffusion::new(&g, &bc);
+            for (x_faces, n) in [(true, g.n_xfaces()), (false, g.n_yfaces())] {
+                let rhs: Vec<Real> = (0..n).map(|k| ((k * 7919) % 23) as Real * 0.1 - 1.0).collect();
+                let mut x = vec![0.0; n];
+                // fixed faces: a known value
+                let lat = if x_faces { &d.x } else { &d.y };
+                for (k, x) in x.iter_mut().enumerate() {
+                    if !lat.active[k] && !lat.copies.iter().any(|c| c.0 == k) {
+                        *x = 0.5;
+                    }
+                }
+                let c = 3.0;
+                let its = d.solve(x_faces, c, &rhs, &mut x).unwrap();
+                let mut lap = vec![0.0; n];
+                d.laplacian(x_faces, &x, &mut lap);
+                let lat = if x_faces { &d.x } else { &d.y };
+                let err =
+                    (0..n).filter(|&k| lat.active[k]).map(|k| (x[k] - c * lap[k] - rhs[k]).abs()).fold(0.0, Real::max);
+                eprintln!("x faces {x_faces}: {its} iterations, max residual {err:.2e}");
+                assert!(err < 1e-11, "residual {err:e}");
+                assert!(its < 60, "{its} iterations");
+            }
+        }
+    }
+
+    /// The Laplacian is that of the explicit stencil: a linear profile between a wall at rest
+    /// and a wall moving at U (Couette) has L u = 0 on every unknown face.
+    #[test]
+    fn couette_profile_is_in_the_kernel_of_the_laplacian() {
+        let g = Grid::new(4, 8, 0.125, Vector::zeros());
+        let bc = boundaries();
+        let d = FaceDiffusion::new(&g, &bc);
+        let u: Vec<Real> = (0..g.n_xfaces()).map(|k| 2.0 * (((k / (g.nx + 1)) as Real + 0.5) / 8.0)).collect();
+        let mut lap = vec![1.0; u.len()];
+        d.laplacian(true, &u, &mut lap);
+        let m = lap.iter().fold(0.0 as Real, |m, l| m.max(l.abs()));
+        assert!(m < 1e-14, "max |L u| = {m:e}");
+    }
+
+    /// The same bits on one and three threads.
+    #[test]
+    fn the_solve_does_not_depend_on_the_thread_count() {
+        let g = Grid::new(100, 70, 0.01, Vector::zeros());
+        let bc = boundaries();
+        let n = g.n_xfaces();
+        let rhs: Vec<Real> = (0..n).map(|k| ((k * 104729) % 97) as Real * 0.01).collect();
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let mut d = FaceDiffusion::new(&g, &bc);
+                let mut x = vec![0.0; n];
+                d.solve(true, 0.7, &rhs, &mut x).unwrap();
+                x.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            })
+        };
+        assert_eq!(run(1), run(3));
+    }
+}
