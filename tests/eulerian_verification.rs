@@ -308,15 +308,16 @@ fn interpolate(samples: &[(Real, Real)], s0: Real) -> Real {
 type Profile1 = Vec<(Real, Real)>;
 
 /// The lid-driven cavity at Re 100 run to a steady state (max |uⁿ⁺¹ − uⁿ| / Δt < 1e-8 U²/L)
-/// at Courant number `cfl`: the centre-line profiles (u(½, y) on the x-faces of column n/2,
+/// at Courant number `cfl` with the viscosity's `diffusion`: the centre-line profiles (u(½, y) on the x-faces of column n/2,
 /// v(x, ½) on the y-faces of row n/2, walls included) and the steps taken.
-fn steady_cavity(n: usize, cfl: Real) -> (Profile1, Profile1, u64) {
+fn steady_cavity(n: usize, cfl: Real, diffusion: &str) -> (Profile1, Profile1, u64) {
     let bc = Boundaries {
         top: Boundary::Velocity { velocity: [1.0, 0.0], profile: Profile::Uniform },
         ..Boundaries::default()
     };
     let mut c = case([1.0, 1.0], [n, n], bc, [0.0, 0.0], 100.0, None, InitialVelocity::default(), 1.0, 0.01);
     c.time.cfl = cfl;
+    c.fields[0].frame.params = json!({ "diffusion": diffusion });
     c.pressure = Some(PluginSpec::with("pcg", json!({ "tolerance": 1e-12 })));
     let mut sim = Simulation::new(&c).expect("valid case");
     loop {
@@ -344,26 +345,41 @@ fn steady_cavity(n: usize, cfl: Real) -> (Profile1, Profile1, u64) {
 }
 
 /// A steady state is one of the discrete equations, not of the steps that reached it: the
-/// cavity's steady centre-line profiles at CFL 0.1, 0.4 and 0.8 (32², where Δt at CFL 0.8
-/// is cut to the viscous limit h²/(4ν)·0.9 = 0.022 near the lid) agree to 1e-6, and
-/// lie within 0.01 (RMS) of Ghia's table. The predictor that applied the viscous stencil to
-/// the advected state left a Δt ν ∇²A(u) in it: its RMS error against Ghia went from 0.0041
-/// at CFL 0.8 to 0.0016 at CFL 0.1 (issue 14).
+/// cavity's steady centre-line profiles on 16² at CFL 0.1, 0.4 and 0.8 agree to 1e-8
+/// with the Crank–Nicolson viscosity (which has no viscous Δt limit), and lie within 0.012
+/// (RMS) of Ghia's table. The explicit split step (`diffusion: "explicit"`) leaves a
+/// Δt ν∇²A(u) in its steady state: its profiles at CFL 0.1 and 0.4 differ by more than 1e-3.
 #[test]
 fn lid_driven_cavity_steady_state_does_not_depend_on_the_time_step() {
-    let n = 32;
-    let runs: Vec<_> = [0.1, 0.4, 0.8].iter().map(|&cfl| (cfl, steady_cavity(n, cfl))).collect();
+    let n = 16;
     let rms = |u: &[(Real, Real)], v: &[(Real, Real)]| {
         let e2: Real = GHIA_U.iter().map(|&(y, ug)| (interpolate(u, y) - ug).powi(2)).sum::<Real>()
             + GHIA_V.iter().map(|&(x, vg)| (interpolate(v, x) - vg).powi(2)).sum::<Real>();
         (e2 / (GHIA_U.len() + GHIA_V.len()) as Real).sqrt()
     };
-    let (_, (u0, v0, _)) = &runs[0];
-    for (cfl, (u, v, steps)) in &runs {
-        let diff = u.iter().zip(u0).chain(v.iter().zip(v0)).map(|(a, b)| (a.1 - b.1).abs()).fold(0.0, Real::max);
-        let err = rms(u, v);
-        eprintln!("cavity Re 100, {n}², CFL {cfl}: {steps} steps to steady; RMS error against Ghia {err:.5}; max |profile − profile at CFL 0.1| {diff:.2e}");
-        assert!(diff < 1e-6, "CFL {cfl}: the steady profile moved by {diff:e} from CFL 0.1's");
-        assert!(err < 0.01, "CFL {cfl}: RMS error {err} against Ghia");
+    let difference = |a: &(Profile1, Profile1, u64), b: &(Profile1, Profile1, u64)| {
+        a.0.iter().zip(&b.0).chain(a.1.iter().zip(&b.1)).map(|(x, y)| (x.1 - y.1).abs()).fold(0.0, Real::max)
+    };
+    let mut reference = None;
+    for diffusion in ["crank_nicolson", "explicit"] {
+        let cfls: &[Real] = if diffusion == "explicit" { &[0.1, 0.4] } else { &[0.1, 0.4, 0.8] };
+        for &cfl in cfls {
+            // one thread: a 16² grid is too small to share (the same bits on any number)
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+            let run = pool.install(|| steady_cavity(n, cfl, diffusion));
+            let reference = reference.get_or_insert_with(|| run.clone());
+            let (diff, err) = (difference(&run, reference), rms(&run.0, &run.1));
+            eprintln!(
+                "cavity Re 100, {n}², {diffusion}, CFL {cfl}: {} steps to steady; RMS error against Ghia {err:.5}; \
+                 max |profile − Crank–Nicolson's at CFL 0.1| {diff:.2e}",
+                run.2
+            );
+            if diffusion == "crank_nicolson" {
+                assert!(diff < 1e-8, "CFL {cfl}: the steady profile moved by {diff:e} from CFL 0.1's");
+                assert!(err < 0.012, "CFL {cfl}: RMS error {err} against Ghia");
+            } else if cfl > 0.1 {
+                assert!(diff > 1e-3, "the explicit step's steady state moved by only {diff:e}");
+            }
+        }
     }
 }

@@ -17,26 +17,38 @@
 //! from the boundary conditions (tangential mirror `2u_wall − u`, odd reflection of the
 //! normal component about the wall value, periodic wrap).
 //!
-//! **Time** (second order, after Bell, Colella & Glaz, J. Comput. Phys. 85, 1989): an
-//! explicit midpoint (RK2) predictor with the pressure acceleration `a_p = −w∇p` of the
-//! last corrector, every explicit term of the full step evaluated on the midpoint state,
+//! **Time** (second order, after Bell, Colella & Glaz, J. Comput. Phys. 85, 1989): a
+//! midpoint predictor with the pressure acceleration `a_p = −w∇p` of the last corrector,
+//! P = a_p + g, and the viscosity ν∇²u of a Newtonian stress by Crank–Nicolson
+//! (`diffusion: "crank_nicolson"`, the default; L the Laplacian of `viscous.rs`):
 //!
 //! ```text
-//!   u½ = uⁿ + Δt/2 (−A(uⁿ) + V(uⁿ) + a_p + g)
-//!   u* = uⁿ + Δt (−A(u½) + V(u½))
+//!   (I − Δt/2 νL) u½ = uⁿ + Δt/2 (−A(uⁿ) + P)                        (backward Euler)
+//!   (I − Δt/2 νL) x  = uⁿ + Δt (−A(u½) + P) + Δt/2 νL uⁿ,   u* = x − Δt P
 //! ```
 //!
-//! (V: the field's grid stresses, e.g. ν∇²u), after which the core adds Δt g, exchanges and
-//! projects. A steady state uⁿ⁺¹ = uⁿ, a_pⁿ⁺¹ = a_pⁿ of this step has u½ = uⁿ and
-//! satisfies the steady discrete equations −A(u) + V(u) + g + a_p = 0, whatever Δt: the
-//! result of a run does not depend on the steps that reached it (an earlier version applied
-//! V to the advected state uⁿ − Δt A(u½), which baked a Δt ν∇²A(u) into the steady state:
-//! the lid-driven cavity's centre-line moved by 2.5e-3 between CFL 0.8 and 0.1).
-//! Without `a_p` the midpoint state misses the pressure and the step is only first order in
-//! time (for Taylor–Green the advection term is a pure gradient balanced by the pressure:
-//! measured order 0.96 without it, 2.01 with it). The stresses in u½ act on uⁿ, before
-//! a_p + g are added: a wall stencil acting on the Δt g increment would stir a fluid at rest.
-//! The first step has no lagged pressure, so its midpoint leaves out a_p + g altogether
+//! after which the core adds Δt g, exchanges and projects (uⁿ⁺¹ = u* + Δt a_pⁿ⁺¹). The
+//! lagged P sits inside the solves, so a steady state (uⁿ⁺¹ = uⁿ, a_pⁿ⁺¹ = a_pⁿ) has
+//! u½ = x = uⁿ and satisfies the steady discrete equations −A(u) + νLu + P = 0 whatever
+//! Δt: a result does not depend on the steps that reached it. With P outside the solve,
+//! νL would act on the pressure increment and leave Δt/2 νL P in the steady state. There is
+//! no viscous stability limit; `max_diffusion_number` bounds νΔt/h² for the accuracy of the
+//! transient (Crank–Nicolson damps the grid-scale viscous modes less as it grows).
+//!
+//! With `diffusion: "explicit"` (or a stress that is not Newtonian) the stresses V act
+//! explicitly, split: on uⁿ in the midpoint, u½ = uⁿ + Δt/2 (V(uⁿ) − A(uⁿ) + P), then
+//! u* = uⁿ − Δt A(u½) and V once more on u*. Cheaper by the solves, but bound by
+//! Δt ≤ h²/(4ν), and its steady state holds a Δt ν∇²A(u) (the lid-driven cavity's RMS
+//! error against Ghia went from 0.0041 at CFL 0.8 to 0.0016 at CFL 0.1). Explicit and
+//! unsplit (V at u½) would not do either: the midpoint's real stability interval
+//! [−2, 0] must then hold the upwind advection's and the viscosity's eigenvalues together,
+//! 4C + 8νΔt/h² ≤ 2 in 2D at Courant number C per axis.
+//!
+//! Without `a_p` the midpoint state misses the pressure and the step is only first order
+//! in time (for Taylor–Green the advection term is a pure gradient balanced by the
+//! pressure: measured order 0.96 without it, 2.01 with it). The explicit stresses in u½
+//! act on uⁿ, before P is added: a wall stencil acting on the Δt g increment would stir a
+//! fluid at rest. The first step has no lagged pressure, so it leaves out P altogether
 //! (gravity is mostly balanced by the pressure); that costs O(Δt²) once.
 //!
 //! **Volume fraction** (phase 9): `∂θ/∂t + ∇·(θu) = 0` with the corrected face velocities,
