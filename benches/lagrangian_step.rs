@@ -102,6 +102,7 @@ fn time_phase(sim: &mut Simulation, g2p: bool, repeats: usize) -> f64 {
             state: &mut field.state,
             stress: &field.stress,
             body_forces: &sim.body_forces[0],
+            forced_bodies: None,
             partner: None,
         };
         let t0 = Instant::now();

@@ -129,6 +129,17 @@ pub enum BodyShape {
         /// Upper-right corner.
         max: [Real; 2],
     },
+    /// The ring between two concentric circles: with `motion: Fixed` and an outer radius
+    /// beyond the domain's corners, the outside of a circle (a cylinder that holds a flow,
+    /// as in circular Couette flow).
+    Annulus {
+        /// Centre.
+        center: [Real; 2],
+        /// Inner radius (the fluid's side).
+        inner_radius: Real,
+        /// Outer radius.
+        outer_radius: Real,
+    },
 }
 
 impl BodyShape {
@@ -137,12 +148,16 @@ impl BodyShape {
         match self {
             BodyShape::Disk { center, radius } => (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius,
             BodyShape::Rectangle { min, max } => x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1],
+            BodyShape::Annulus { center, inner_radius, outer_radius } => {
+                let r2 = (x - center[0]).powi(2) + (y - center[1]).powi(2);
+                r2 >= inner_radius * inner_radius && r2 <= outer_radius * outer_radius
+            }
         }
     }
     /// Bounding box (min, max).
     pub fn bounds(&self) -> ([Real; 2], [Real; 2]) {
         match self {
-            BodyShape::Disk { center, radius } => {
+            BodyShape::Disk { center, radius } | BodyShape::Annulus { center, outer_radius: radius, .. } => {
                 ([center[0] - radius, center[1] - radius], [center[0] + radius, center[1] + radius])
             }
             BodyShape::Rectangle { min, max } => (*min, *max),
@@ -701,11 +716,22 @@ impl Case {
                         if bodies[..b].iter().any(|o| o.name == body.name) {
                             return bad(&bp, format!("two bodies are named `{}`; names must be unique", body.name));
                         }
-                        let (lo, hi) = body.shape.bounds();
+                        let (mut lo, mut hi) = body.shape.bounds();
                         if let BodyShape::Disk { radius, .. } = body.shape {
                             if !(radius > 0.0) {
                                 return bad(&bp, format!("disk radius {radius}: must be positive"));
                             }
+                        }
+                        if let BodyShape::Annulus { center, inner_radius: r1, outer_radius: r2 } = body.shape {
+                            if !(r1 > 0.0 && r2 > r1) {
+                                return bad(
+                                    &bp,
+                                    format!("annulus radii {r1} and {r2}: need 0 < inner_radius < outer_radius"),
+                                );
+                            }
+                            // the ring may reach beyond the domain (the outside of a circle); its
+                            // inner circle, where the fluid is, must lie inside
+                            (lo, hi) = ([center[0] - r1, center[1] - r1], [center[0] + r1, center[1] + r1]);
                         }
                         if !(lo[0] < hi[0] && lo[1] < hi[1]) {
                             return bad(&bp, format!("rectangle min {lo:?} must lie below and left of max {hi:?}"));

@@ -27,6 +27,10 @@ pub struct FieldState {
     pub pressure_acceleration: FaceVelocity,
     /// Effective specific volume w of the last exchange solve, on faces (volume/mass).
     pub specific_volume: FaceVelocity,
+    /// Force per unit mass of the immersed boundaries on this fluid in the last step
+    /// (`multifield_core::immersed::couple`), lagged into the Eulerian predictor as the
+    /// pressure acceleration is; zero for a field that no direct forcing acts on.
+    pub body_force: FaceVelocity,
 }
 
 impl FieldState {
@@ -42,6 +46,7 @@ impl FieldState {
             velocity_old: FaceVelocity::zeros(grid),
             pressure_acceleration: FaceVelocity::zeros(grid),
             specific_volume: FaceVelocity::zeros(grid),
+            body_force: FaceVelocity::zeros(grid),
         }
     }
 

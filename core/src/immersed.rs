@@ -24,9 +24,12 @@
 //! an imposed velocity take part in interpolation but receive no force.
 
 use crate::boundary::Boundaries;
+use crate::case::{BodyShape, Motion};
+use crate::field::FieldState;
 use crate::geometry::disk_rectangle_area;
 use crate::grid::{FaceVelocity, Grid, Lattice};
 use crate::math::{cross, Real, Vector};
+use crate::plugin::BodyStep;
 use std::f64::consts::PI;
 
 /// The 3-point regularized delta φ of Roma, Peskin & Berger (1999), `r` in cells:
@@ -213,6 +216,109 @@ pub fn direct_forcing(
     Forcing { marker_force, increment }
 }
 
+/// Direct forcing solved exactly: the marker forces `F_l` with which the forced velocity
+/// takes every marker's target, `U(X_l) of (vel + Δt Σ_m spread(F_m)) = target_l`, i.e. the
+/// system `Σ_m M_lm Δt F_m = target_l − U_vel(X_l)`, `M_lm = Σ_f δ_h(x_f − X_l) δ_h(x_f −
+/// X_m) ΔV_m h²`, by conjugate gradients (M is symmetric positive semi-definite after the
+/// scaling by ΔV^½; the components decouple), to `tolerance` relative to the right-hand
+/// side. Multi-direct forcing ([`direct_forcing`]) is Richardson's iteration on the same
+/// system; its residual slip left the force proportional to slip/Δt. Markers are visited
+/// in order: the same bits on any number of threads. A system CG cannot reduce (markers
+/// closer than the kernel resolves) stops at its best iterate.
+///
+/// # Panics
+/// If `target` and `markers` differ in length.
+pub fn exact_forcing(
+    grid: &Grid,
+    bc: &Boundaries,
+    vel: &FaceVelocity,
+    markers: &[Marker],
+    target: &[Vector],
+    dt: Real,
+    tolerance: Real,
+) -> Forcing {
+    assert_eq!(markers.len(), target.len(), "one target velocity per marker");
+    let n = markers.len();
+    let mut increment = FaceVelocity::zeros(grid);
+    let mut marker_force = vec![Vector::zeros(); n];
+    let area = grid.cell_area();
+    let sd: Vec<Real> = markers.iter().map(|m| (m.volume / area).sqrt()).collect();
+    for c in 0..2 {
+        let field = if c == 0 { &vel.u } else { &vel.v };
+        let stencils: Vec<Vec<(usize, Real, bool)>> = markers
+            .iter()
+            .map(|m| {
+                let mut st = Vec::with_capacity(16);
+                stencil(grid, bc, c, m.position, |f, fixed, w| st.push((f, w, fixed)));
+                st
+            })
+            .collect();
+        let out = if c == 0 { &mut increment.u } else { &mut increment.v };
+        // A z = D^½ W Wᵀ D^½ z with the fixed faces left out of Wᵀ (they take no force)
+        let apply = |z: &[Real], scratch: &mut [Real], az: &mut [Real]| {
+            for (l, st) in stencils.iter().enumerate() {
+                for &(f, w, fixed) in st {
+                    if !fixed {
+                        scratch[f] += w * sd[l] * z[l];
+                    }
+                }
+            }
+            for (l, st) in stencils.iter().enumerate() {
+                az[l] = sd[l] * st.iter().map(|&(f, w, _)| w * scratch[f]).sum::<Real>();
+            }
+            for st in &stencils {
+                for &(f, _, _) in st {
+                    scratch[f] = 0.0;
+                }
+            }
+        };
+        let b: Vec<Real> = (0..n)
+            .map(|l| sd[l] * (target[l][c] - stencils[l].iter().map(|&(f, w, _)| w * field[f]).sum::<Real>()))
+            .collect();
+        let dot = |a: &[Real], b: &[Real]| a.iter().zip(b).map(|(x, y)| x * y).sum::<Real>();
+        let norm_b = dot(&b, &b).sqrt();
+        let mut z = vec![0.0; n];
+        if norm_b > 0.0 {
+            let mut scratch = vec![0.0; out.len()];
+            let (mut r, mut p, mut az) = (b.clone(), b.clone(), vec![0.0; n]);
+            let mut rr = dot(&r, &r);
+            for _ in 0..4 * n + 20 {
+                if rr.sqrt() <= tolerance * norm_b {
+                    break;
+                }
+                apply(&p, &mut scratch, &mut az);
+                let pap = dot(&p, &az);
+                if !(pap > 0.0) {
+                    break;
+                }
+                let alpha = rr / pap;
+                for l in 0..n {
+                    z[l] += alpha * p[l];
+                    r[l] -= alpha * az[l];
+                }
+                let rr_new = dot(&r, &r);
+                let beta = rr_new / rr;
+                rr = rr_new;
+                for l in 0..n {
+                    p[l] = r[l] + beta * p[l];
+                }
+            }
+        }
+        // y = D^½ z = Δt F ΔV / h²-weighted: the increment S y and the forces y / Δt
+        for (l, st) in stencils.iter().enumerate() {
+            let y = sd[l] * z[l];
+            marker_force[l][c] = y / (sd[l] * sd[l]) / dt;
+            for &(f, w, fixed) in st {
+                if !fixed {
+                    out[f] += w * y;
+                }
+            }
+        }
+    }
+    copy_periodic(grid, bc, &mut increment);
+    Forcing { marker_force, increment }
+}
+
 /// Sets face `n` of each periodic lattice to face 0.
 fn copy_periodic(grid: &Grid, bc: &Boundaries, vel: &mut FaceVelocity) {
     if bc.periodic_x() {
@@ -309,6 +415,236 @@ pub fn disk_fluid_momentum(
         }
     }
     (momentum, angular)
+}
+
+/// A body of a direct-forcing coupling, as the core hands it to [`couple`].
+#[derive(Clone, Debug)]
+pub struct ForcedBody {
+    /// The body's shape in the case (its radii; a disk or an annulus).
+    pub shape: BodyShape,
+    /// The centre of the shape now.
+    pub center: Vector,
+    /// Free, fixed or prescribed.
+    pub motion: Motion,
+    /// Velocity of the centre at the start of the step.
+    pub velocity: Vector,
+    /// Angular velocity at the start of the step.
+    pub angular_velocity: Real,
+    /// Material density ρ_b.
+    pub density: Real,
+    /// Contact force and torque of the step.
+    pub contact: (Vector, Real),
+}
+
+impl ForcedBody {
+    /// Volume V and polar moment ∫ r² dV of the region whose fluid moves with the body
+    /// (a disk's; zero for an annulus, whose solid side is the outside of its markers).
+    fn volume_and_moment(&self) -> (Real, Real) {
+        match self.shape {
+            BodyShape::Disk { radius, .. } => (PI * radius * radius, 0.5 * PI * radius.powi(4)),
+            _ => (0.0, 0.0),
+        }
+    }
+
+    /// The markers of the shape's surfaces inside the domain, with their arms from the centre.
+    fn markers(&self, grid: &Grid, retraction: Real, out: &mut Vec<Marker>) {
+        let h = grid.h;
+        let start = out.len();
+        match self.shape {
+            BodyShape::Disk { radius, .. } => circle_markers(self.center, radius, h, retraction, out),
+            BodyShape::Annulus { inner_radius, outer_radius, .. } => {
+                // the fluid is inside the inner circle and outside the outer one
+                circle_markers(self.center, inner_radius, h, -retraction, out);
+                circle_markers(self.center, outer_radius, h, retraction, out);
+            }
+            BodyShape::Rectangle { .. } => {}
+        }
+        let mut k = start;
+        for l in start..out.len() {
+            if grid.contains(out[l].position) {
+                out[k] = out[l];
+                k += 1;
+            }
+        }
+        out.truncate(k);
+    }
+}
+
+/// Σ_l F_l ΔV_l and Σ_l (X_l − c) × F_l ΔV_l over the markers `range` of a forcing.
+fn force_sums(forcing: &Forcing, markers: &[Marker], range: std::ops::Range<usize>, c: Vector) -> (Vector, Real) {
+    let (mut f, mut t) = (Vector::zeros(), 0.0);
+    for l in range {
+        let df = forcing.marker_force[l] * markers[l].volume;
+        f += df;
+        t += cross(markers[l].position - c, df);
+    }
+    (f, t)
+}
+
+/// The force and torque (about each body's centre) of a force field per unit mass on the
+/// faces, `Σ_f f_f h²` and `Σ_f r_f × f_f h²`, each face given to the body whose surface
+/// is nearest.
+fn body_sums(grid: &Grid, field: &FaceVelocity, bodies: &[ForcedBody]) -> Vec<(Vector, Real)> {
+    let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
+    if bodies.is_empty() {
+        return out;
+    }
+    let area = grid.cell_area();
+    let distance = |b: &ForcedBody, x: Vector| {
+        let r = (x - b.center).norm();
+        match b.shape {
+            BodyShape::Annulus { inner_radius, outer_radius, .. } => {
+                (r - inner_radius).abs().min((r - outer_radius).abs())
+            }
+            BodyShape::Disk { radius, .. } => (r - radius).abs(),
+            BodyShape::Rectangle { .. } => Real::INFINITY,
+        }
+    };
+    for (c, lattice, values) in [(0, Lattice::XFace, &field.u), (1, Lattice::YFace, &field.v)] {
+        let (columns, _) = grid.lattice_shape(lattice);
+        for (f, &value) in values.iter().enumerate() {
+            if value == 0.0 {
+                continue;
+            }
+            let x = grid.node_position(lattice, f % columns, f / columns);
+            let (mut best, mut nearest) = (0, Real::INFINITY);
+            for (j, b) in bodies.iter().enumerate() {
+                let d = distance(b, x);
+                if d < nearest {
+                    (best, nearest) = (j, d);
+                }
+            }
+            let mut df = Vector::zeros();
+            df[c] = value * area;
+            out[best].0 += df;
+            out[best].1 += cross(x - bodies[best].center, df);
+        }
+    }
+    out
+}
+
+/// One step of the direct-forcing coupling of a fluid (`fluid`, density `rho_f`) with
+/// `bodies` (see `multifield_physics`' `direct_forcing` for the equations).
+///
+/// The force of the last step, `fluid.body_force` (f), is lagged into the fluid's predictor
+/// as the pressure acceleration is, so this step forces only the change: ṽ = u* + Δt
+/// (a_pⁿ + f) (the velocity the step would end with), the markers' forces δF that take every
+/// marker to its body's velocity from ṽ, u ← u* + Δt f + Δt S δF, f ← f + S δF. A steady
+/// state then has δF = 0 and every stage of the predictor saw the whole force: the force
+/// and the flow do not depend on Δt. The free bodies' new velocities are implicit in the
+/// forcing (their targets); each body's new velocity and hydrodynamic force are returned.
+/// A free body's system that cannot be solved (singular) is an error.
+#[allow(clippy::too_many_arguments)]
+pub fn couple(
+    grid: &Grid,
+    bc: &Boundaries,
+    sweeps: Option<usize>,
+    retraction: Real,
+    dt: Real,
+    gravity: Vector,
+    rho_f: Real,
+    fluid: &mut FieldState,
+    bodies: &[ForcedBody],
+) -> Result<Vec<BodyStep>, String> {
+    let mut v = fluid.velocity.clone();
+    for (v, a, f) in [
+        (&mut v.u, &fluid.pressure_acceleration.u, &fluid.body_force.u),
+        (&mut v.v, &fluid.pressure_acceleration.v, &fluid.body_force.v),
+    ] {
+        for ((v, a), f) in v.iter_mut().zip(a).zip(f) {
+            *v += dt * (a + f);
+        }
+    }
+    let lagged = body_sums(grid, &fluid.body_force, bodies);
+    let zero = FaceVelocity::zeros(grid);
+    let force = |vel: &FaceVelocity, markers: &[Marker], targets: &[Vector]| match sweeps {
+        Some(k) => direct_forcing(grid, bc, vel, markers, targets, k, dt),
+        None => exact_forcing(grid, bc, vel, markers, targets, dt, 1e-12),
+    };
+    let (mut markers, mut targets) = (Vec::new(), Vec::new());
+    let mut motion = Vec::with_capacity(bodies.len());
+    for (b, (s_lag, q_lag)) in bodies.iter().zip(&lagged) {
+        let start = markers.len();
+        b.markers(grid, retraction, &mut markers);
+        let own = &markers[start..];
+        let arms: Vec<Vector> = own.iter().map(|m| m.position - b.center).collect();
+        let (u, w) = match b.motion {
+            Motion::Fixed => (Vector::zeros(), 0.0),
+            Motion::Prescribed { velocity, angular_velocity } => {
+                (Vector::new(velocity[0], velocity[1]), angular_velocity)
+            }
+            Motion::Free => {
+                // the forcing is affine in the target U' + ω' × r: its response to the
+                // fluid (target 0) and to unit targets e_x, e_y, ẑ × r
+                let sums = |vel: &FaceVelocity, target: &dyn Fn(Vector) -> Vector| {
+                    let t: Vec<Vector> = arms.iter().map(|r| target(*r)).collect();
+                    let f = force(vel, own, &t);
+                    force_sums(&f, own, 0..own.len(), b.center)
+                };
+                let (s0, q0) = sums(&v, &|_| Vector::zeros());
+                let (s0, q0) = (s0 + s_lag, q0 + q_lag);
+                let (sx, qx) = sums(&zero, &|_| Vector::new(1.0, 0.0));
+                let (sy, qy) = sums(&zero, &|_| Vector::new(0.0, 1.0));
+                let (sw, qw) = sums(&zero, &|r| Vector::new(-r.y, r.x));
+                let (vol, moment) = b.volume_and_moment();
+                let (m_eff, i_eff) = ((b.density - rho_f) * vol, (b.density - rho_f) * moment);
+                let k = dt * rho_f;
+                let a = nalgebra::Matrix3::new(
+                    m_eff + k * sx.x,
+                    k * sy.x,
+                    k * sw.x,
+                    k * sx.y,
+                    m_eff + k * sy.y,
+                    k * sw.y,
+                    k * qx,
+                    k * qy,
+                    i_eff + k * qw,
+                );
+                let (fc, tc) = b.contact;
+                let rhs = nalgebra::Vector3::new(
+                    m_eff * b.velocity.x + dt * (m_eff * gravity.x + fc.x - rho_f * s0.x),
+                    m_eff * b.velocity.y + dt * (m_eff * gravity.y + fc.y - rho_f * s0.y),
+                    i_eff * b.angular_velocity + dt * (tc - rho_f * q0),
+                );
+                let x = a.lu().solve(&rhs).filter(|x| x.iter().all(|c| c.is_finite())).ok_or_else(|| {
+                    format!(
+                        "the free body's equations of motion are singular (density {} against the fluid's {rho_f}): \
+                         a body this light needs more markers than it has",
+                        b.density
+                    )
+                })?;
+                (Vector::new(x[0], x[1]), x[2])
+            }
+        };
+        targets.extend(arms.iter().map(|r| u + w * Vector::new(-r.y, r.x)));
+        motion.push((u, w));
+    }
+    let forcing = force(&v, &markers, &targets);
+    let s = &mut *fluid;
+    for (u, f, d) in [
+        (&mut s.velocity.u, &mut s.body_force.u, &forcing.increment.u),
+        (&mut s.velocity.v, &mut s.body_force.v, &forcing.increment.v),
+    ] {
+        for ((u, f), d) in u.iter_mut().zip(f.iter_mut()).zip(d) {
+            *u += dt * *f + d;
+            *f += d / dt;
+        }
+    }
+    let totals = body_sums(grid, &fluid.body_force, bodies);
+    Ok(bodies
+        .iter()
+        .zip(totals)
+        .zip(motion)
+        .map(|((b, (s, q)), (u, w))| {
+            let (vol, moment) = b.volume_and_moment();
+            BodyStep {
+                velocity: u,
+                angular_velocity: w,
+                force: -rho_f * s + rho_f * vol * ((u - b.velocity) / dt - gravity),
+                torque: -rho_f * q + rho_f * moment * (w - b.angular_velocity) / dt,
+            }
+        })
+        .collect())
 }
 
 #[cfg(test)]

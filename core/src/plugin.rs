@@ -49,6 +49,12 @@ pub struct FrameContext<'a> {
     pub stress: &'a [Box<dyn StressModel>],
     /// Contact force and torque on each of the field's bodies (phase 8), by body index.
     pub body_forces: &'a [(Vector, Real)],
+    /// When a direct-forcing coupling ([`ExchangeModel::immersed_boundary`]) moves this
+    /// field's bodies: each body's new velocity and the hydrodynamic force of this step, by
+    /// body index. The field is then not on the grid (the core does not call
+    /// [`Frame::to_grid`]); [`Frame::from_grid`] moves each body rigidly with these
+    /// velocities instead of taking the grid's.
+    pub forced_bodies: Option<&'a [BodyStep]>,
     /// The fluid this field exchanges momentum with through a drag law (the first field of
     /// an exchange whose model has [`ExchangeModel::drag_law`] and whose second field is
     /// this one), for the models that need it: the rotation torque and the Reynolds number
@@ -83,6 +89,29 @@ pub struct DragLaw {
     pub added_mass: Real,
     /// Whether points feel the rotational torque 4πμa²(½∇×u_f − ω) (per unit length).
     pub rotation: bool,
+}
+
+/// What a direct-forcing coupling decided for one body in a step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BodyStep {
+    /// The body's new velocity (of the centroid).
+    pub velocity: Vector,
+    /// Its new angular velocity.
+    pub angular_velocity: Real,
+    /// The hydrodynamic force of the step (buoyancy included).
+    pub force: Vector,
+    /// The hydrodynamic torque of the step.
+    pub torque: Real,
+}
+
+/// What a direct-forcing exchange tells the core ([`ExchangeModel::immersed_boundary`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImmersedBoundary {
+    /// Forcing sweeps per step (multi-direct forcing), or `None` for the exact solve of
+    /// the markers' forces (`multifield_core::immersed::exact_forcing`).
+    pub sweeps: Option<usize>,
+    /// Markers this many cells inside the solid from the surface.
+    pub retraction: Real,
 }
 
 /// The state of one body of a field, as frames report it.
@@ -539,6 +568,13 @@ pub trait ExchangeModel: Send + Sync {
     /// K = ∞: the two fields move as one (exact mass-weighted average).
     fn no_slip(&self) -> bool {
         false
+    }
+    /// A sharp coupling of a fluid (the first field) with the rigid bodies of a Lagrangian
+    /// field (the second) by direct forcing on their surfaces, in place of a coefficient K:
+    /// the core then runs its phase "immersed boundaries" (`multifield_core::immersed`) for
+    /// the pair and leaves them out of the exchange. Default: `None`.
+    fn immersed_boundary(&self) -> Option<ImmersedBoundary> {
+        None
     }
     /// Fills K on every x-face (`kx`) and y-face (`ky`).
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]);

@@ -5,15 +5,16 @@
 //! attach to phases through their traits; nothing depends on registration order.
 
 use crate::boundary::Boundaries;
-use crate::case::{BodyShape, Case, Integration, PluginSpec, Region, Representation, MAX_FIELDS};
+use crate::case::{BodyShape, Case, Integration, Motion, PluginSpec, Region, Representation, MAX_FIELDS};
 use crate::error::{Error, Result};
 use crate::exchange::{self, Coefficients, Local};
 use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
-    BodyState, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
-    FrameFigures, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel, TimeStepContext,
+    BodyState, BodyStep, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
+    FrameFigures, ImmersedBoundary, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel,
+    TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -44,6 +45,16 @@ pub struct Exchange {
     pub integration: Integration,
     kx: Vec<Real>,
     ky: Vec<Real>,
+}
+
+/// A direct-forcing coupling of a fluid with a field of rigid bodies.
+struct ForcedPair {
+    /// Index of the fluid.
+    fluid: usize,
+    /// Index of the bodies' field.
+    bodies: usize,
+    /// The forcing's options.
+    forcing: ImmersedBoundary,
 }
 
 /// Figures of one step, written to `diagnostics.csv`.
@@ -127,6 +138,10 @@ pub struct Simulation {
     pub body_forces: Vec<Vec<(Vector, Real)>>,
     /// Per field, the fluid it is coupled to by a drag law, and the law.
     partners: Vec<Option<(usize, DragLaw)>>,
+    /// The direct-forcing couplings (exchanges with [`ExchangeModel::immersed_boundary`]).
+    forcings: Vec<ForcedPair>,
+    /// Per field of bodies moved by a direct forcing, what it decided in this step.
+    body_steps: Vec<Vec<BodyStep>>,
     /// Pressure at cell centres.
     pub pressure: Vec<Real>,
     /// Simulated time.
@@ -219,6 +234,8 @@ impl Simulation {
             });
         }
         let mut exchanges = Vec::new();
+        let mut forcings: Vec<ForcedPair> = Vec::new();
+        let mut forced_entries = Vec::new();
         let mut partners: Vec<Option<(usize, DragLaw)>> = vec![None; fields.len()];
         for (k, e) in case.exchange.iter_mut().enumerate() {
             let idx = |n: &String| case_index(&fields, n);
@@ -228,15 +245,15 @@ impl Simulation {
                 let path = format!("exchange.{k}.mass_point");
                 let alt = match &e.mass_point {
                     Some(alt) => alt.clone(),
-                    None if e.model == "no_slip" => {
+                    None if e.model == "no_slip" || e.model == "direct_forcing" => {
                         return Err(Error::invalid(
                             path,
                             format!(
                                 "field `{}` is represented by mass points, which need a drag law, but this \
-                                 exchange is `no_slip` and names no `mass_point` model; add e.g. \
+                                 exchange is `{}` and names no `mass_point` model; add e.g. \
                                  `mass_point: Some((model: \"cylinder\", params: (added_mass: 1.0)))` to \
                                  the exchange (or set `representation: Resolved`)",
-                                spec_b.name
+                                spec_b.name, e.model
                             ),
                         ))
                     }
@@ -258,6 +275,11 @@ impl Simulation {
             if let Some(law) = model.drag_law() {
                 partners[fb] = Some((fa, law));
             }
+            if let Some(forcing) = model.immersed_boundary() {
+                forced_entries.push(k);
+                forcings.push(ForcedPair { fluid: fa, bodies: fb, forcing });
+                continue;
+            }
             exchanges.push(Exchange {
                 fields: [idx(&e.between[0]), idx(&e.between[1])],
                 model,
@@ -265,6 +287,9 @@ impl Simulation {
                 kx: vec![0.0; grid.n_xfaces()],
                 ky: vec![0.0; grid.n_yfaces()],
             });
+        }
+        for (k, p) in forced_entries.iter().zip(&forcings) {
+            check_forcing(&case, &fields, *k, p.fluid, p.bodies)?;
         }
         let pressure_solver = match &mut case.pressure {
             Some(p) => {
@@ -288,14 +313,18 @@ impl Simulation {
             if f.fills_rest {
                 continue;
             }
+            let forced = forcings.iter().any(|p| p.bodies == k);
             let spec = &case.fields[k];
             let theta: Vec<Real> = if spec.representation == Representation::MassPoint {
                 mass_point_fraction(&spec.region, &grid, [boundaries.periodic_x(), boundaries.periodic_y()])
             } else {
                 region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect()
             };
-            for (o, t) in occupied.iter_mut().zip(&theta) {
-                *o += t;
+            // bodies under a direct forcing take no volume on the grid: the fluid fills them
+            if !forced {
+                for (o, t) in occupied.iter_mut().zip(&theta) {
+                    *o += t;
+                }
             }
             if spec.volume_fraction != 1.0 && f.frame.is_lagrangian() {
                 return Err(Error::invalid(
@@ -352,6 +381,8 @@ impl Simulation {
             contact,
             body_forces: vec![Vec::new(); n_fields],
             partners,
+            forcings,
+            body_steps: vec![Vec::new(); n_fields],
             time: 0.0,
             steps: 0,
             last: StepDiagnostics::default(),
@@ -404,7 +435,7 @@ impl Simulation {
             for a in [&s.theta, &s.theta_u, &s.theta_v, &s.mass_u, &s.mass_v] {
                 w.f64s(a);
             }
-            for v in [&s.velocity, &s.velocity_old, &s.pressure_acceleration, &s.specific_volume] {
+            for v in [&s.velocity, &s.velocity_old, &s.pressure_acceleration, &s.specific_volume, &s.body_force] {
                 w.f64s(&v.u);
                 w.f64s(&v.v);
             }
@@ -481,6 +512,7 @@ impl Simulation {
                 (&mut s.velocity_old, "old velocity"),
                 (&mut s.pressure_acceleration, "pressure acceleration"),
                 (&mut s.specific_volume, "specific volume"),
+                (&mut s.body_force, "immersed-boundary force"),
             ] {
                 r.f64s_into(&mut v.u, &what(&format!("{q} on x-faces")))?;
                 r.f64s_into(&mut v.v, &what(&format!("{q} on y-faces")))?;
@@ -613,9 +645,10 @@ impl Simulation {
         let volume_fraction_error = self.volume_fractions();
         self.predictor(dt)?;
         self.exchange(dt);
+        self.contact_forces();
+        self.immersed_boundaries(dt)?;
         let (iterations, residual) = self.pressure_projection(dt)?;
         let max_divergence = self.max_divergence(dt);
-        self.contact_forces();
         self.grid_to_particles(dt)?;
         self.advection(dt)?;
         self.time += dt;
@@ -690,9 +723,24 @@ impl Simulation {
         &mut self,
         dt: Real,
         phase: &str,
+        f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
+    ) -> Result<()> {
+        self.frame_phase_of(dt, phase, |_| true, f)
+    }
+
+    /// [`Simulation::frame_phase`] for the fields `k` with `include(k)`.
+    fn frame_phase_of(
+        &mut self,
+        dt: Real,
+        phase: &str,
+        include: impl Fn(usize) -> bool,
         mut f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
     ) -> Result<()> {
         for k in 0..self.fields.len() {
+            if !include(k) {
+                continue;
+            }
+            let forced = self.forcings.iter().any(|p| p.bodies == k);
             // the field mutably, its drag partner (another field) immutably
             let (field, partner) = match &self.partners[k] {
                 Some((p, law)) => {
@@ -717,6 +765,7 @@ impl Simulation {
                 state: &mut field.state,
                 stress: &field.stress,
                 body_forces: &self.body_forces[k],
+                forced_bodies: forced.then_some(&self.body_steps[k][..]),
                 partner,
             };
             f(field.frame.as_mut(), &mut ctx)
@@ -735,9 +784,61 @@ impl Simulation {
             .collect()
     }
 
-    /// Phase 1: every frame puts its state on the grid.
+    /// Phase 1: every frame puts its state on the grid (but the bodies of a direct
+    /// forcing, which take no room there).
     fn particles_to_grid(&mut self, dt: Real) -> Result<()> {
-        self.frame_phase(dt, "particles to grid", |fr, ctx| fr.to_grid(ctx))
+        let forced: Vec<usize> = self.forcings.iter().map(|p| p.bodies).collect();
+        self.frame_phase_of(dt, "particles to grid", |k| !forced.contains(&k), |fr, ctx| fr.to_grid(ctx))
+    }
+
+    /// Phase 4b (after the exchange and the contact forces, before the pressure): every
+    /// direct forcing moves its free bodies and forces its fluid towards the bodies' rigid
+    /// motion on their surfaces ([`crate::immersed::couple`]).
+    fn immersed_boundaries(&mut self, dt: Real) -> Result<()> {
+        for p in &self.forcings {
+            let Region::Bodies(specs) = &self.case.fields[p.bodies].region else {
+                continue;
+            };
+            let states = self.fields[p.bodies].frame.bodies();
+            let bodies: Vec<crate::immersed::ForcedBody> = specs
+                .iter()
+                .zip(&states)
+                .enumerate()
+                .map(|(j, (spec, state))| crate::immersed::ForcedBody {
+                    shape: spec.shape.clone(),
+                    // a fixed body's centre is its shape's (the points' centroid carries the
+                    // round-off of its masses); a moving disk's is its centroid
+                    center: match (&spec.shape, spec.motion) {
+                        (BodyShape::Annulus { center, .. } | BodyShape::Disk { center, .. }, Motion::Fixed)
+                        | (BodyShape::Annulus { center, .. }, _) => vector(*center),
+                        _ => state.position,
+                    },
+                    motion: spec.motion,
+                    velocity: state.velocity,
+                    angular_velocity: state.angular_velocity,
+                    density: self.fields[p.bodies].density,
+                    contact: self.body_forces[p.bodies].get(j).copied().unwrap_or((Vector::zeros(), 0.0)),
+                })
+                .collect();
+            let rho_f = self.fields[p.fluid].density;
+            let name = self.fields[p.bodies].name.clone();
+            let fluid = &mut self.fields[p.fluid].state;
+            let steps = crate::immersed::couple(
+                &self.grid,
+                &self.boundaries,
+                p.forcing.sweeps,
+                p.forcing.retraction,
+                dt,
+                self.gravity,
+                rho_f,
+                fluid,
+                &bodies,
+            )
+            .map_err(|m| Error::Model(format!("immersed boundaries of field `{name}`: {m}")))?;
+            self.boundaries.enforce(&self.grid, &mut fluid.velocity);
+            self.body_steps[p.bodies] = steps;
+        }
+        Ok(())
     }
 
     /// Phase 2: volume fractions; the field of region `Rest` takes what the others leave.
@@ -1159,6 +1260,84 @@ fn check_alone(case: &Case, fields: &[Field], pressure: bool) -> Result<()> {
             "but its stress `{}` acts on the staggered grid: use a point stress (e.g. weakly_compressible)",
             m.model()
         )));
+    }
+    Ok(())
+}
+
+/// A direct forcing couples an Eulerian fluid (first) with a Lagrangian field of rigid disks
+/// or annuli (second), which no other exchange or forcing names.
+fn check_forcing(case: &Case, fields: &[Field], k: usize, fa: usize, fb: usize) -> Result<()> {
+    let path = format!("exchange.{k}");
+    let (a, b) = (&fields[fa], &fields[fb]);
+    let model = &case.exchange[k].model;
+    if a.frame.is_lagrangian() {
+        return Err(Error::invalid(
+            format!("{path}.between"),
+            format!(
+                "`{model}` forces a fluid on a grid towards its bodies' motion: its first field must be Eulerian, \
+                 and `{}` is Lagrangian; name the Eulerian fluid first and the bodies second",
+                a.name
+            ),
+        ));
+    }
+    let Region::Bodies(specs) = &case.fields[fb].region else {
+        return Err(Error::invalid(
+            format!("{path}.between"),
+            format!(
+                "`{model}` acts on the surfaces of bodies: its second field (`{}`) must be a Lagrangian field of \
+                 `region: Bodies([...])`",
+                b.name
+            ),
+        ));
+    };
+    if !b.frame.is_lagrangian() || !b.stress.iter().any(|m| m.is_rigid()) {
+        return Err(Error::invalid(
+            format!("fields.{}.stress", b.name),
+            format!(
+                "`{model}` moves bodies rigidly: give field `{}` a Lagrangian frame and `stress: [(model: \"rigid\")]`",
+                b.name
+            ),
+        ));
+    }
+    for spec in specs {
+        let bp = format!("fields.{}.region.{}", b.name, spec.name);
+        match (&spec.shape, spec.motion) {
+            (BodyShape::Rectangle { .. }, _) => {
+                return Err(Error::invalid(
+                    bp,
+                    format!("`{model}` places its markers on circles: a rectangle is not supported; use a Disk or an Annulus, or `no_slip`"),
+                ))
+            }
+            (BodyShape::Annulus { .. }, Motion::Free) => {
+                return Err(Error::invalid(
+                    format!("{bp}.motion"),
+                    "an annulus holds a flow: make it `Fixed` or `Prescribed` with a rotation about its centre",
+                ))
+            }
+            (BodyShape::Annulus { .. }, Motion::Prescribed { velocity, .. }) if velocity != [0.0, 0.0] => {
+                return Err(Error::invalid(
+                    format!("{bp}.motion"),
+                    "an annulus may rotate about its centre but not translate: set `velocity: (0, 0)`",
+                ))
+            }
+            _ => {}
+        }
+    }
+    let others: Vec<usize> = case
+        .exchange
+        .iter()
+        .enumerate()
+        .filter(|(j, e)| *j != k && e.between.iter().any(|n| n == &b.name))
+        .map(|(j, _)| j)
+        .collect();
+    if let Some(j) = others.first() {
+        return Err(Error::invalid(
+            format!("exchange.{j}"),
+            format!(
+                "field `{}` is moved by the direct forcing of exchange {k}, which owns its coupling: remove this entry",
+                b.name
+            ),
+        ));
     }
     Ok(())
 }

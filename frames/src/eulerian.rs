@@ -590,30 +590,38 @@ impl Eulerian {
         &self.work.velocity
     }
 
-    /// u½ += c (−A + a_p + g) (without a_p + g unless `lagged`) on the faces that are neither
-    /// fixed nor periodic copies.
-    fn half_step(&mut self, bc: &Boundaries, grid: &Grid, c: Real, ap: &FaceVelocity, g: Vector, lagged: bool) {
+    /// u½ += c (−A + a_p + f + g) (without a_p + f + g unless `lagged`; f the lagged
+    /// immersed-boundary force) on the faces that are neither fixed nor periodic copies.
+    fn half_step(
+        &mut self,
+        bc: &Boundaries,
+        grid: &Grid,
+        c: Real,
+        (ap, f): (&FaceVelocity, &FaceVelocity),
+        g: Vector,
+        lagged: bool,
+    ) {
         let w = &mut self.work;
         let s = if lagged { 1.0 } else { 0.0 };
         let (nx, ny) = (w.nx, w.ny);
         let (px, py) = w.periodic;
-        let (r, a) = (&w.rate.u, &ap.u);
+        let (r, a, f_u) = (&w.rate.u, &ap.u, &f.u);
         w.half.u.par_chunks_mut(nx + 1).enumerate().for_each(|(j, out)| {
             let o = j * (nx + 1);
             for (i, d) in out.iter_mut().enumerate() {
                 if !(bc.xface_fixed(grid, i) || (px && i == nx)) {
-                    *d += c * (r[o + i] + s * (a[o + i] + g.x));
+                    *d += c * (r[o + i] + s * (a[o + i] + f_u[o + i] + g.x));
                 }
             }
         });
-        let (r, a) = (&w.rate.v, &ap.v);
+        let (r, a, f_v) = (&w.rate.v, &ap.v, &f.v);
         w.half.v.par_chunks_mut(nx).enumerate().for_each(|(j, out)| {
             if bc.yface_fixed(grid, j) || (py && j == ny) {
                 return;
             }
             let o = j * nx;
             for (i, d) in out.iter_mut().enumerate() {
-                *d += c * (r[o + i] + s * (a[o + i] + g.y));
+                *d += c * (r[o + i] + s * (a[o + i] + f_v[o + i] + g.y));
             }
         });
     }
@@ -690,7 +698,7 @@ impl Eulerian {
         bc: &Boundaries,
         dt: Real,
         nu: Real,
-        (lagged, ap, g): (bool, &FaceVelocity, Vector),
+        (lagged, (ap, f), g): (bool, (&FaceVelocity, &FaceVelocity), Vector),
         out: &mut FaceVelocity,
     ) -> Result<(), String> {
         let c = 0.5 * dt * nu / (grid.h * grid.h);
@@ -698,14 +706,14 @@ impl Eulerian {
         let diffusion = w.diffusion.get_or_insert_with(|| FaceDiffusion::new(grid, bc));
         let s = if lagged { 1.0 } else { 0.0 };
         for (x_faces, gravity) in [(true, g.x), (false, g.y)] {
-            let (un, rate, a, rhs, x) = if x_faces {
-                (&w.velocity.u, &w.rate.u, &ap.u, &mut w.viscous.u, &mut out.u)
+            let (un, rate, a, f, rhs, x) = if x_faces {
+                (&w.velocity.u, &w.rate.u, &ap.u, &f.u, &mut w.viscous.u, &mut out.u)
             } else {
-                (&w.velocity.v, &w.rate.v, &ap.v, &mut w.viscous.v, &mut out.v)
+                (&w.velocity.v, &w.rate.v, &ap.v, &f.v, &mut w.viscous.v, &mut out.v)
             };
             diffusion.laplacian(x_faces, un, rhs);
             rhs.par_iter_mut().enumerate().with_min_len(4096).for_each(|(k, r)| {
-                *r = un[k] + dt * (rate[k] + s * (a[k] + gravity)) + c * *r;
+                *r = un[k] + dt * (rate[k] + s * (a[k] + f[k] + gravity)) + c * *r;
             });
             // initial guess uⁿ; the fixed faces hold the wall values
             x.copy_from_slice(un);
@@ -713,7 +721,7 @@ impl Eulerian {
             let d = &*diffusion;
             x.par_iter_mut().enumerate().with_min_len(4096).for_each(|(k, x)| {
                 if d.is_unknown(x_faces, k) {
-                    *x -= dt * s * (a[k] + gravity);
+                    *x -= dt * s * (a[k] + f[k] + gravity);
                 }
             });
         }
@@ -797,7 +805,8 @@ impl Frame for Eulerian {
         }
         // no lagged pressure on the first step: leave out gravity too (see the module doc)
         let lagged = self.work.steps > 0;
-        self.half_step(bc, grid, 0.5 * dt, &ctx.state.pressure_acceleration, ctx.gravity, lagged);
+        let s = &*ctx.state;
+        self.half_step(bc, grid, 0.5 * dt, (&s.pressure_acceleration, &s.body_force), ctx.gravity, lagged);
         if let Some(nu) = nu {
             self.implicit_half(grid, bc, 0.5 * dt * nu / (grid.h * grid.h))?;
         }
@@ -816,8 +825,9 @@ impl Frame for Eulerian {
                 apply_grid_stresses(ctx, dt)?;
             }
             Some(nu) => {
-                let p = (lagged, &ctx.state.pressure_acceleration, ctx.gravity);
                 let mut s = std::mem::take(&mut ctx.state.velocity);
+                let st = &*ctx.state;
+                let p = (lagged, (&st.pressure_acceleration, &st.body_force), ctx.gravity);
                 let r = self.crank_nicolson(grid, bc, dt, nu, p, &mut s);
                 ctx.state.velocity = s;
                 r?;
@@ -950,6 +960,7 @@ mod tests {
                 state: &mut state,
                 stress: &[],
                 body_forces: &[],
+                forced_bodies: None,
                 partner: None,
             };
             e.to_grid(&mut ctx).unwrap();

@@ -19,7 +19,7 @@ use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{
-    BodyState, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StateReader, StateWriter,
+    BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StateReader, StateWriter,
     StressModel,
 };
 use multifield_core::registry::{params_value, ParamDoc};
@@ -335,7 +335,15 @@ impl Lagrangian {
     /// (momentum change from the grid less the weight). A deformable body only receives
     /// the contact impulse on all its points.
     #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
-    fn rigid_projection(&mut self, dt: Real, gravity: Vector, forces: &[(Vector, Real)], rigid: bool, apic: bool) {
+    fn rigid_projection(
+        &mut self,
+        dt: Real,
+        gravity: Vector,
+        forces: &[(Vector, Real)],
+        rigid: bool,
+        apic: bool,
+        forced: Option<&[BodyStep]>,
+    ) {
         let before: Vec<(Vector, Real)> =
             self.bodies.iter().map(|b| (b.state.velocity, b.state.angular_velocity)).collect();
         let sums = self.body_sums();
@@ -348,6 +356,13 @@ impl Lagrangian {
             let b = k + 1;
             let s = &sums[b];
             if s.m <= 0.0 {
+                continue;
+            }
+            if let Some(step) = forced.and_then(|f| f.get(k)) {
+                // a direct forcing decided the motion and measured the force
+                body.state.force = step.force;
+                body.state.torque = step.torque;
+                motion[b] = (step.velocity, step.angular_velocity);
                 continue;
             }
             let (fc, tc) = forces.get(k).copied().unwrap_or((Vector::zeros(), 0.0));
@@ -366,6 +381,7 @@ impl Lagrangian {
                 }
             };
         }
+        let rigid = rigid || forced.is_some();
         let pts = &mut self.points;
         for k in 0..pts.len() {
             let b = pts.body[k] as usize;
@@ -378,7 +394,9 @@ impl Lagrangian {
                 let r = x_old[k] - c;
                 let (sn, cs) = (w * dt).sin_cos();
                 let r_new = Vector::new(cs * r.x - sn * r.y, sn * r.x + cs * r.y);
-                pts.x[k] = c + dt * v + r_new;
+                // a body at rest keeps its points' positions to the bit (c + (x − c) need
+                // not be x, and c depends on the masses)
+                pts.x[k] = if v == Vector::zeros() && w == 0.0 { x_old[k] } else { c + dt * v + r_new };
                 pts.v[k] = v + w * Vector::new(-r_new.y, r_new.x);
                 if apic {
                     pts.c_u[k] = Vector::new(0.0, -w);
@@ -774,6 +792,8 @@ impl Frame for Lagrangian {
                             BodyShape::Rectangle { min, max } => {
                                 ((max[0] - min[0]) * (max[1] - min[1]) / std::f64::consts::PI).sqrt()
                             }
+                            // the fluid's side
+                            BodyShape::Annulus { inner_radius, .. } => inner_radius,
                         },
                         free: spec.motion == Motion::Free,
                         ..BodyState::default()
@@ -901,6 +921,13 @@ impl Frame for Lagrangian {
     }
 
     fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
+        if let Some(steps) = ctx.forced_bodies {
+            // bodies moved by a direct forcing: not on the grid, every point is a body's
+            self.x_old.clone_from(&self.points.x);
+            let apic = self.transfer == Transfer::Apic;
+            self.rigid_projection(ctx.dt, ctx.gravity, ctx.body_forces, true, apic, Some(steps));
+            return Ok(());
+        }
         let g = ctx.grid;
         let bc = ctx.boundaries;
         let s = &*ctx.state;
@@ -989,7 +1016,7 @@ impl Frame for Lagrangian {
         }
         if !self.bodies.is_empty() {
             let apic = self.transfer == Transfer::Apic;
-            self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic);
+            self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic, None);
         }
         Ok(())
     }

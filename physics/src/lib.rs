@@ -16,7 +16,7 @@ pub mod stress;
 /// The names this crate registers, by role: the test of the registry checks them.
 pub const SHIPPED: &[(&str, &[&str])] = &[
     ("stress", &["linear_elastic", "neo_hookean", "newtonian", "rigid", "weakly_compressible"]),
-    ("exchange", &["constant", "cylinder", "no_slip", "schiller_naumann", "stokes"]),
+    ("exchange", &["constant", "cylinder", "direct_forcing", "no_slip", "schiller_naumann", "stokes"]),
     ("pressure", &["cholesky", "multigrid", "pcg"]),
     ("contact", &["repulsion"]),
 ];

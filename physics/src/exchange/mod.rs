@@ -2,6 +2,7 @@
 
 pub mod constant;
 pub mod cylinder;
+pub mod direct_forcing;
 pub mod drag;
 pub mod no_slip;
 pub mod schiller_naumann;

@@ -1,0 +1,122 @@
+//! Resolved bodies by direct forcing on their surfaces (`direct_forcing`, issue 14): forces
+//! that converge to published values and do not depend on the body's density, on Δt, or
+//! on the length of the last step.
+
+use multifield::core::case::Case;
+use multifield::core::math::Real;
+use multifield::core::simulation::Simulation;
+use std::path::Path;
+
+const CHANNEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cylinder_channel.ron");
+
+/// John (2004), the reference values of Schäfer & Turek's 2D-1.
+const DRAG: Real = 5.57953523384;
+const LIFT: Real = 0.010618948146;
+
+/// Runs the channel with `overrides` on one thread (a 220 × 41 grid is too small to share)
+/// and returns the force rows (time, fx, fy) of the cylinder, one per step.
+fn channel(overrides: &[&str]) -> Vec<(Real, Real, Real)> {
+    multifield::link_all();
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    let case = Case::load(Path::new(CHANNEL), &overrides).expect("valid case");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+    pool.install(|| {
+        let mut sim = Simulation::new(&case).expect("builds");
+        let mut rows = Vec::new();
+        while sim.time < case.time.end * (1.0 - 1e-12) {
+            sim.step().expect("steps");
+            let b = &sim.bodies()[0].1;
+            rows.push((sim.time, b.force.x, b.force.y));
+        }
+        rows
+    })
+}
+
+/// C = 2F/(ρ Ū² D) with Ū = 0.2, D = 0.1, ρ = 1.
+fn coefficient(f: Real) -> Real {
+    2.0 * f / (0.2 * 0.2 * 0.1)
+}
+
+/// At 10 cells per diameter the steady drag is within 0.5 % of the reference and the lift
+/// within 3 %; the same for CFL 0.2 and 0.8 to 0.05 %, for body densities 1, 10 and 1000 to
+/// the bit, and the last (shortened) step's force equals the rows before it to 1e-5.
+#[test]
+fn fixed_cylinder_in_a_channel_matches_schafer_turek_whatever_the_density_and_the_step() {
+    let end = "time.end=8.0";
+    let base = channel(&[end]);
+    let (t, fx, fy) = *base.last().unwrap();
+    let (cd, cl) = (coefficient(fx), coefficient(fy));
+    let before = base[base.len() - 2];
+    eprintln!(
+        "Schäfer–Turek 2D-1, 10 cells per diameter, t = {t}: C_D = {cd:.5} ({:+.3} % of {DRAG}), \
+         C_L = {cl:.6} ({:+.2} % of {LIFT}); the row before the last step: C_D = {:.5}",
+        100.0 * (cd / DRAG - 1.0),
+        100.0 * (cl / LIFT - 1.0),
+        coefficient(before.1)
+    );
+    assert!((cd / DRAG - 1.0).abs() < 0.005, "C_D {cd}");
+    assert!((cl / LIFT - 1.0).abs() < 0.03, "C_L {cl}");
+    assert!((fx / before.1 - 1.0).abs() < 1e-5, "the last step's drag {fx} against {}", before.1);
+    for cfl in ["0.2", "0.8"] {
+        let (_, f, _) = *channel(&[end, &format!("time.cfl={cfl}")]).last().unwrap();
+        eprintln!("CFL {cfl}: C_D = {:.6} ({:+.2e} relative to CFL 0.4)", coefficient(f), f / fx - 1.0);
+        assert!((f / fx - 1.0).abs() < 5e-4, "CFL {cfl}: drag {f} against {fx} at CFL 0.4");
+    }
+    for density in ["10.0", "1000.0"] {
+        let rows = channel(&[end, &format!("fields.cylinder.density={density}")]);
+        assert_eq!(rows.last().unwrap().1.to_bits(), fx.to_bits(), "density {density}");
+    }
+}
+
+/// Circular Couette flow between a disk of radius R₁ = 0.5 turning at Ω = 1 and a fixed
+/// annulus of inner radius R₂ = 1 (μ = 0.1, ρ = 1, walls of the box at ±1.2): the torque
+/// per unit length on the disk is −4πμΩR₁²R₂²/(R₂² − R₁²) = −0.41888. At t = 4 (16 times
+/// the slowest decay time (ΔR)²/(π²ν) = 0.25) on 10 and 20 cells per R₁ the errors are
+/// 0.69 % and 0.54 %; at 40 cells per R₁ (not run here: 120 s) 0.49 %. The error does not
+/// go to zero with h: a floor of about 0.5 % that issue 14 still has to explain (the
+/// channel's drag above is 0.19 % from its reference at 10 cells per diameter).
+#[test]
+fn circular_couette_torque_approaches_the_analytic_one() {
+    multifield::link_all();
+    let exact = -4.0 * std::f64::consts::PI * 0.1 * 0.25 / 0.75;
+    let mut errors = Vec::new();
+    for cells in [48, 96] {
+        let text = format!(
+            r#"(
+            name: "couette",
+            domain: (origin: (-1.2, -1.2), size: (2.4, 2.4), cells: ({cells}, {cells})),
+            time: (end: 4.0, cfl: 0.4, max_dt: 0.1),
+            fields: [
+                (name: "fluid", density: 1.0, frame: (model: "eulerian"), region: Rest,
+                 stress: [(model: "newtonian", params: (viscosity: 0.1))]),
+                (name: "walls", density: 1.0, frame: (model: "lagrangian"), stress: [(model: "rigid")],
+                 region: Bodies([
+                    (name: "rotor", shape: Disk(center: (0.0, 0.0), radius: 0.5),
+                     motion: Prescribed(velocity: (0.0, 0.0), angular_velocity: 1.0)),
+                    (name: "stator", shape: Annulus(center: (0.0, 0.0), inner_radius: 1.0, outer_radius: 2.0),
+                     motion: Fixed),
+                 ])),
+            ],
+            exchange: [(between: ("fluid", "walls"), model: "direct_forcing")],
+            pressure: Some((model: "pcg", params: (preconditioner: "multigrid", tolerance: 1e-10))),
+        )"#
+        );
+        let case = Case::from_ron(&text, Path::new("couette.ron")).expect("valid case");
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+        let torque = pool.install(|| {
+            let mut sim = Simulation::new(&case).expect("builds");
+            while sim.time < case.time.end * (1.0 - 1e-12) {
+                sim.step().expect("steps");
+            }
+            sim.bodies()[0].1.torque
+        });
+        let e = (torque - exact).abs() / exact.abs();
+        eprintln!(
+            "Couette, {} cells per R₁: torque {torque:.6} against {exact:.6}, relative error {e:.3e}",
+            cells * 5 / 24
+        );
+        errors.push(e);
+    }
+    assert!(errors[0] < 0.008 && errors[1] < 0.006, "errors {errors:?}");
+    assert!(errors[1] < errors[0], "errors {errors:?}");
+}
