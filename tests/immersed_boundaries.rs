@@ -120,3 +120,22 @@ fn circular_couette_torque_approaches_the_analytic_one() {
     assert!(errors[0] < 0.008 && errors[1] < 0.006, "errors {errors:?}");
     assert!(errors[1] < errors[0], "errors {errors:?}");
 }
+
+/// What direct forcing cannot hold yet is refused before step 0 with the fix: free bodies,
+/// rectangles, and an Eulerian field of bodies.
+#[test]
+fn what_direct_forcing_cannot_hold_is_refused() {
+    multifield::link_all();
+    let refused = |set: &str| {
+        let case = Case::load(Path::new(CHANNEL), &[set.to_string()]).expect("valid case");
+        Simulation::new(&case).err().expect("refused").to_string()
+    };
+    let e = refused("fields.cylinder.region=Bodies([(name: \"c\", shape: Disk(center: (0.2, 0.2), radius: 0.05))])");
+    assert!(e.contains("fields.cylinder.region.c.motion") && e.contains("use `no_slip` for free bodies"), "{e}");
+    let e = refused(
+        "fields.cylinder.region=Bodies([(name: \"r\", shape: Rectangle(min: (0.15, 0.15), max: (0.25, 0.25)), motion: Fixed)])",
+    );
+    assert!(e.contains("a rectangle is not supported; use a Disk or an Annulus, or `no_slip`"), "{e}");
+    let e = refused("fields.cylinder.frame=(model: \"eulerian\")");
+    assert!(e.contains("give field `cylinder` a Lagrangian frame"), "{e}");
+}

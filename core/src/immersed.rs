@@ -529,7 +529,8 @@ fn body_sums(grid: &Grid, field: &FaceVelocity, bodies: &[ForcedBody]) -> Vec<(V
 /// The force of the last step, `fluid.body_force` (f), is lagged into the fluid's predictor
 /// as the pressure acceleration is, so this step forces only the change: ṽ = u* + Δt
 /// (a_pⁿ + f) (the velocity the step would end with), the markers' forces δF that take every
-/// marker to its body's velocity from ṽ, u ← u* + Δt f + Δt S δF, f ← f + S δF. A steady
+/// marker to its body's velocity from ṽ, u ← u* + Δt f + Δt S δF, f ← f + S δF, kept on
+/// the faces the markers' kernels reach now (zero behind a moving body). A steady
 /// state then has δF = 0 and every stage of the predictor saw the whole force: the force
 /// and the flow do not depend on Δt. The free bodies' new velocities are implicit in the
 /// forcing (their targets); each body's new velocity and hydrodynamic force are returned.
@@ -628,6 +629,18 @@ pub fn couple(
         for ((u, f), d) in u.iter_mut().zip(f.iter_mut()).zip(d) {
             *u += dt * *f + d;
             *f += d / dt;
+        }
+    }
+    // the force stays only where the markers are now: a moving body leaves no force behind
+    for (c, f) in [(0, &mut fluid.body_force.u), (1, &mut fluid.body_force.v)] {
+        let mut near = vec![false; f.len()];
+        for m in &markers {
+            stencil(grid, bc, c, m.position, |k, _, _| near[k] = true);
+        }
+        for (f, near) in f.iter_mut().zip(&near) {
+            if !near {
+                *f = 0.0;
+            }
         }
     }
     let totals = body_sums(grid, &fluid.body_force, bodies);

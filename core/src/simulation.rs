@@ -1308,6 +1308,15 @@ fn check_forcing(case: &Case, fields: &[Field], k: usize, fa: usize, fb: usize) 
                     format!("`{model}` places its markers on circles: a rectangle is not supported; use a Disk or an Annulus, or `no_slip`"),
                 ))
             }
+            (BodyShape::Disk { .. }, Motion::Free) => {
+                return Err(Error::invalid(
+                    format!("{bp}.motion"),
+                    format!(
+                        "`{model}` holds `Fixed` and `Prescribed` bodies; a free body's motion under it is not \
+                         stable yet (a settling disk ran away at ρs/ρf = 1.5): use `no_slip` for free bodies"
+                    ),
+                ))
+            }
             (BodyShape::Annulus { .. }, Motion::Free) => {
                 return Err(Error::invalid(
                     format!("{bp}.motion"),

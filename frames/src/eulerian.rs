@@ -60,6 +60,7 @@
 
 use crate::viscous::FaceDiffusion;
 use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::case::Region;
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
 use multifield_core::math::{Real, Vector};
 use multifield_core::plugin::{
@@ -744,6 +745,16 @@ impl Frame for Eulerian {
     }
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
+        if let Region::Bodies(bodies) = ctx.region {
+            let names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
+            return Err(format!(
+                "region `Bodies([...])` ({}) needs a Lagrangian frame: an Eulerian field has no bodies to track or \
+                 hold (its fluid would flow through them); give this field `frame: (model: \"lagrangian\")` and \
+                 `stress: [(model: \"rigid\")]`, and couple it to the fluid with an exchange (`direct_forcing` or \
+                 `no_slip`), or give it a plain region (`Disk(...)`, `Rectangle(...)`)",
+                names.join(", ")
+            ));
+        }
         let g = ctx.grid;
         let mut w = Work::new(g, ctx.boundaries, ctx.density, ctx.theta.is_some());
         match ctx.theta {
@@ -927,7 +938,7 @@ impl Frame for Eulerian {
 mod tests {
     use super::*;
     use multifield_core::boundary::Boundary;
-    use multifield_core::case::{InitialVelocity, Region};
+    use multifield_core::case::InitialVelocity;
     use multifield_core::field::FieldState;
 
     fn periodic() -> Boundaries {
@@ -989,6 +1000,34 @@ mod tests {
         for l in [Limiter::Mc, Limiter::Minmod, Limiter::VanLeer, Limiter::None, Limiter::ThirdOrder] {
             assert_eq!(l.face_value(a, b, c, d, 1.0), l.face_value(d, c, b, a, -1.0), "{l:?}");
         }
+    }
+
+    /// Bodies on an Eulerian field are refused with the fix (they were accepted and ignored).
+    #[test]
+    fn bodies_need_a_lagrangian_frame() {
+        use multifield_core::case::{BodyShape, BodySpec};
+        let g = Grid::new(8, 8, 0.125, Vector::zeros());
+        let region = Region::Bodies(vec![BodySpec {
+            name: "disk".into(),
+            shape: BodyShape::Disk { center: [0.5, 0.5], radius: 0.2 },
+            motion: Default::default(),
+            velocity: [0.0, 0.0],
+            angular_velocity: 0.0,
+        }]);
+        let vel = InitialVelocity::default();
+        let bc = periodic();
+        let ctx = InitContext {
+            grid: &g,
+            boundaries: &bc,
+            name: "f",
+            density: 1.0,
+            region: &region,
+            velocity: &vel,
+            theta: None,
+        };
+        let e = Eulerian::default().initialize(&ctx).expect_err("refused");
+        assert!(e.starts_with("region `Bodies([...])` (disk) needs a Lagrangian frame"), "{e}");
+        assert!(e.contains("direct_forcing"), "{e}");
     }
 
     #[test]
