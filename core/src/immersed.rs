@@ -279,14 +279,15 @@ pub fn exact_forcing(
         let norm_b = dot(&b, &b).sqrt();
         let mut z = vec![0.0; n];
         if norm_b > 0.0 {
-            let mut scratch = vec![0.0; out.len()];
+            // the increment's lattice is zero until the end: it is the scratch of `apply`
+            let scratch = &mut *out;
             let (mut r, mut p, mut az) = (b.clone(), b.clone(), vec![0.0; n]);
             let mut rr = dot(&r, &r);
             for _ in 0..4 * n + 20 {
                 if rr.sqrt() <= tolerance * norm_b {
                     break;
                 }
-                apply(&p, &mut scratch, &mut az);
+                apply(&p, scratch, &mut az);
                 let pap = dot(&p, &az);
                 if !(pap > 0.0) {
                     break;
@@ -557,7 +558,11 @@ pub fn couple(
         }
     }
     let lagged = body_sums(grid, &fluid.body_force, bodies);
-    let zero = FaceVelocity::zeros(grid);
+    let zero = if bodies.iter().any(|b| b.motion == Motion::Free) {
+        FaceVelocity::zeros(grid)
+    } else {
+        FaceVelocity::default()
+    };
     let force = |vel: &FaceVelocity, markers: &[Marker], targets: &[Vector]| match sweeps {
         Some(k) => direct_forcing(grid, bc, vel, markers, targets, k, dt),
         None => exact_forcing(grid, bc, vel, markers, targets, dt, 1e-12),
@@ -847,5 +852,38 @@ mod tests {
         }
         // the same offset from the lattice, wrapped or not: the same sums
         assert!((seen[2] - seen[1]).abs() < 1e-12 * exact, "{seen:?}");
+    }
+
+    /// The exact forcing takes every marker to its target: the forced velocity interpolated
+    /// at the markers equals the targets to 1e-10 (multi-direct sweeps leave 15 % after 3),
+    /// and the markers' total force equals the spread field's.
+    #[test]
+    fn exact_forcing_takes_every_marker_to_its_target() {
+        let (n, h) = (64, 1.0 / 64.0);
+        let grid = Grid::new(n, n, h, Vector::zeros());
+        let bc = periodic();
+        let mut vel = FaceVelocity::zeros(&grid);
+        vel.u.iter_mut().for_each(|u| *u = 1.0);
+        let mut markers = Vec::new();
+        circle_markers(Vector::new(0.5, 0.5), 0.2, h, 0.3, &mut markers);
+        let target: Vec<Vector> =
+            markers.iter().map(|m| 0.3 * Vector::new(-(m.position.y - 0.5), m.position.x - 0.5)).collect();
+        let dt = 1e-3;
+        let f = exact_forcing(&grid, &bc, &vel, &markers, &target, dt, 1e-12);
+        let mut forced = vel.clone();
+        for (u, d) in forced.u.iter_mut().zip(&f.increment.u).chain(forced.v.iter_mut().zip(&f.increment.v)) {
+            *u += d;
+        }
+        let slip = markers
+            .iter()
+            .zip(&target)
+            .map(|(m, t)| (interpolate(&grid, &bc, &forced, m.position) - t).norm())
+            .fold(0.0, Real::max);
+        let total: Vector = f.marker_force.iter().zip(&markers).map(|(f, m)| f * m.volume).sum();
+        let spread_total = Vector::new(f.increment.u[..grid.n_xfaces() - n].iter().sum(), 0.0)
+            + Vector::new(0.0, f.increment.v[..grid.n_yfaces() - n].iter().sum());
+        eprintln!("exact forcing: max slip {slip:.2e}, total force {total:?} against {:?}", spread_total * h * h / dt);
+        assert!(slip < 1e-10, "slip {slip:e}");
+        assert!((total - spread_total * h * h / dt).norm() < 1e-9 * total.norm(), "{total:?}");
     }
 }
