@@ -574,6 +574,16 @@ pub fn couple(
         b.markers(grid, retraction, &mut markers);
         let own = &markers[start..];
         let arms: Vec<Vector> = own.iter().map(|m| m.position - b.center).collect();
+        // the disk's faces and the fluid momentum inside it at the start of the step (uⁿ)
+        let interior = match b.shape {
+            BodyShape::Disk { radius, .. } => {
+                Some(disk_face_fractions(grid, b.center, radius, [bc.periodic_x(), bc.periodic_y()]))
+            }
+            _ => None,
+        };
+        let before = interior
+            .as_ref()
+            .map_or((Vector::zeros(), 0.0), |fr| disk_fluid_momentum(grid, &fluid.velocity_old, b.center, fr));
         let (u, w) = match b.motion {
             Motion::Fixed => (Vector::zeros(), 0.0),
             Motion::Prescribed { velocity, angular_velocity } => {
@@ -582,35 +592,51 @@ pub fn couple(
             Motion::Free => {
                 // the forcing is affine in the target U' + ω' × r: its response to the
                 // fluid (target 0) and to unit targets e_x, e_y, ẑ × r
+                // each response's force and torque sums (per unit mass) and the fluid
+                // momentum it leaves inside the disk, ṽ + δu for the fluid's, δu for the
+                // unit targets'
                 let sums = |vel: &FaceVelocity, target: &dyn Fn(Vector) -> Vector| {
                     let t: Vec<Vector> = arms.iter().map(|r| target(*r)).collect();
-                    let f = force(vel, own, &t);
-                    force_sums(&f, own, 0..own.len(), b.center)
+                    let mut f = force(vel, own, &t);
+                    let (s, q) = force_sums(&f, own, 0..own.len(), b.center);
+                    for (d, v) in [(&mut f.increment.u, &vel.u), (&mut f.increment.v, &vel.v)] {
+                        for (d, v) in d.iter_mut().zip(v) {
+                            *d += v;
+                        }
+                    }
+                    let (p, l) = interior
+                        .as_ref()
+                        .map_or((Vector::zeros(), 0.0), |fr| disk_fluid_momentum(grid, &f.increment, b.center, fr));
+                    (s, q, p, l)
                 };
-                let (s0, q0) = sums(&v, &|_| Vector::zeros());
+                let (s0, q0, p0, l0) = sums(&v, &|_| Vector::zeros());
                 let (s0, q0) = (s0 + s_lag, q0 + q_lag);
-                let (sx, qx) = sums(&zero, &|_| Vector::new(1.0, 0.0));
-                let (sy, qy) = sums(&zero, &|_| Vector::new(0.0, 1.0));
-                let (sw, qw) = sums(&zero, &|r| Vector::new(-r.y, r.x));
+                let (sx, qx, px, lx) = sums(&zero, &|_| Vector::new(1.0, 0.0));
+                let (sy, qy, py, ly) = sums(&zero, &|_| Vector::new(0.0, 1.0));
+                let (sw, qw, pw, lw) = sums(&zero, &|r| Vector::new(-r.y, r.x));
                 let (vol, moment) = b.volume_and_moment();
-                let (m_eff, i_eff) = ((b.density - rho_f) * vol, (b.density - rho_f) * moment);
+                let (m, j) = (b.density * vol, b.density * moment);
                 let k = dt * rho_f;
+                // ρ_b V (U' − U) = ρ_f (P' − P) − Δt ρ_f S' + Δt ((ρ_b − ρ_f) V g + F_c),
+                // with S' and P' (the forcing's sums and the fluid momentum inside the disk
+                // after it) affine in U', ω'; and the same for the angular momentum
                 let a = nalgebra::Matrix3::new(
-                    m_eff + k * sx.x,
-                    k * sy.x,
-                    k * sw.x,
-                    k * sx.y,
-                    m_eff + k * sy.y,
-                    k * sw.y,
-                    k * qx,
-                    k * qy,
-                    i_eff + k * qw,
+                    m + k * sx.x - rho_f * px.x,
+                    k * sy.x - rho_f * py.x,
+                    k * sw.x - rho_f * pw.x,
+                    k * sx.y - rho_f * px.y,
+                    m + k * sy.y - rho_f * py.y,
+                    k * sw.y - rho_f * pw.y,
+                    k * qx - rho_f * lx,
+                    k * qy - rho_f * ly,
+                    j + k * qw - rho_f * lw,
                 );
                 let (fc, tc) = b.contact;
+                let m_eff = (b.density - rho_f) * vol;
                 let rhs = nalgebra::Vector3::new(
-                    m_eff * b.velocity.x + dt * (m_eff * gravity.x + fc.x - rho_f * s0.x),
-                    m_eff * b.velocity.y + dt * (m_eff * gravity.y + fc.y - rho_f * s0.y),
-                    i_eff * b.angular_velocity + dt * (tc - rho_f * q0),
+                    m * b.velocity.x + rho_f * (p0.x - before.0.x) + dt * (m_eff * gravity.x + fc.x - rho_f * s0.x),
+                    m * b.velocity.y + rho_f * (p0.y - before.0.y) + dt * (m_eff * gravity.y + fc.y - rho_f * s0.y),
+                    j * b.angular_velocity + rho_f * (l0 - before.1) + dt * (tc - rho_f * q0),
                 );
                 let x = a.lu().solve(&rhs).filter(|x| x.iter().all(|c| c.is_finite())).ok_or_else(|| {
                     format!(
@@ -623,7 +649,7 @@ pub fn couple(
             }
         };
         targets.extend(arms.iter().map(|r| u + w * Vector::new(-r.y, r.x)));
-        motion.push((u, w));
+        motion.push((u, w, interior, before));
     }
     let forcing = force(&v, &markers, &targets);
     let s = &mut *fluid;
@@ -649,17 +675,36 @@ pub fn couple(
         }
     }
     let totals = body_sums(grid, &fluid.body_force, bodies);
+    // the velocity the step ends with, before its projection: ṽ + δu
+    let mut after = v;
+    for (a, d) in [(&mut after.u, &forcing.increment.u), (&mut after.v, &forcing.increment.v)] {
+        for (a, d) in a.iter_mut().zip(d) {
+            *a += d;
+        }
+    }
     Ok(bodies
         .iter()
         .zip(totals)
         .zip(motion)
-        .map(|((b, (s, q)), (u, w))| {
-            let (vol, moment) = b.volume_and_moment();
+        .map(|((b, (s, q)), (u, w, interior, before))| {
+            // F = −ρ_f ∫ f dV + ρ_f d/dt ∫_V u dV − ρ_f V g: the fluid momentum inside a disk
+            // as the grid holds it (Kempe & Fröhlich 2012); an annulus's as a rigid body's
+            let (rate, spin) = match interior {
+                Some(fr) => {
+                    let (p, l) = disk_fluid_momentum(grid, &after, b.center, &fr);
+                    ((p - before.0) / dt, (l - before.1) / dt)
+                }
+                None => {
+                    let (vol, moment) = b.volume_and_moment();
+                    (vol * (u - b.velocity) / dt, moment * (w - b.angular_velocity) / dt)
+                }
+            };
+            let (vol, _) = b.volume_and_moment();
             BodyStep {
                 velocity: u,
                 angular_velocity: w,
-                force: -rho_f * s + rho_f * vol * ((u - b.velocity) / dt - gravity),
-                torque: -rho_f * q + rho_f * moment * (w - b.angular_velocity) / dt,
+                force: -rho_f * s + rho_f * (rate - vol * gravity),
+                torque: -rho_f * q + rho_f * spin,
             }
         })
         .collect())
