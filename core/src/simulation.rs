@@ -5,7 +5,7 @@
 //! attach to phases through their traits; nothing depends on registration order.
 
 use crate::boundary::Boundaries;
-use crate::case::{BodyShape, Case, Integration, Motion, PluginSpec, Region, Representation, MAX_FIELDS};
+use crate::case::{BodyShape, BodySpec, Case, Integration, Motion, PluginSpec, Region, Representation, MAX_FIELDS};
 use crate::error::{Error, Result};
 use crate::exchange::{self, Coefficients, Local};
 use crate::field::FieldState;
@@ -291,6 +291,13 @@ impl Simulation {
         for (k, p) in forced_entries.iter().zip(&forcings) {
             check_forcing(&case, &fields, *k, p.fluid, p.bodies)?;
         }
+        // a forced fluid starts in its bodies' rigid motion inside them
+        let mut held: Vec<Vec<BodySpec>> = vec![Vec::new(); fields.len()];
+        for p in &forcings {
+            if let Region::Bodies(specs) = &case.fields[p.bodies].region {
+                held[p.fluid].extend(specs.iter().cloned());
+            }
+        }
         let pressure_solver = match &mut case.pressure {
             Some(p) => {
                 let s = registry::build_pressure(&p.model, &p.params, "pressure")?;
@@ -342,6 +349,7 @@ impl Simulation {
                     region: &spec.region,
                     velocity: &spec.velocity,
                     theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
+                    held: &held[k],
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }
@@ -360,6 +368,7 @@ impl Simulation {
                     region: &spec.region,
                     velocity: &spec.velocity,
                     theta: Some(&rest),
+                    held: &held[k],
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }
@@ -1314,6 +1323,16 @@ fn check_forcing(case: &Case, fields: &[Field], k: usize, fa: usize, fb: usize) 
                     format!(
                         "`{model}` holds `Fixed` and `Prescribed` bodies; a free body's motion under it is not \
                          stable yet (a settling disk ran away at ρs/ρf = 1.5): use `no_slip` for free bodies"
+                    ),
+                ))
+            }
+            (BodyShape::Disk { .. }, Motion::Prescribed { velocity, .. }) if velocity != [0.0, 0.0] => {
+                return Err(Error::invalid(
+                    format!("{bp}.motion"),
+                    format!(
+                        "`{model}` holds disks at rest or turning about a fixed centre; a translating disk's \
+                         force is not right yet (its drag was of the wrong sign against the same disk held in a \
+                         stream): set `velocity: (0, 0)`, or hold the disk still in a stream, or use `no_slip`"
                     ),
                 ))
             }

@@ -1169,6 +1169,7 @@ mod tests {
             region: &region,
             velocity: &velocity,
             theta: None,
+            held: &[],
         };
         frame.initialize(&ctx).map(|_| frame)
     }
