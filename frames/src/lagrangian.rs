@@ -411,6 +411,34 @@ impl Lagrangian {
         self.measure_bodies();
     }
 
+    /// A rigid body's points move with the body and are not wrapped across a periodic side
+    /// (its centroid and arms would break): the step that takes one across is an error,
+    /// not a body that silently leaves the domain.
+    fn bodies_inside_periodic_sides(&self, g: &Grid, bc: &Boundaries) -> Result<(), String> {
+        let (lo, hi) = (g.origin, g.origin + g.size());
+        let pts = &self.points;
+        for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
+            if !periodic {
+                continue;
+            }
+            let out =
+                (0..pts.len()).find(|&k| pts.body[k] > 0 && !(lo[axis] <= pts.x[k][axis] && pts.x[k][axis] < hi[axis]));
+            if let Some(k) = out {
+                let name = &self.bodies[pts.body[k] as usize - 1].state.name;
+                let (side, at) = if pts.x[k][axis] < lo[axis] { ("low", lo[axis]) } else { ("high", hi[axis]) };
+                return Err(format!(
+                    "rigid body `{name}` reached the periodic {side} {} side ({} = {at}): rigid bodies do not \
+                     cross periodic sides yet; lengthen the domain along {}, start the body farther from the \
+                     side, or end the run earlier",
+                    ["x", "y"][axis],
+                    ["x", "y"][axis],
+                    ["x", "y"][axis]
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Stored elastic energy Σ_p V⁰_p ψ(F_p) of the models that define a strain-energy
     /// density ψ (`StressModel::strain_energy_density`); 0 for models that store none.
     pub fn strain_energy(&self, models: &[Box<dyn StressModel>]) -> Real {
@@ -926,7 +954,7 @@ impl Frame for Lagrangian {
             self.x_old.clone_from(&self.points.x);
             let apic = self.transfer == Transfer::Apic;
             self.rigid_projection(ctx.dt, ctx.gravity, ctx.body_forces, true, apic, Some(steps));
-            return Ok(());
+            return self.bodies_inside_periodic_sides(ctx.grid, ctx.boundaries);
         }
         let g = ctx.grid;
         let bc = ctx.boundaries;
@@ -1017,6 +1045,9 @@ impl Frame for Lagrangian {
         if !self.bodies.is_empty() {
             let apic = self.transfer == Transfer::Apic;
             self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic, None);
+            if rigid {
+                return self.bodies_inside_periodic_sides(g, bc);
+            }
         }
         Ok(())
     }
