@@ -144,3 +144,49 @@ fn what_direct_forcing_cannot_hold_is_refused() {
     let e = refused("fields.cylinder.frame=(model: \"eulerian\")");
     assert!(e.contains("give field `cylinder` a Lagrangian frame"), "{e}");
 }
+
+const STREAM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/cylinder_stream.ron");
+
+/// Runs examples/cylinder_stream.ron (D = U = ρ = 1, the cylinder at (15, 20) in a 40 D
+/// box) on `cells`² to t = `end` and returns C_D = 2 F_x and the recirculation length L/D:
+/// where the centre-line velocity behind the cylinder turns positive, less the radius.
+fn stream(cells: usize, end: Real) -> (Real, Real) {
+    multifield::link_all();
+    let overrides = [format!("domain.cells=({cells}, {cells})"), format!("time.end={end}")];
+    let case = Case::load(Path::new(STREAM), &overrides).expect("valid case");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+    pool.install(|| {
+        let mut sim = Simulation::new(&case).expect("builds");
+        while sim.time < end * (1.0 - 1e-12) {
+            sim.step().expect("steps");
+        }
+        let cd = 2.0 * sim.bodies()[0].1.force.x;
+        let (g, s) = (&sim.grid, &sim.fields[0].state);
+        // y = 20 is a cell edge: the mean of the x-face rows beside it
+        let j = (20.0 / g.h).round() as usize;
+        let u = |i: usize| 0.5 * (s.velocity.u[g.xface(i, j - 1)] + s.velocity.u[g.xface(i, j)]);
+        let mut i = (15.5 / g.h).ceil() as usize;
+        while u(i + 1) <= 0.0 {
+            i += 1;
+        }
+        let (x0, x1) = (i as Real * g.h, (i + 1) as Real * g.h);
+        let x = x0 - u(i) * (x1 - x0) / (u(i + 1) - u(i));
+        (cd, x - 15.5)
+    })
+}
+
+/// A cylinder in a uniform stream at Re 20 (40 D box, free-slip sides 20 D away), against
+/// Dennis & Chang (1970): C_D = 2.045, L/D = 0.94. Measured: at 4 cells per diameter
+/// C_D = 2.1958 (+7.4 %), L/D = 0.756; at 8, C_D = 2.0956 (+2.5 %), L/D = 0.951 (+1.2 %) at
+/// t = 60. Here to t = 50: C_D = 2.1945 and 2.0958, L/D = 0.945 at 8 (89 s for both
+/// runs). docs/validation.md has Re 40 and 16 cells per diameter.
+#[test]
+fn cylinder_in_a_uniform_stream_approaches_dennis_and_chang() {
+    let (cd4, _) = stream(160, 50.0);
+    let (cd8, l8) = stream(320, 50.0);
+    let (e4, e8) = (cd4 / 2.045 - 1.0, cd8 / 2.045 - 1.0);
+    eprintln!("Re 20: 4 cells per D: C_D = {cd4:.4} ({e4:+.4}); 8: C_D = {cd8:.4} ({e8:+.4}), L/D = {l8:.3}");
+    assert!(e8 > 0.0 && e8 < 0.03, "C_D error at 8 cells per D: {e8}");
+    assert!(e4 / e8 > 2.5, "the drag's error fell from {e4} to only {e8}");
+    assert!((l8 / 0.94 - 1.0).abs() < 0.025, "L/D {l8} against 0.94");
+}
