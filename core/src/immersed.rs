@@ -581,9 +581,10 @@ pub fn couple(
             }
             _ => None,
         };
-        let before = interior
-            .as_ref()
-            .map_or((Vector::zeros(), 0.0), |fr| disk_fluid_momentum(grid, &fluid.velocity_old, b.center, fr));
+        let inside = |vel: &FaceVelocity| {
+            interior.as_ref().map_or((Vector::zeros(), 0.0), |fr| disk_fluid_momentum(grid, vel, b.center, fr))
+        };
+        let (before, v_inside) = (inside(&fluid.velocity_old), inside(&v));
         let (u, w) = match b.motion {
             Motion::Fixed => (Vector::zeros(), 0.0),
             Motion::Prescribed { velocity, angular_velocity } => {
@@ -597,19 +598,14 @@ pub fn couple(
                 // unit targets'
                 let sums = |vel: &FaceVelocity, target: &dyn Fn(Vector) -> Vector| {
                     let t: Vec<Vector> = arms.iter().map(|r| target(*r)).collect();
-                    let mut f = force(vel, own, &t);
+                    let f = force(vel, own, &t);
                     let (s, q) = force_sums(&f, own, 0..own.len(), b.center);
-                    for (d, v) in [(&mut f.increment.u, &vel.u), (&mut f.increment.v, &vel.v)] {
-                        for (d, v) in d.iter_mut().zip(v) {
-                            *d += v;
-                        }
-                    }
-                    let (p, l) = interior
-                        .as_ref()
-                        .map_or((Vector::zeros(), 0.0), |fr| disk_fluid_momentum(grid, &f.increment, b.center, fr));
+                    let (p, l) = inside(&f.increment);
                     (s, q, p, l)
                 };
                 let (s0, q0, p0, l0) = sums(&v, &|_| Vector::zeros());
+                // the momentum is linear in the velocity: ṽ's own, once
+                let (p0, l0) = (p0 + v_inside.0, l0 + v_inside.1);
                 let (s0, q0) = (s0 + s_lag, q0 + q_lag);
                 let (sx, qx, px, lx) = sums(&zero, &|_| Vector::new(1.0, 0.0));
                 let (sy, qy, py, ly) = sums(&zero, &|_| Vector::new(0.0, 1.0));
@@ -649,7 +645,7 @@ pub fn couple(
             }
         };
         targets.extend(arms.iter().map(|r| u + w * Vector::new(-r.y, r.x)));
-        motion.push((u, w, interior, before));
+        motion.push((u, w, interior, before, v_inside));
     }
     let forcing = force(&v, &markers, &targets);
     let s = &mut *fluid;
@@ -675,24 +671,18 @@ pub fn couple(
         }
     }
     let totals = body_sums(grid, &fluid.body_force, bodies);
-    // the velocity the step ends with, before its projection: ṽ + δu
-    let mut after = v;
-    for (a, d) in [(&mut after.u, &forcing.increment.u), (&mut after.v, &forcing.increment.v)] {
-        for (a, d) in a.iter_mut().zip(d) {
-            *a += d;
-        }
-    }
     Ok(bodies
         .iter()
         .zip(totals)
         .zip(motion)
-        .map(|((b, (s, q)), (u, w, interior, before))| {
+        .map(|((b, (s, q)), (u, w, interior, before, v_inside))| {
             // F = −ρ_f ∫ f dV + ρ_f d/dt ∫_V u dV − ρ_f V g: the fluid momentum inside a disk
             // as the grid holds it (Kempe & Fröhlich 2012); an annulus's as a rigid body's
             let (rate, spin) = match interior {
                 Some(fr) => {
-                    let (p, l) = disk_fluid_momentum(grid, &after, b.center, &fr);
-                    ((p - before.0) / dt, (l - before.1) / dt)
+                    // inside the velocity the step ends with before its projection, ṽ + δu
+                    let (p, l) = disk_fluid_momentum(grid, &forcing.increment, b.center, &fr);
+                    ((v_inside.0 + p - before.0) / dt, (v_inside.1 + l - before.1) / dt)
                 }
                 None => {
                     let (vol, moment) = b.volume_and_moment();

@@ -4,7 +4,7 @@
 //! plugin may need, so that adding an input later breaks no plugin.
 
 use crate::boundary::Boundaries;
-use crate::case::{BodySpec, InitialVelocity, Region};
+use crate::case::{InitialVelocity, Region};
 use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{Matrix, Real, Vector};
@@ -27,11 +27,6 @@ pub struct InitContext<'a> {
     pub velocity: &'a InitialVelocity,
     /// Initial volume fraction per cell when the core computed it (region `Rest`).
     pub theta: Option<&'a [Real]>,
-    /// Bodies whose inside this field fills and moves with (a fluid under a direct forcing):
-    /// the field's velocity there starts in each body's rigid motion
-    /// ([`BodySpec::velocity_at`]), so that the fluid a moving body carries does not start
-    /// at rest inside it (it would keep a vortex for R²/ν).
-    pub held: &'a [BodySpec],
 }
 
 /// What a frame sees in a phase of a step.

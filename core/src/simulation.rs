@@ -5,7 +5,7 @@
 //! attach to phases through their traits; nothing depends on registration order.
 
 use crate::boundary::Boundaries;
-use crate::case::{BodyShape, BodySpec, Case, Integration, Motion, PluginSpec, Region, Representation, MAX_FIELDS};
+use crate::case::{BodyShape, Case, Integration, Motion, PluginSpec, Region, Representation, MAX_FIELDS};
 use crate::error::{Error, Result};
 use crate::exchange::{self, Coefficients, Local};
 use crate::field::FieldState;
@@ -291,13 +291,6 @@ impl Simulation {
         for (k, p) in forced_entries.iter().zip(&forcings) {
             check_forcing(&case, &fields, *k, p.fluid, p.bodies)?;
         }
-        // a forced fluid starts in its bodies' rigid motion inside them
-        let mut held: Vec<Vec<BodySpec>> = vec![Vec::new(); fields.len()];
-        for p in &forcings {
-            if let Region::Bodies(specs) = &case.fields[p.bodies].region {
-                held[p.fluid].extend(specs.iter().cloned());
-            }
-        }
         let pressure_solver = match &mut case.pressure {
             Some(p) => {
                 let s = registry::build_pressure(&p.model, &p.params, "pressure")?;
@@ -349,7 +342,6 @@ impl Simulation {
                     region: &spec.region,
                     velocity: &spec.velocity,
                     theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
-                    held: &held[k],
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }
@@ -368,7 +360,6 @@ impl Simulation {
                     region: &spec.region,
                     velocity: &spec.velocity,
                     theta: Some(&rest),
-                    held: &held[k],
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }

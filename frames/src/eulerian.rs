@@ -767,19 +767,16 @@ impl Frame for Eulerian {
             None => w.theta = region_fraction(ctx.region, g),
         }
         let origin = [g.origin.x, g.origin.y];
-        // the case's velocity, or a held body's rigid motion inside it
-        let at = |p: Vector, c: usize| match ctx.held.iter().find(|b| b.shape.contains(p.x, p.y)) {
-            Some(b) => b.velocity_at(p.x, p.y)[c],
-            None => ctx.velocity.at(p.x, p.y, origin)[c],
-        };
         for j in 0..g.ny {
             for i in 0..=g.nx {
-                w.velocity.u[g.xface(i, j)] = at(g.node_position(Lattice::XFace, i, j), 0);
+                let p = g.node_position(Lattice::XFace, i, j);
+                w.velocity.u[g.xface(i, j)] = ctx.velocity.at(p.x, p.y, origin)[0];
             }
         }
         for j in 0..=g.ny {
             for i in 0..g.nx {
-                w.velocity.v[g.yface(i, j)] = at(g.node_position(Lattice::YFace, i, j), 1);
+                let p = g.node_position(Lattice::YFace, i, j);
+                w.velocity.v[g.yface(i, j)] = ctx.velocity.at(p.x, p.y, origin)[1];
             }
         }
         ctx.boundaries.enforce(g, &mut w.velocity);
@@ -955,16 +952,7 @@ mod tests {
 
     fn frame(limiter: Limiter, grid: &Grid, bc: &Boundaries, region: &Region, vel: &InitialVelocity) -> Eulerian {
         let mut e = Eulerian { limiter, ..Default::default() };
-        let ctx = InitContext {
-            grid,
-            boundaries: bc,
-            name: "test",
-            density: 2.0,
-            region,
-            velocity: vel,
-            theta: None,
-            held: &[],
-        };
+        let ctx = InitContext { grid, boundaries: bc, name: "test", density: 2.0, region, velocity: vel, theta: None };
         e.initialize(&ctx).unwrap();
         e
     }
@@ -1036,46 +1024,10 @@ mod tests {
             region: &region,
             velocity: &vel,
             theta: None,
-            held: &[],
         };
         let e = Eulerian::default().initialize(&ctx).expect_err("refused");
         assert!(e.starts_with("region `Bodies([...])` (disk) needs a Lagrangian frame"), "{e}");
         assert!(e.contains("direct_forcing"), "{e}");
-    }
-
-    /// A fluid that holds a body starts in the body's rigid motion inside it and in the
-    /// case's velocity elsewhere.
-    #[test]
-    fn held_bodies_set_the_initial_velocity_inside_them() {
-        use multifield_core::case::{BodyShape, BodySpec, Motion};
-        let g = Grid::new(16, 16, 0.0625, Vector::zeros());
-        let held = [BodySpec {
-            name: "rotor".into(),
-            shape: BodyShape::Disk { center: [0.5, 0.5], radius: 0.25 },
-            motion: Motion::Prescribed { velocity: [0.3, -0.1], angular_velocity: 2.0 },
-            velocity: [0.0, 0.0],
-            angular_velocity: 0.0,
-        }];
-        let (vel, bc) = (InitialVelocity::Uniform([1.0, 0.5]), periodic());
-        let ctx = InitContext {
-            grid: &g,
-            boundaries: &bc,
-            name: "f",
-            density: 1.0,
-            region: &Region::Rest,
-            velocity: &vel,
-            theta: None,
-            held: &held,
-        };
-        let mut e = Eulerian::default();
-        e.initialize(&ctx).expect("initializes");
-        let (inside, outside) = (g.xface(8, 9), g.xface(2, 2));
-        let p = g.node_position(Lattice::XFace, 8, 9);
-        // u = U_x − ω (y − y_c) at the face (x = 0.5, y = 0.59375)
-        assert!((e.velocity().u[inside] - (0.3 - 2.0 * (p.y - 0.5))).abs() < 1e-15);
-        assert_eq!(e.velocity().u[outside], 1.0);
-        let q = g.node_position(Lattice::YFace, 9, 8);
-        assert!((e.velocity().v[g.yface(9, 8)] - (-0.1 + 2.0 * (q.x - 0.5))).abs() < 1e-15);
     }
 
     #[test]

@@ -426,13 +426,11 @@ impl Lagrangian {
             if let Some(k) = out {
                 let name = &self.bodies[pts.body[k] as usize - 1].state.name;
                 let (side, at) = if pts.x[k][axis] < lo[axis] { ("low", lo[axis]) } else { ("high", hi[axis]) };
+                let a = ["x", "y"][axis];
                 return Err(format!(
-                    "rigid body `{name}` reached the periodic {side} {} side ({} = {at}): rigid bodies do not \
-                     cross periodic sides yet; lengthen the domain along {}, start the body farther from the \
-                     side, or end the run earlier",
-                    ["x", "y"][axis],
-                    ["x", "y"][axis],
-                    ["x", "y"][axis]
+                    "rigid body `{name}` reached the periodic {side} {a} side ({a} = {at}): rigid bodies do not \
+                     cross periodic sides yet; lengthen the domain along {a}, start the body farther from the \
+                     side, or end the run earlier"
                 ));
             }
         }
@@ -1200,7 +1198,6 @@ mod tests {
             region: &region,
             velocity: &velocity,
             theta: None,
-            held: &[],
         };
         frame.initialize(&ctx).map(|_| frame)
     }
