@@ -79,45 +79,49 @@ fn the_trailing_disk_drafts_kisses_and_tumbles_and_speeds_follow_uhlmann() {
     assert!((ratio - 1.447).abs() < 0.1 * 1.447, "trailing/leading speed at t = 0.15 s: {ratio:.3}, Uhlmann 1.447");
 }
 
-/// The coupled scene (Eulerian water, Lagrangian rigid disks, no-slip exchange, contact,
-/// MG-PCG) gives bit-identical bodies, water velocities and pressure with 1 and 2 threads.
+/// The coupled scene (Eulerian water, Lagrangian rigid disks, contact, MG-PCG) gives
+/// bit-identical bodies, water velocities and pressure with 1 and 2 threads, with the
+/// no-slip exchange and with direct forcing.
 #[test]
 fn the_coupled_scene_is_bit_identical_with_one_and_two_threads() {
     multifield::link_all();
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/dkt_uhlmann2005.ron");
-    // disks start 0.1 d apart so that contact acts from the first step
-    let case = Case::load(
-        &file,
-        &[
-            "domain.cells=(32, 96)".into(),
-            "time.max_steps=30".into(),
-            "fields.disks.region.Bodies.1.shape.Disk.center=(0.999, 4.725)".into(),
-            "contact.params.dt_factor=0.1".into(),
-        ],
-    )
-    .unwrap();
-    let run_with = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| {
-            let mut sim = Simulation::new(&case).unwrap();
-            for _ in 0..30 {
-                sim.step().unwrap();
-            }
-            let mut bits: Vec<u64> = Vec::new();
-            for (_, b) in sim.bodies() {
-                bits.extend(
-                    [b.position.x, b.position.y, b.velocity.x, b.velocity.y, b.angular_velocity].map(Real::to_bits),
-                );
-            }
-            let water = &sim.fields[0].state.velocity;
-            bits.extend(water.u.iter().chain(&water.v).chain(&sim.pressure).map(|x| x.to_bits()));
-            (bits, sim.last.dt_limit.clone())
-        })
-    };
-    let (a, b) = (run_with(1), run_with(2));
-    assert_eq!(a.1, b.1);
-    assert_eq!(a.1, "contact(repulsion)", "the test must exercise contact");
-    assert!(a.0 == b.0, "the state differs between 1 and 2 threads");
+    for forcing in [&[][..], &["exchange.0.model=\"direct_forcing\"", "exchange.0.mass_point=None"][..]] {
+        // disks start 0.1 d apart so that contact acts from the first step
+        let mut overrides: Vec<String> = [
+            "domain.cells=(32, 96)",
+            "time.max_steps=30",
+            "fields.disks.region.Bodies.1.shape.Disk.center=(0.999, 4.725)",
+            "contact.params.dt_factor=0.1",
+        ]
+        .map(String::from)
+        .to_vec();
+        overrides.extend(forcing.iter().map(|s| s.to_string()));
+        let case = Case::load(&file, &overrides).unwrap();
+        let run_with = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let mut sim = Simulation::new(&case).unwrap();
+                for _ in 0..30 {
+                    sim.step().unwrap();
+                }
+                let mut bits: Vec<u64> = Vec::new();
+                for (_, b) in sim.bodies() {
+                    bits.extend(
+                        [b.position.x, b.position.y, b.velocity.x, b.velocity.y, b.angular_velocity, b.force.y]
+                            .map(Real::to_bits),
+                    );
+                }
+                let water = &sim.fields[0].state.velocity;
+                bits.extend(water.u.iter().chain(&water.v).chain(&sim.pressure).map(|x| x.to_bits()));
+                (bits, sim.last.dt_limit.clone())
+            })
+        };
+        let (a, b) = (run_with(1), run_with(2));
+        assert_eq!(a.1, b.1);
+        assert_eq!(a.1, "contact(repulsion)", "the test must exercise contact ({forcing:?})");
+        assert!(a.0 == b.0, "the state differs between 1 and 2 threads ({forcing:?})");
+    }
 }
 
 /// A lone disk settling 0.016 d off the channel's axis barely turns: at that offset the

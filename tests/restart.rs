@@ -165,6 +165,27 @@ fn a_restarted_dkt_run_is_bit_identical_to_the_uninterrupted_one() {
     assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
 }
 
+/// The same scene under direct forcing: the free disks' lagged marker forces carry over.
+#[test]
+fn a_restarted_direct_forcing_run_is_bit_identical_to_the_uninterrupted_one() {
+    let case = load(
+        "examples/dkt_uhlmann2005.ron",
+        &[
+            "domain.cells=(16, 48)",
+            "time.end=0.02",
+            "output.interval=0.002",
+            "output.checkpoints=Some((interval: 0.01))",
+            "output.charts=false",
+            "exchange.0.model=\"direct_forcing\"",
+            "exchange.0.mass_point=None",
+        ],
+    );
+    let (end, _) = restart_reproduces_the_run("dkt_direct_forcing", &case);
+    assert!(end.step >= 20, "{} steps", end.step);
+    let sim = checkpoint::restore(&case, &end.path).unwrap().0;
+    assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
+}
+
 /// Mass-point disks (drag law with added mass and rotation, contact): the points' state
 /// and their largest Reynolds numbers carry over.
 #[test]

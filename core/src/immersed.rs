@@ -56,7 +56,7 @@ pub struct Marker {
     pub volume: Real,
 }
 
-/// Appends `N = max(3, round(2π r_m / h))` markers equally spaced on the circle of radius
+/// Appends `N = 2 max(2, round(π r_m / h))` markers (an even number) equally spaced on the circle of radius
 /// `r_m = radius − retraction·h`, the first at angle 0, each of volume `(2π r_m / N) h`.
 ///
 /// `retraction` is in cells, toward the centre: positive puts the markers inside the
@@ -69,7 +69,10 @@ pub fn circle_markers(center: Vector, radius: Real, h: Real, retraction: Real, o
     if !(radius > 0.0 && rm > 0.0 && h > 0.0 && (rm / h).is_finite() && center.iter().all(|c| c.is_finite())) {
         return;
     }
-    let n = ((2.0 * PI * rm / h).round() as usize).max(3);
+    // an even number: the markers are then symmetric about both axes through the centre,
+    // and a disk falling along an axis feels no lateral force from their placing (23
+    // markers at 8 cells per diameter pushed a lone settling disk 0.002 d sideways)
+    let n = 2 * ((PI * rm / h).round() as usize).max(2);
     let volume = 2.0 * PI * rm / n as Real * h;
     out.extend((0..n).map(|l| {
         let t = 2.0 * PI * l as Real / n as Real;
@@ -447,95 +450,103 @@ impl ForcedBody {
         }
     }
 
-    /// The markers of the shape's surfaces inside the domain, with their arms from the centre.
-    fn markers(&self, grid: &Grid, retraction: Real, out: &mut Vec<Marker>) {
-        let h = grid.h;
-        let start = out.len();
+    /// Every marker of the shape's surfaces (those outside the domain too: a marker's
+    /// index is its place on its circle, the same in every step).
+    fn markers(&self, grid: &Grid, retraction: Real) -> Vec<Marker> {
+        let (h, mut out) = (grid.h, Vec::new());
         match self.shape {
-            BodyShape::Disk { radius, .. } => circle_markers(self.center, radius, h, retraction, out),
+            BodyShape::Disk { radius, .. } => circle_markers(self.center, radius, h, retraction, &mut out),
             BodyShape::Annulus { inner_radius, outer_radius, .. } => {
                 // the fluid is inside the inner circle and outside the outer one
-                circle_markers(self.center, inner_radius, h, -retraction, out);
-                circle_markers(self.center, outer_radius, h, retraction, out);
+                circle_markers(self.center, inner_radius, h, -retraction, &mut out);
+                circle_markers(self.center, outer_radius, h, retraction, &mut out);
             }
             BodyShape::Rectangle { .. } => {}
         }
-        let mut k = start;
-        for l in start..out.len() {
-            if grid.contains(out[l].position) {
-                out[k] = out[l];
-                k += 1;
-            }
-        }
-        out.truncate(k);
+        out
+    }
+
+    /// The body where this step's forcing holds it: its centre moved by Δt times its
+    /// velocity at the start of the step (the prescribed one for a prescribed body).
+    /// The forcing then takes the fluid to the body's motion where the body ends the step,
+    /// so that the slip its motion opens in a step is closed in the same step, whatever
+    /// the steps' lengths (forcing where the body stands at the start closes it a step
+    /// late, with the next step's Δt: a shortened last step reported a force 3–4 times too
+    /// large).
+    fn ahead(&self, dt: Real) -> ForcedBody {
+        let u = match self.motion {
+            Motion::Fixed => return self.clone(),
+            Motion::Prescribed { velocity, .. } => Vector::new(velocity[0], velocity[1]),
+            Motion::Free => self.velocity,
+        };
+        ForcedBody { center: self.center + dt * u, ..self.clone() }
     }
 }
 
-/// Σ_l F_l ΔV_l and Σ_l (X_l − c) × F_l ΔV_l over the markers `range` of a forcing.
-fn force_sums(forcing: &Forcing, markers: &[Marker], range: std::ops::Range<usize>, c: Vector) -> (Vector, Real) {
+/// The lagged marker forces of a body: the stored ones where they fit its markers, zero
+/// for a body that has none yet (the first step) or whose markers changed in number.
+fn lagged_of(lag: Option<&Vec<Vector>>, n: usize) -> Vec<Vector> {
+    match lag {
+        Some(l) if l.len() == n => l.clone(),
+        _ => vec![Vector::zeros(); n],
+    }
+}
+
+/// Spreads the bodies' lagged marker forces (per unit mass, the last step's `F_l` of each
+/// body's markers, `lag[j][l]`) from where the markers stand now onto the faces:
+/// `out = Σ_j Σ_l F_l δ_h(x_f − X_l) ΔV_l`, markers outside the domain left out. The
+/// force is carried with its body: a moving body's force pattern moves with it, and stays
+/// a spread of marker forces, which the markers' interpolation controls. (Lagging the
+/// face field itself, as an earlier version did, left behind a moving body a part of the
+/// field its markers no longer see: it grew unchecked and reversed a translating disk's
+/// drag.)
+pub fn spread_lagged(
+    grid: &Grid,
+    bc: &Boundaries,
+    retraction: Real,
+    bodies: &[ForcedBody],
+    lag: &[Vec<Vector>],
+    out: &mut FaceVelocity,
+) {
+    out.u.fill(0.0);
+    out.v.fill(0.0);
+    for (j, b) in bodies.iter().enumerate() {
+        let markers = b.markers(grid, retraction);
+        let forces = lagged_of(lag.get(j), markers.len());
+        for (m, f) in markers.iter().zip(&forces) {
+            if grid.contains(m.position) && *f != Vector::zeros() {
+                spread(grid, bc, m.position, *f, m.volume, out);
+            }
+        }
+    }
+    copy_periodic(grid, bc, out);
+}
+
+/// Σ_l F_l ΔV_l and Σ_l (X_l − c) × F_l ΔV_l over `markers` and their `forces`.
+fn force_sums(forces: &[Vector], markers: &[Marker], c: Vector) -> (Vector, Real) {
     let (mut f, mut t) = (Vector::zeros(), 0.0);
-    for l in range {
-        let df = forcing.marker_force[l] * markers[l].volume;
+    for (m, force) in markers.iter().zip(forces) {
+        let df = force * m.volume;
         f += df;
-        t += cross(markers[l].position - c, df);
+        t += cross(m.position - c, df);
     }
     (f, t)
-}
-
-/// The force and torque (about each body's centre) of a force field per unit mass on the
-/// faces, `Σ_f f_f h²` and `Σ_f r_f × f_f h²`, each face given to the body whose surface
-/// is nearest.
-fn body_sums(grid: &Grid, field: &FaceVelocity, bodies: &[ForcedBody]) -> Vec<(Vector, Real)> {
-    let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
-    if bodies.is_empty() {
-        return out;
-    }
-    let area = grid.cell_area();
-    let distance = |b: &ForcedBody, x: Vector| {
-        let r = (x - b.center).norm();
-        match b.shape {
-            BodyShape::Annulus { inner_radius, outer_radius, .. } => {
-                (r - inner_radius).abs().min((r - outer_radius).abs())
-            }
-            BodyShape::Disk { radius, .. } => (r - radius).abs(),
-            BodyShape::Rectangle { .. } => Real::INFINITY,
-        }
-    };
-    for (c, lattice, values) in [(0, Lattice::XFace, &field.u), (1, Lattice::YFace, &field.v)] {
-        let (columns, _) = grid.lattice_shape(lattice);
-        for (f, &value) in values.iter().enumerate() {
-            if value == 0.0 {
-                continue;
-            }
-            let x = grid.node_position(lattice, f % columns, f / columns);
-            let (mut best, mut nearest) = (0, Real::INFINITY);
-            for (j, b) in bodies.iter().enumerate() {
-                let d = distance(b, x);
-                if d < nearest {
-                    (best, nearest) = (j, d);
-                }
-            }
-            let mut df = Vector::zeros();
-            df[c] = value * area;
-            out[best].0 += df;
-            out[best].1 += cross(x - bodies[best].center, df);
-        }
-    }
-    out
 }
 
 /// One step of the direct-forcing coupling of a fluid (`fluid`, density `rho_f`) with
 /// `bodies` (see `multifield_physics`' `direct_forcing` for the equations).
 ///
-/// The force of the last step, `fluid.body_force` (f), is lagged into the fluid's predictor
-/// as the pressure acceleration is, so this step forces only the change: ṽ = u* + Δt
-/// (a_pⁿ + f) (the velocity the step would end with), the markers' forces δF that take every
-/// marker to its body's velocity from ṽ, u ← u* + Δt f + Δt S δF, f ← f + S δF, kept on
-/// the faces the markers' kernels reach now (zero behind a moving body). A steady
-/// state then has δF = 0 and every stage of the predictor saw the whole force: the force
-/// and the flow do not depend on Δt. The free bodies' new velocities are implicit in the
-/// forcing (their targets); each body's new velocity and hydrodynamic force are returned.
-/// A free body's system that cannot be solved (singular) is an error.
+/// The markers' forces of the last step, `lag` (per body, per marker; per unit mass), are
+/// lagged into the fluid's predictor as the pressure acceleration is: `fluid.body_force`
+/// holds them spread from where the markers stand now ([`spread_lagged`], which the core
+/// calls before the predictor). This step forces only the change: ṽ = u* + Δt (a_pⁿ + f)
+/// (the velocity the step would end with), the markers' forces δF that take every marker
+/// to its body's velocity from ṽ, u ← u* + Δt f + Δt S δF, F ← F + δF (stored back into
+/// `lag`) and f ← f + S δF. A steady state then has δF = 0 and every stage of the
+/// predictor saw the whole force: the force and the flow do not depend on Δt. The free
+/// bodies' new velocities are implicit in the forcing (their targets); each body's new
+/// velocity and hydrodynamic force are returned. A free body's system that cannot be
+/// solved (singular) is an error.
 #[allow(clippy::too_many_arguments)]
 pub fn couple(
     grid: &Grid,
@@ -547,17 +558,28 @@ pub fn couple(
     rho_f: Real,
     fluid: &mut FieldState,
     bodies: &[ForcedBody],
+    lag: &mut Vec<Vec<Vector>>,
+    lagged_pressure: bool,
 ) -> Result<Vec<BodyStep>, String> {
+    // the interiors where the bodies start the step, and the bodies where they end it
+    let start: Vec<Vector> = bodies.iter().map(|b| b.center).collect();
+    let bodies: Vec<ForcedBody> = bodies.iter().map(|b| b.ahead(dt)).collect();
+    let bodies = &bodies[..];
+    spread_lagged(grid, bc, retraction, bodies, lag, &mut fluid.body_force);
+    // the first step has no lagged pressure: the estimate takes the pressure that holds
+    // the fluid against gravity (a_p = −g, hydrostatic), as the predictor leaves gravity
+    // out (without it a body fell freely through its first step: a disk of ρ_b/ρ_f = 1.01
+    // took −g Δt instead of −g Δt (ρ_b − ρ_f)/(ρ_b + ρ_f))
+    let g0 = if lagged_pressure { Vector::zeros() } else { gravity };
     let mut v = fluid.velocity.clone();
-    for (v, a, f) in [
-        (&mut v.u, &fluid.pressure_acceleration.u, &fluid.body_force.u),
-        (&mut v.v, &fluid.pressure_acceleration.v, &fluid.body_force.v),
+    for (c, v, a, f) in [
+        (0, &mut v.u, &fluid.pressure_acceleration.u, &fluid.body_force.u),
+        (1, &mut v.v, &fluid.pressure_acceleration.v, &fluid.body_force.v),
     ] {
         for ((v, a), f) in v.iter_mut().zip(a).zip(f) {
-            *v += dt * (a + f);
+            *v += dt * (a + f - g0[c]);
         }
     }
-    let lagged = body_sums(grid, &fluid.body_force, bodies);
     let zero = if bodies.iter().any(|b| b.motion == Motion::Free) {
         FaceVelocity::zeros(grid)
     } else {
@@ -567,24 +589,41 @@ pub fn couple(
         Some(k) => direct_forcing(grid, bc, vel, markers, targets, k, dt),
         None => exact_forcing(grid, bc, vel, markers, targets, dt, 1e-12),
     };
+    // the markers inside the domain, every body's after the other's, and per body the
+    // range of them, the indices among its own markers and its lagged forces there
     let (mut markers, mut targets) = (Vec::new(), Vec::new());
+    let mut own_markers = Vec::with_capacity(bodies.len());
     let mut motion = Vec::with_capacity(bodies.len());
-    for (b, (s_lag, q_lag)) in bodies.iter().zip(&lagged) {
-        let start = markers.len();
-        b.markers(grid, retraction, &mut markers);
-        let own = &markers[start..];
+    for (j, b) in bodies.iter().enumerate() {
+        let all = b.markers(grid, retraction);
+        let lagged = lagged_of(lag.get(j), all.len());
+        let index: Vec<usize> = (0..all.len()).filter(|&l| grid.contains(all[l].position)).collect();
+        let own: Vec<Marker> = index.iter().map(|&l| all[l]).collect();
+        let own_lag: Vec<Vector> = index.iter().map(|&l| lagged[l]).collect();
+        let (s_lag, q_lag) = force_sums(&own_lag, &own, b.center);
         let arms: Vec<Vector> = own.iter().map(|m| m.position - b.center).collect();
-        // the disk's faces and the fluid momentum inside it at the start of the step (uⁿ)
-        let interior = match b.shape {
+        // the disk's faces where it ends the step, and the fluid momentum inside it: at the
+        // start of the step (uⁿ, the disk where it starts) and in ṽ
+        let fractions = |c: Vector| match b.shape {
             BodyShape::Disk { radius, .. } => {
-                Some(disk_face_fractions(grid, b.center, radius, [bc.periodic_x(), bc.periodic_y()]))
+                Some(disk_face_fractions(grid, c, radius, [bc.periodic_x(), bc.periodic_y()]))
             }
             _ => None,
         };
+        let interior = fractions(b.center);
         let inside = |vel: &FaceVelocity| {
             interior.as_ref().map_or((Vector::zeros(), 0.0), |fr| disk_fluid_momentum(grid, vel, b.center, fr))
         };
-        let (before, v_inside) = (inside(&fluid.velocity_old), inside(&v));
+        let before = if start[j] == b.center {
+            inside(&fluid.velocity_old)
+        } else {
+            fractions(start[j]).map_or((Vector::zeros(), 0.0), |fr| {
+                let (p, l) = disk_fluid_momentum(grid, &fluid.velocity_old, start[j], &fr);
+                // the angular momentum about the centre where the disk ends the step
+                (p, l + cross(start[j] - b.center, p))
+            })
+        };
+        let v_inside = inside(&v);
         let (u, w) = match b.motion {
             Motion::Fixed => (Vector::zeros(), 0.0),
             Motion::Prescribed { velocity, angular_velocity } => {
@@ -592,14 +631,13 @@ pub fn couple(
             }
             Motion::Free => {
                 // the forcing is affine in the target U' + ω' × r: its response to the
-                // fluid (target 0) and to unit targets e_x, e_y, ẑ × r
-                // each response's force and torque sums (per unit mass) and the fluid
-                // momentum it leaves inside the disk, ṽ + δu for the fluid's, δu for the
-                // unit targets'
+                // fluid (target 0) and to unit targets e_x, e_y, ẑ × r: each response's
+                // force and torque sums (per unit mass) and the fluid momentum it leaves
+                // inside the disk, ṽ + δu for the fluid's, δu for the unit targets'
                 let sums = |vel: &FaceVelocity, target: &dyn Fn(Vector) -> Vector| {
                     let t: Vec<Vector> = arms.iter().map(|r| target(*r)).collect();
-                    let f = force(vel, own, &t);
-                    let (s, q) = force_sums(&f, own, 0..own.len(), b.center);
+                    let f = force(vel, &own, &t);
+                    let (s, q) = force_sums(&f.marker_force, &own, b.center);
                     let (p, l) = inside(&f.increment);
                     (s, q, p, l)
                 };
@@ -644,7 +682,10 @@ pub fn couple(
                 (Vector::new(x[0], x[1]), x[2])
             }
         };
+        let start = markers.len();
         targets.extend(arms.iter().map(|r| u + w * Vector::new(-r.y, r.x)));
+        markers.extend_from_slice(&own);
+        own_markers.push((start..markers.len(), index, all.len(), lagged));
         motion.push((u, w, interior, before, v_inside));
     }
     let forcing = force(&v, &markers, &targets);
@@ -658,19 +699,18 @@ pub fn couple(
             *f += d / dt;
         }
     }
-    // the force stays only where the markers are now: a moving body leaves no force behind
-    for (c, f) in [(0, &mut fluid.body_force.u), (1, &mut fluid.body_force.v)] {
-        let mut near = vec![false; f.len()];
-        for m in &markers {
-            stencil(grid, bc, c, m.position, |k, _, _| near[k] = true);
+    // F ← F + δF on the markers inside the domain, zero on the others
+    lag.clear();
+    let mut totals = Vec::with_capacity(bodies.len());
+    for (b, (range, index, n, lagged)) in bodies.iter().zip(own_markers) {
+        let mut forces = vec![Vector::zeros(); n];
+        for (k, &l) in range.clone().zip(&index) {
+            forces[l] = lagged[l] + forcing.marker_force[k];
         }
-        for (f, near) in f.iter_mut().zip(&near) {
-            if !near {
-                *f = 0.0;
-            }
-        }
+        let inside: Vec<Vector> = index.iter().map(|&l| forces[l]).collect();
+        totals.push(force_sums(&inside, &markers[range], b.center));
+        lag.push(forces);
     }
-    let totals = body_sums(grid, &fluid.body_force, bodies);
     Ok(bodies
         .iter()
         .zip(totals)
@@ -789,9 +829,9 @@ mod tests {
         let (h, mut m) = (1.0 / 32.0, Vec::new());
         circle_markers(Vector::new(1.0, 2.0), 0.5, h, 0.3, &mut m);
         let rm = 0.5 - 0.3 * h;
-        assert_eq!(m.len(), 99); // round(2π · 0.490625 · 32) = round(98.65)
+        assert_eq!(m.len(), 98); // 2 round(π · 0.490625 · 32) = 2 round(49.32)
         let gap = (m[1].position - m[0].position).norm();
-        assert!((gap - 2.0 * rm * (PI / 99.0).sin()).abs() < 1e-15);
+        assert!((gap - 2.0 * rm * (PI / 98.0).sin()).abs() < 1e-15);
         assert!((m[0].position - Vector::new(1.0 + rm, 2.0)).norm() < 1e-15);
         assert!(m.iter().all(|k| ((k.position - Vector::new(1.0, 2.0)).norm() - rm).abs() < 1e-14));
         let v: Real = m.iter().map(|k| k.volume).sum();
@@ -802,7 +842,7 @@ mod tests {
         }
         assert!(none.is_empty());
         circle_markers(Vector::zeros(), 0.001, h, 0.0, &mut none);
-        assert_eq!(none.len(), 3);
+        assert_eq!(none.len(), 4);
     }
 
     #[test]

@@ -55,6 +55,9 @@ struct ForcedPair {
     bodies: usize,
     /// The forcing's options.
     forcing: ImmersedBoundary,
+    /// The last step's marker forces per body, per marker (per unit mass), lagged into
+    /// the next step ([`crate::immersed::couple`]).
+    lag: Vec<Vec<Vector>>,
 }
 
 /// Figures of one step, written to `diagnostics.csv`.
@@ -277,7 +280,7 @@ impl Simulation {
             }
             if let Some(forcing) = model.immersed_boundary() {
                 forced_entries.push(k);
-                forcings.push(ForcedPair { fluid: fa, bodies: fb, forcing });
+                forcings.push(ForcedPair { fluid: fa, bodies: fb, forcing, lag: Vec::new() });
                 continue;
             }
             exchanges.push(Exchange {
@@ -442,6 +445,11 @@ impl Simulation {
             let frame = f.frame.save_state().map_err(|m| Error::Model(format!("field `{}`: {m}", f.name)))?;
             w.bytes(&frame);
         }
+        w.u64(self.forcings.len() as u64);
+        for p in &self.forcings {
+            w.u64(p.lag.len() as u64);
+            p.lag.iter().for_each(|forces| w.vectors(forces));
+        }
         Ok(w.into_bytes())
     }
 
@@ -520,7 +528,21 @@ impl Simulation {
             let frame = r.bytes(&what("frame state"))?;
             f.frame.load_state(frame).map_err(|m| format!("field `{name}`: {m}"))?;
         }
+        let n = r.u64("immersed boundaries")? as usize;
+        if n != self.forcings.len() {
+            return Err(format!("{n} direct forcings in the checkpoint, {} here", self.forcings.len()));
+        }
+        let mut lags = Vec::with_capacity(n);
+        for _ in 0..n {
+            let bodies = r.u64("marker forces")? as usize;
+            let lag: std::result::Result<Vec<Vec<Vector>>, String> =
+                (0..bodies).map(|_| r.vectors("marker forces")).collect();
+            lags.push(lag?);
+        }
         r.finish("simulation state")?;
+        for (p, lag) in self.forcings.iter_mut().zip(lags) {
+            p.lag = lag;
+        }
         self.time = time;
         self.steps = steps;
         self.initial_energy = initial_energy;
@@ -643,6 +665,7 @@ impl Simulation {
         }
         self.particles_to_grid(dt)?;
         let volume_fraction_error = self.volume_fractions();
+        self.carry_immersed_forces();
         self.predictor(dt)?;
         self.exchange(dt);
         self.contact_forces();
@@ -795,31 +818,9 @@ impl Simulation {
     /// direct forcing moves its free bodies and forces its fluid towards the bodies' rigid
     /// motion on their surfaces ([`crate::immersed::couple`]).
     fn immersed_boundaries(&mut self, dt: Real) -> Result<()> {
-        for p in &self.forcings {
-            let Region::Bodies(specs) = &self.case.fields[p.bodies].region else {
-                continue;
-            };
-            let states = self.fields[p.bodies].frame.bodies();
-            let bodies: Vec<crate::immersed::ForcedBody> = specs
-                .iter()
-                .zip(&states)
-                .enumerate()
-                .map(|(j, (spec, state))| crate::immersed::ForcedBody {
-                    shape: spec.shape.clone(),
-                    // a fixed body's centre is its shape's (the points' centroid carries the
-                    // round-off of its masses); a moving disk's is its centroid
-                    center: match (&spec.shape, spec.motion) {
-                        (BodyShape::Annulus { center, .. } | BodyShape::Disk { center, .. }, Motion::Fixed)
-                        | (BodyShape::Annulus { center, .. }, _) => vector(*center),
-                        _ => state.position,
-                    },
-                    motion: spec.motion,
-                    velocity: state.velocity,
-                    angular_velocity: state.angular_velocity,
-                    density: self.fields[p.bodies].density,
-                    contact: self.body_forces[p.bodies].get(j).copied().unwrap_or((Vector::zeros(), 0.0)),
-                })
-                .collect();
+        for k in 0..self.forcings.len() {
+            let bodies = self.forced_bodies(k);
+            let p = &mut self.forcings[k];
             let rho_f = self.fields[p.fluid].density;
             let name = self.fields[p.bodies].name.clone();
             let fluid = &mut self.fields[p.fluid].state;
@@ -833,12 +834,56 @@ impl Simulation {
                 rho_f,
                 fluid,
                 &bodies,
+                &mut p.lag,
+                self.steps > 0,
             )
             .map_err(|m| Error::Model(format!("immersed boundaries of field `{name}`: {m}")))?;
             self.boundaries.enforce(&self.grid, &mut fluid.velocity);
             self.body_steps[p.bodies] = steps;
         }
         Ok(())
+    }
+
+    /// Phase 2b (before the predictors): every direct forcing's fluid takes the last
+    /// step's marker forces spread from where its bodies' markers stand now
+    /// ([`crate::immersed::spread_lagged`]), the lagged force its predictor sees.
+    fn carry_immersed_forces(&mut self) {
+        for k in 0..self.forcings.len() {
+            let bodies = self.forced_bodies(k);
+            let p = &self.forcings[k];
+            let fluid = &mut self.fields[p.fluid].state;
+            let (grid, bc) = (&self.grid, &self.boundaries);
+            crate::immersed::spread_lagged(grid, bc, p.forcing.retraction, &bodies, &p.lag, &mut fluid.body_force);
+        }
+    }
+
+    /// The bodies of direct forcing `k` as they stand now.
+    fn forced_bodies(&self, k: usize) -> Vec<crate::immersed::ForcedBody> {
+        let p = &self.forcings[k];
+        let Region::Bodies(specs) = &self.case.fields[p.bodies].region else {
+            return Vec::new();
+        };
+        let states = self.fields[p.bodies].frame.bodies();
+        specs
+            .iter()
+            .zip(&states)
+            .enumerate()
+            .map(|(j, (spec, state))| crate::immersed::ForcedBody {
+                shape: spec.shape.clone(),
+                // a fixed body's centre is its shape's (the points' centroid carries the
+                // round-off of its masses); a moving disk's is its centroid
+                center: match (&spec.shape, spec.motion) {
+                    (BodyShape::Annulus { center, .. } | BodyShape::Disk { center, .. }, Motion::Fixed)
+                    | (BodyShape::Annulus { center, .. }, _) => vector(*center),
+                    _ => state.position,
+                },
+                motion: spec.motion,
+                velocity: state.velocity,
+                angular_velocity: state.angular_velocity,
+                density: self.fields[p.bodies].density,
+                contact: self.body_forces[p.bodies].get(j).copied().unwrap_or((Vector::zeros(), 0.0)),
+            })
+            .collect()
     }
 
     /// Phase 2: volume fractions; the field of region `Rest` takes what the others leave.
@@ -1306,25 +1351,6 @@ fn check_forcing(case: &Case, fields: &[Field], k: usize, fa: usize, fb: usize) 
                 return Err(Error::invalid(
                     bp,
                     format!("`{model}` places its markers on circles: a rectangle is not supported; use a Disk or an Annulus, or `no_slip`"),
-                ))
-            }
-            (BodyShape::Disk { .. }, Motion::Free) => {
-                return Err(Error::invalid(
-                    format!("{bp}.motion"),
-                    format!(
-                        "`{model}` holds `Fixed` and `Prescribed` bodies; a free body's motion under it is not \
-                         stable yet (a settling disk ran away at ρs/ρf = 1.5): use `no_slip` for free bodies"
-                    ),
-                ))
-            }
-            (BodyShape::Disk { .. }, Motion::Prescribed { velocity, .. }) if velocity != [0.0, 0.0] => {
-                return Err(Error::invalid(
-                    format!("{bp}.motion"),
-                    format!(
-                        "`{model}` holds disks at rest or turning about a fixed centre; a translating disk's \
-                         force is not right yet (its drag was of the wrong sign against the same disk held in a \
-                         stream): set `velocity: (0, 0)`, or hold the disk still in a stream, or use `no_slip`"
-                    ),
                 ))
             }
             (BodyShape::Annulus { .. }, Motion::Free) => {
