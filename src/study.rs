@@ -133,7 +133,21 @@ pub enum Metric {
     /// Drafting–kissing–tumbling of two disks ([`crate::dkt`]): columns `kiss_time`,
     /// `tumble_time`, `min_gap_over_d`.
     Dkt,
+    /// The last row of a `bodies.csv` column for one body, times `scale` (default 1; e.g.
+    /// 2/(ρU²D) for a drag coefficient): column `<body>_<column>`.
+    Body {
+        /// The body's name.
+        body: String,
+        /// One of [`BODY_COLUMNS`].
+        column: String,
+        /// Factor applied to the value.
+        #[serde(default)]
+        scale: Option<Real>,
+    },
 }
+
+/// Columns of `bodies.csv` a [`Metric::Body`] can name.
+pub const BODY_COLUMNS: [&str; 8] = ["x", "y", "vx", "vy", "omega", "fx", "fy", "torque"];
 
 /// Numbers of `summary.json` a [`Metric::Summary`] can name.
 pub const SUMMARY_NUMBERS: [&str; 11] = [
@@ -185,6 +199,14 @@ pub enum Reference {
         value: String,
         /// What is compared.
         compare: Compare,
+    },
+    /// A known value of one of the study's metric columns (a published or analytic drag
+    /// coefficient, torque, terminal velocity): the error is |metric − value| / |value|.
+    Exact {
+        /// The metric's column, e.g. `cylinder_fx`.
+        column: String,
+        /// The known value.
+        value: Real,
     },
 }
 
@@ -494,11 +516,43 @@ impl Study {
                         ),
                     ))
                 }
+                Metric::Body { column: c, scale, .. } => {
+                    if !BODY_COLUMNS.contains(&c.as_str()) {
+                        return Err(bad(
+                            file,
+                            &format!("{path}.column"),
+                            format!(
+                                "`{c}` is not a column of bodies.csv; columns: {}{}",
+                                BODY_COLUMNS.join(", "),
+                                crate::core::error::did_you_mean(c, BODY_COLUMNS.iter().copied())
+                            ),
+                        ));
+                    }
+                    if scale.is_some_and(|x| !x.is_finite()) {
+                        return Err(bad(file, &format!("{path}.scale"), "must be a finite number".to_string()));
+                    }
+                }
                 _ => {}
             }
         }
         match &self.reference {
             Reference::None => {}
+            Reference::Exact { column: c, value } => {
+                let columns = metric_columns(&self.metrics);
+                if !columns.contains(c) {
+                    return Err(bad(
+                        file,
+                        "reference.column",
+                        format!(
+                            "`{c}` is not a metric column of this study; its metric columns: {}",
+                            if columns.is_empty() { "none (add `metrics`)".to_string() } else { columns.join(", ") }
+                        ),
+                    ));
+                }
+                if !(value.is_finite() && *value != 0.0) {
+                    return Err(bad(file, "reference.value", format!("{value}: must be finite and not 0")));
+                }
+            }
             Reference::Analytic { column: c, law: Law::Exponential { rate, initial, .. } } => {
                 column("reference.column", c)?;
                 if !rate.is_finite() {
@@ -798,6 +852,7 @@ pub fn metric_columns(metrics: &[Metric]) -> Vec<String> {
             Metric::Mean(c) => vec![format!("mean_{c}")],
             Metric::Summary(s) => vec![s.clone()],
             Metric::Dkt => vec!["kiss_time".into(), "tumble_time".into(), "min_gap_over_d".into()],
+            Metric::Body { body, column, .. } => vec![format!("{body}_{column}")],
         })
         .collect()
 }
@@ -806,6 +861,8 @@ pub fn metric_columns(metrics: &[Metric]) -> Vec<String> {
 struct Csv {
     header: Vec<String>,
     rows: Vec<Vec<Real>>,
+    /// The third field of every row (a body's name in `bodies.csv`).
+    names: Vec<String>,
 }
 
 impl Csv {
@@ -813,11 +870,15 @@ impl Csv {
         let text = std::fs::read_to_string(path).ok()?;
         let mut lines = text.lines();
         let header: Vec<String> = lines.next()?.split(',').map(|s| s.trim().to_string()).collect();
-        let rows = lines
-            .map(|l| l.split(',').map(|s| s.trim().parse().unwrap_or(Real::NAN)).collect::<Vec<Real>>())
-            .filter(|r| r.len() == header.len())
-            .collect();
-        Some(Csv { header, rows })
+        let (mut rows, mut names) = (Vec::new(), Vec::new());
+        for l in lines {
+            let fields: Vec<&str> = l.split(',').map(str::trim).collect();
+            if fields.len() == header.len() {
+                names.push(fields.get(2).map_or(String::new(), |s| s.to_string()));
+                rows.push(fields.iter().map(|s| s.parse().unwrap_or(Real::NAN)).collect());
+            }
+        }
+        Some(Csv { header, rows, names })
     }
     fn column(&self, name: &str) -> Option<Vec<Real>> {
         let k = self.header.iter().position(|h| h == name)?;
@@ -845,6 +906,7 @@ fn row_of(dir: &Path, study: &Study) -> Row {
         column("kinetic_energy").map_or(Real::NAN, |v| v.iter().copied().fold(0.0, Real::max))
     };
     let energy_drift = Some((e1 - e0) / scale).filter(|x| x.is_finite());
+    let bodies = Csv::read(&dir.join("bodies.csv"));
     let mut metrics = Vec::new();
     for m in &study.metrics {
         match m {
@@ -856,6 +918,8 @@ fn row_of(dir: &Path, study: &Study) -> Row {
                 Ok((r, _, _)) => metrics.extend([r.kiss_time, r.tumble_time, Some(r.min_gap_over_d)]),
                 Err(_) => metrics.extend([None, None, None]),
             },
+            Metric::Body { body, column, scale } => metrics
+                .push(body_last(&bodies, body, column).map(|v| v * scale.unwrap_or(1.0)).filter(|v| v.is_finite())),
         }
     }
     Row {
@@ -869,6 +933,14 @@ fn row_of(dir: &Path, study: &Study) -> Row {
         energy_drift,
         metrics,
     }
+}
+
+/// The last row of `column` in `bodies.csv` (read as `bodies`) for `body`.
+fn body_last(bodies: &Option<Csv>, body: &str, column: &str) -> Option<Real> {
+    // the body's name is text: find its rows by the raw file's order (Csv parses it as NaN)
+    let b = bodies.as_ref()?;
+    let k = b.header.iter().position(|h| h == column)?;
+    b.names.iter().rposition(|n| n == body).map(|r| b.rows[r][k])
 }
 
 /// Error of a run against a closed-form law.
@@ -985,6 +1057,11 @@ pub fn rows(plan: &Plan) -> Vec<Row> {
             Reference::Finest { compare, .. } | Reference::Baseline { compare, .. } => refs[k]
                 .filter(|&r| usable(&rows[r].status))
                 .and_then(|r| compare_runs(&c.dir, &plan.runs[r].dir, compare)),
+            Reference::Exact { column, value } => metric_columns(&plan.study.metrics)
+                .iter()
+                .position(|m| m == column)
+                .and_then(|i| rows[k].metrics[i])
+                .map(|v| ((v - value) / value).abs()),
         };
     }
     rows
