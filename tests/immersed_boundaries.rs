@@ -19,14 +19,20 @@ fn channel(overrides: &[&str]) -> Vec<(Real, Real, Real)> {
     multifield::link_all();
     let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     let case = Case::load(Path::new(CHANNEL), &overrides).expect("valid case");
+    rows_of(&case).into_iter().map(|(t, _, f)| (t, f.x, f.y)).collect()
+}
+
+/// Runs `case` to its end on one thread and returns the first body's rows (time,
+/// velocity, force), one per step.
+fn rows_of(case: &Case) -> Vec<(Real, Vector, Vector)> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
     pool.install(|| {
-        let mut sim = Simulation::new(&case).expect("builds");
+        let mut sim = Simulation::new(case).expect("builds");
         let mut rows = Vec::new();
         while sim.time < case.time.end * (1.0 - 1e-12) {
             sim.step().expect("steps");
             let b = &sim.bodies()[0].1;
-            rows.push((sim.time, b.force.x, b.force.y));
+            rows.push((sim.time, b.velocity, b.force));
         }
         rows
     })
@@ -200,36 +206,17 @@ fn cylinder_in_a_uniform_stream_approaches_dennis_and_chang() {
     assert!((l8 / 0.91 - 1.0).abs() < 0.04 && (l8 / 0.94 - 1.0).abs() < 0.07, "L/D {l8}");
 }
 
-/// Runs `text` (a case) on one thread to its end and returns the first body's rows
-/// (time, velocity, force), one per step.
-fn body_rows(text: &str, overrides: &[String]) -> Vec<(Real, Vector, Vector)> {
+/// [`rows_of`] the case `text`.
+fn body_rows(text: &str) -> Vec<(Real, Vector, Vector)> {
     multifield::link_all();
-    let mut case = Case::from_ron(text, Path::new("case.ron")).expect("valid case");
-    if !overrides.is_empty() {
-        let dir = std::env::temp_dir().join(format!("mf_ib_{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let file = dir.join(format!("{}.ron", case.name));
-        std::fs::write(&file, text).unwrap();
-        case = Case::load(&file, overrides).expect("valid overrides");
-    }
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
-    pool.install(|| {
-        let mut sim = Simulation::new(&case).expect("builds");
-        let mut rows = Vec::new();
-        while sim.time < case.time.end * (1.0 - 1e-12) {
-            sim.step().expect("steps");
-            let b = &sim.bodies()[0].1;
-            rows.push((sim.time, b.velocity, b.force));
-        }
-        rows
-    })
+    rows_of(&Case::from_ron(text, Path::new("case.ron")).expect("valid case"))
 }
 
 /// A disk of diameter 0.5 in a periodic 4 × 4 box (ν = 0.01, Re = UD/ν = 50): moving at
 /// (0, −1) through fluid at rest, and held fixed in a stream of (0, 1). Galilean invariance
 /// makes their drags equal; the grid and its advection are not Galilean invariant, so they
 /// differ by a discretisation error, which must fall with the grid. Measured, the mean
-/// over 1 ≤ t ≤ 1.2: 0.4167 (held) against 0.4303 (moving), +3.26 %, at 8 cells per
+/// over 1 ≤ t ≤ 1.2: 0.4175 (held) against 0.4287 (moving), +2.68 %, at 8 cells per
 /// diameter; 0.4167 against 0.4190, +0.57 %, at 16. The moving disk's force rings by
 /// ±1–2 % as it crosses the cells; its last, shortened step stays inside that band.
 /// (Before the marker forces were carried with the body, the lagged face force left
@@ -261,8 +248,8 @@ fn a_translating_disk_feels_the_drag_of_the_same_disk_held_in_a_stream() {
     };
     let mut gaps = Vec::new();
     for cells in [64, 128] {
-        let fixed = body_rows(&case(cells, false), &[]);
-        let moving = body_rows(&case(cells, true), &[]);
+        let fixed = body_rows(&case(cells, false));
+        let moving = body_rows(&case(cells, true));
         // the mean over t ≥ 1 (the moving disk's force rings with its crossing of the cells)
         let mean = |rows: &[(Real, Vector, Vector)]| {
             let late: Vec<Real> = rows.iter().filter(|r| r.0 >= 1.0).map(|r| r.2.y).collect();
@@ -286,8 +273,9 @@ fn a_translating_disk_feels_the_drag_of_the_same_disk_held_in_a_stream() {
     assert!(gaps[0] < 0.05 && gaps[1] < 0.01 && gaps[1] < 0.35 * gaps[0], "moving against held: {gaps:?}");
 }
 
-/// A disk (d = 0.25, ρ_b/ρ_f = 1.5) settling from rest in a closed 8 d × 24 d channel
-/// (ν = 0.1, g = 981: Re ≈ 22 at its speed of 8.9), free under direct forcing: its speed at
+/// examples/settling_disk.ron: a disk (d = 0.25, ρ_b/ρ_f = 1.5) settling from rest in a
+/// closed 8 d × 24 d channel (ν = 0.1, g = 981: Re ≈ 22 at its speed of 8.9), free under
+/// direct forcing: its speed at
 /// t = 0.4 (within 0.3 % of terminal) on 4, 8 and 16 cells per diameter converges
 /// monotonically. Measured: 8.8939, 8.9090, 8.9182 (differences 0.0151 and 0.0092: observed
 /// order 0.71); at 32 cells per diameter (855 s, docs/validation.md) 8.9160, a difference
@@ -295,24 +283,12 @@ fn a_translating_disk_feels_the_drag_of_the_same_disk_held_in_a_stream() {
 /// stays on the axis to 1e-12 (its markers are symmetric).
 #[test]
 fn a_free_disk_settles_to_a_speed_that_converges_with_the_grid() {
-    let case = r#"(
-        name: "settling",
-        domain: (size: (2.0, 6.0), cells: (64, 192)),
-        boundaries: (left: NoSlip, right: NoSlip, bottom: NoSlip, top: NoSlip),
-        gravity: (0.0, -981.0),
-        time: (end: 0.4, cfl: 0.4, max_dt: 2e-3),
-        fields: [
-            (name: "water", density: 1.0, frame: (model: "eulerian"), region: Rest,
-             stress: [(model: "newtonian", params: (viscosity: 0.1))]),
-            (name: "disk", density: 1.5, frame: (model: "lagrangian"), stress: [(model: "rigid")],
-             region: Bodies([(name: "disk", shape: Disk(center: (1.0, 5.5), radius: 0.125))])),
-        ],
-        exchange: [(between: ("water", "disk"), model: "direct_forcing")],
-        pressure: Some((model: "pcg", params: (preconditioner: "multigrid", tolerance: 1e-10))),
-    )"#;
+    multifield::link_all();
     let mut speeds = Vec::new();
     for n in [4, 8, 16] {
-        let rows = body_rows(case, &[format!("domain.cells=({}, {})", 8 * n, 24 * n)]);
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/settling_disk.ron");
+        let case = Case::load(&file, &[format!("domain.cells=({}, {})", 8 * n, 24 * n)]).expect("valid case");
+        let rows = rows_of(&case);
         let (_, v, f) = *rows.last().unwrap();
         eprintln!("{n} cells per diameter: v = {v:?} at t = 0.4, hydrodynamic force {f:?}");
         assert!(v.x.abs() < 1e-9, "the disk left the axis: {v:?}");

@@ -145,45 +145,35 @@ fn restart_reproduces_the_run(name: &str, case: &Case) -> (Checkpoint, Checkpoin
     (ca, cb)
 }
 
-/// Coupled scene: Eulerian water, two rigid Lagrangian disks with contact, no-slip
-/// exchange, MG-preconditioned CG (warm-started from the checkpointed pressure).
-#[test]
-fn a_restarted_dkt_run_is_bit_identical_to_the_uninterrupted_one() {
-    let case = load(
-        "examples/dkt_uhlmann2005.ron",
-        &[
-            "domain.cells=(16, 48)",
-            "time.end=0.02",
-            "output.interval=0.002",
-            "output.checkpoints=Some((interval: 0.01))",
-            "output.charts=false",
-        ],
-    );
-    let (end, _) = restart_reproduces_the_run("dkt", &case);
+/// Uhlmann's two settling disks with contact on a small grid, checkpointed at t = 0.01,
+/// with `extra` overrides: a restart reproduces the run, and the disks settle.
+fn dkt_restarts(name: &str, extra: &[&str]) {
+    let mut overrides = vec![
+        "domain.cells=(16, 48)",
+        "time.end=0.02",
+        "output.interval=0.002",
+        "output.checkpoints=Some((interval: 0.01))",
+        "output.charts=false",
+    ];
+    overrides.extend_from_slice(extra);
+    let case = load("examples/dkt_uhlmann2005.ron", &overrides);
+    let (end, _) = restart_reproduces_the_run(name, &case);
     assert!(end.step >= 20, "{} steps", end.step);
     let sim = checkpoint::restore(&case, &end.path).unwrap().0;
     assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
 }
 
+/// Coupled scene: Eulerian water, two rigid Lagrangian disks with contact, no-slip
+/// exchange, MG-preconditioned CG (warm-started from the checkpointed pressure).
+#[test]
+fn a_restarted_dkt_run_is_bit_identical_to_the_uninterrupted_one() {
+    dkt_restarts("dkt", &[]);
+}
+
 /// The same scene under direct forcing: the free disks' lagged marker forces carry over.
 #[test]
 fn a_restarted_direct_forcing_run_is_bit_identical_to_the_uninterrupted_one() {
-    let case = load(
-        "examples/dkt_uhlmann2005.ron",
-        &[
-            "domain.cells=(16, 48)",
-            "time.end=0.02",
-            "output.interval=0.002",
-            "output.checkpoints=Some((interval: 0.01))",
-            "output.charts=false",
-            "exchange.0.model=\"direct_forcing\"",
-            "exchange.0.mass_point=None",
-        ],
-    );
-    let (end, _) = restart_reproduces_the_run("dkt_direct_forcing", &case);
-    assert!(end.step >= 20, "{} steps", end.step);
-    let sim = checkpoint::restore(&case, &end.path).unwrap().0;
-    assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
+    dkt_restarts("dkt_direct_forcing", &["exchange.0.model=\"direct_forcing\"", "exchange.0.mass_point=None"]);
 }
 
 /// Mass-point disks (drag law with added mass and rotation, contact): the points' state
