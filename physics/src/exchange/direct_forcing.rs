@@ -42,9 +42,9 @@
 //! no longer see, which grew unchecked and reversed a translating disk's drag. The first
 //! step, which has no lagged pressure, estimates it as the hydrostatic one (a_p = −g).
 //! Measured (docs/validation.md): a disk moving through fluid at rest against the same
-//! disk held in a stream, +3.3 % and +0.6 % at 8 and 16 cells per diameter; free disks
-//! stable from ρ_b/ρ_f = 0.1 (rising) to 1.5 and above; a settling disk's speed converges
-//! monotonically with the grid.
+//! disk held in a stream, +2.7 % and +0.6 % at 8 and 16 cells per diameter; free disks
+//! stable from ρ_b/ρ_f = 0.02 (rising; erratic at 0.01) to 10; a settling disk's speed
+//! converges with the grid.
 //!
 //! The hydrodynamic force reported in `bodies.csv` (buoyancy included, as for every body)
 //! is the momentum balance of the fluid inside the body's surface,
