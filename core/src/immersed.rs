@@ -565,7 +565,11 @@ pub fn couple(
     let start: Vec<Vector> = bodies.iter().map(|b| b.center).collect();
     let bodies: Vec<ForcedBody> = bodies.iter().map(|b| b.ahead(dt)).collect();
     let bodies = &bodies[..];
-    spread_lagged(grid, bc, retraction, bodies, lag, &mut fluid.body_force);
+    // `fluid.body_force` holds the lagged forces where the bodies start the step (the
+    // predictor's estimate); spread them again only where a body moves ahead
+    if bodies.iter().zip(&start).any(|(b, c)| b.center != *c) {
+        spread_lagged(grid, bc, retraction, bodies, lag, &mut fluid.body_force);
+    }
     // the first step has no lagged pressure: the estimate takes the pressure that holds
     // the fluid against gravity (a_p = −g, hydrostatic), as the predictor leaves gravity
     // out (without it a body fell freely through its first step: a disk of ρ_b/ρ_f = 1.01
