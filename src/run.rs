@@ -271,10 +271,12 @@ impl Diagnostics {
 }
 
 /// Header of `bodies.csv` (one row per body per output time).
-pub const BODIES_HEADER: &str = "step,time,body,x,y,vx,vy,omega,fx,fy,torque";
+pub const BODIES_HEADER: &str =
+    "step,time,body,x,y,vx,vy,omega,fx,fy,torque,fx_pressure,fy_pressure,fx_viscous,fy_viscous";
 
 /// Writer of `bodies.csv`: centroid, velocity, angular velocity, hydrodynamic force and
-/// torque of every body, flushed row by row.
+/// torque of every body, and the force's pressure and viscous parts where the coupling
+/// gives them ([`Simulation::pressure_forces`]; empty cells elsewhere), flushed row by row.
 struct BodiesCsv {
     file: BufWriter<File>,
     path: PathBuf,
@@ -293,11 +295,17 @@ impl BodiesCsv {
     }
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
         let x = number;
-        for (_, b) in sim.bodies() {
+        let pressure = sim.pressure_forces();
+        for ((_, b), p) in sim.bodies().into_iter().zip(pressure) {
             let name = b.name.replace([',', '"', '\n'], ";");
+            // the pressure and viscous parts where the coupling gives them, else empty
+            let parts = p.map_or_else(
+                || ",,,".to_string(),
+                |p| format!("{},{},{},{}", x(p.x), x(p.y), x(b.force.x - p.x), x(b.force.y - p.y)),
+            );
             writeln!(
                 self.file,
-                "{},{},{name},{},{},{},{},{},{},{},{}",
+                "{},{},{name},{},{},{},{},{},{},{},{},{parts}",
                 sim.steps,
                 x(sim.time),
                 x(b.position.x),

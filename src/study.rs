@@ -147,7 +147,8 @@ pub enum Metric {
 }
 
 /// Columns of `bodies.csv` a [`Metric::Body`] can name.
-pub const BODY_COLUMNS: [&str; 8] = ["x", "y", "vx", "vy", "omega", "fx", "fy", "torque"];
+pub const BODY_COLUMNS: [&str; 12] =
+    ["x", "y", "vx", "vy", "omega", "fx", "fy", "torque", "fx_pressure", "fy_pressure", "fx_viscous", "fy_viscous"];
 
 /// Numbers of `summary.json` a [`Metric::Summary`] can name.
 pub const SUMMARY_NUMBERS: [&str; 11] = [

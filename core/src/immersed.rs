@@ -219,6 +219,82 @@ pub fn direct_forcing(
     Forcing { marker_force, increment }
 }
 
+/// A cell-centred field (the pressure) at `x`, interpolated bilinearly from the four
+/// nearest cell centres; beyond the outermost centres of a non-periodic side it takes the
+/// nearest one's value, across a periodic side it wraps.
+pub fn cell_value(grid: &Grid, periodic: [bool; 2], field: &[Real], x: Vector) -> Real {
+    let n = [grid.nx, grid.ny];
+    let mut idx = [[0usize; 2]; 2];
+    let mut frac = [0.0; 2];
+    for a in 0..2 {
+        let s = (x[a] - grid.origin[a]) / grid.h - 0.5;
+        let (k0, t) = if periodic[a] {
+            (s.floor(), s - s.floor())
+        } else {
+            let top = (n[a] - 1) as Real;
+            let c = s.clamp(0.0, top);
+            let k = c.floor().min((top - 1.0).max(0.0));
+            (k, c - k)
+        };
+        let k0 = k0 as i64;
+        let wrap = |k: i64| if periodic[a] { k.rem_euclid(n[a] as i64) as usize } else { (k as usize).min(n[a] - 1) };
+        idx[a] = [wrap(k0), wrap(k0 + 1)];
+        frac[a] = t;
+    }
+    let v = |i: usize, j: usize| field[grid.cell(idx[0][i], idx[1][j])];
+    let (tx, ty) = (frac[0], frac[1]);
+    (1.0 - ty) * ((1.0 - tx) * v(0, 0) + tx * v(1, 0)) + ty * ((1.0 - tx) * v(0, 1) + tx * v(1, 1))
+}
+
+/// The fluid's pressure on a circle of radius `radius` about `center` at `angle`, for a
+/// body whose fluid lies outside the circle. The forcing spreads its markers' forces
+/// (at `radius − retraction·h`) over 1.5 h each side, across which the pressure jumps
+/// by the force layer's normal component; it is read where that layer ends and the
+/// bilinear stencil no longer reaches it, at `d₁ = radius − retraction·h + 2.5 h` and
+/// `d₂ = d₁ + h` along the outward normal, and extrapolated linearly to the surface:
+/// `p_s = p(d₁) − (d₁ − radius)(p(d₂) − p(d₁))/h`. Exact for a linear pressure
+/// (hydrostatic), first order in h otherwise (the velocity's order near the surface).
+pub fn surface_pressure(
+    grid: &Grid,
+    periodic: [bool; 2],
+    pressure: &[Real],
+    center: Vector,
+    radius: Real,
+    retraction: Real,
+    angle: Real,
+) -> Real {
+    let h = grid.h;
+    let normal = Vector::new(angle.cos(), angle.sin());
+    let d1 = radius - retraction * h + 2.5 * h;
+    let p1 = cell_value(grid, periodic, pressure, center + d1 * normal);
+    let p2 = cell_value(grid, periodic, pressure, center + (d1 + h) * normal);
+    p1 - (d1 - radius) * (p2 - p1) / h
+}
+
+/// The pressure part of the force on a disk, `−∮ p_s n dS` with [`surface_pressure`],
+/// by the midpoint rule on `4N` points of the circle (N its markers' count, at least 64
+/// points). A circle's pressure exerts no torque (n ∥ r); the viscous part of a force is
+/// the total less this.
+pub fn disk_pressure_force(
+    grid: &Grid,
+    periodic: [bool; 2],
+    pressure: &[Real],
+    center: Vector,
+    radius: Real,
+    retraction: Real,
+) -> Vector {
+    let markers = 2 * ((PI * (radius - retraction * grid.h) / grid.h).round() as usize).max(2);
+    let n = (4 * markers).max(64);
+    let ds = 2.0 * PI * radius / n as Real;
+    let mut force = Vector::zeros();
+    for l in 0..n {
+        let t = 2.0 * PI * (l as Real + 0.5) / n as Real;
+        let p = surface_pressure(grid, periodic, pressure, center, radius, retraction, t);
+        force -= p * ds * Vector::new(t.cos(), t.sin());
+    }
+    force
+}
+
 /// Direct forcing solved exactly: the marker forces `F_l` with which the forced velocity
 /// takes every marker's target, `U(X_l) of (vel + Δt Σ_m spread(F_m)) = target_l`, i.e. the
 /// system `Σ_m M_lm Δt F_m = target_l − U_vel(X_l)`, `M_lm = Σ_f δ_h(x_f − X_l) δ_h(x_f −

@@ -1227,6 +1227,40 @@ impl Simulation {
         self.fields.iter().flat_map(|f| f.frame.bodies().into_iter().map(|b| (f.name.clone(), b))).collect()
     }
 
+    /// The pressure part of the hydrodynamic force on every body, in the order of
+    /// [`Simulation::bodies`]: `−∮ p n dS` over the surface of each disk a direct forcing
+    /// holds ([`crate::immersed::disk_pressure_force`], the pressure of the last step on
+    /// the body where it stands now), `None` for the others (bodies of other couplings,
+    /// annuli, rectangles, or no pressure solve). The viscous part is the body's
+    /// hydrodynamic force less it; a circle's pressure exerts no torque.
+    pub fn pressure_forces(&self) -> Vec<Option<Vector>> {
+        let periodic = [self.boundaries.periodic_x(), self.boundaries.periodic_y()];
+        let mut out = Vec::new();
+        for (k, f) in self.fields.iter().enumerate() {
+            let n = f.frame.bodies().len();
+            let forcing = self.forcings.iter().position(|p| p.bodies == k);
+            match forcing.filter(|_| self.pressure_solver.is_some()) {
+                Some(i) => {
+                    let retraction = self.forcings[i].forcing.retraction;
+                    let bodies = self.forced_bodies(i);
+                    out.extend((0..n).map(|j| match bodies.get(j).map(|b| (&b.shape, b.center)) {
+                        Some((BodyShape::Disk { radius, .. }, center)) => Some(crate::immersed::disk_pressure_force(
+                            &self.grid,
+                            periodic,
+                            &self.pressure,
+                            center,
+                            *radius,
+                            retraction,
+                        )),
+                        _ => None,
+                    }));
+                }
+                None => out.extend(std::iter::repeat_n(None, n)),
+            }
+        }
+        out
+    }
+
     /// Phase 7: every frame takes the corrected grid velocity back.
     fn grid_to_particles(&mut self, dt: Real) -> Result<()> {
         self.frame_phase(dt, "grid to particles", |fr, ctx| fr.from_grid(ctx))
