@@ -1,7 +1,7 @@
 //! Drafting–kissing–tumbling of two rigid disks (Uhlmann 2005's case,
 //! `examples/dkt_uhlmann2005.ron`) at a resolution CI can afford, 8 cells per diameter:
 //! the trailing disk drafts in the leading one's wake, the settling speeds follow the
-//! published curves (`../shared/reference/dkt-uhlmann2005`, embedded below at the times
+//! published curves (`validation/reference/dkt-uhlmann2005`, copied below at the times
 //! the test reads them), and the pair kisses and tumbles before 0.35 s; and, at the
 //! example's 16 cells per diameter, a lone disk off the axis barely spins. Full-resolution
 //! runs and their figures: `docs/validation.md`.
