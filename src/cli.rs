@@ -85,8 +85,9 @@ enum Command {
         /// Worker threads [default: all cores].
         #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
         threads: usize,
-        /// Folder of the reference curves [default: ../shared/reference/dkt-uhlmann2005 if present].
-        #[arg(long)]
+        /// Folder of the reference curves, laid out as validation/reference/dkt-uhlmann2005
+        /// [default: that folder's curves, built into multifield].
+        #[arg(long, value_name = "DIR")]
         reference: Option<PathBuf>,
     },
     /// Drafting–kissing–tumbling analysis of finished two-disk runs: kiss and tumble
@@ -97,8 +98,9 @@ enum Command {
         /// The runs' output directories (with case.ron and bodies.csv).
         #[arg(required = true)]
         runs: Vec<PathBuf>,
-        /// Folder of the reference curves [default: ../shared/reference/dkt-uhlmann2005 if present].
-        #[arg(long)]
+        /// Folder of the reference curves, laid out as validation/reference/dkt-uhlmann2005
+        /// [default: that folder's curves, built into multifield].
+        #[arg(long, value_name = "DIR")]
         reference: Option<PathBuf>,
         /// Where the charts of several runs go [default: out/dkt_compare].
         #[arg(long)]
@@ -379,7 +381,7 @@ fn run_study(
     Ok(())
 }
 
-/// `multifield dkt RUN_DIR...`: analysis and plots of drafting–kissing–tumbling runs.
+/// `multifield compare CASE`: the scene resolved and as mass points, side by side.
 fn compare(
     case: &Case,
     point_overrides: &[String],
@@ -387,17 +389,13 @@ fn compare(
     options: &RunOptions,
     reference: Option<PathBuf>,
 ) -> Result<(), Failure> {
-    let reference = reference.or_else(|| {
-        let d = PathBuf::from("../shared/reference/dkt-uhlmann2005");
-        d.is_dir().then_some(d)
-    });
+    let reference = crate::dkt::ReferenceCurves::from_option(reference);
     let dir = out.unwrap_or_else(|| Path::new("out").join(format!("compare_{}", run::directory_name(&case.name))));
     println!("running {} resolved, then as mass points, into {}", case.name, dir.display());
-    let c =
-        crate::compare::compare(case, point_overrides, &dir, options, reference.as_deref()).map_err(|e| match e {
-            Error::Io { .. } => Failure::Run(e.to_string()),
-            e => Failure::Input(e),
-        })?;
+    let c = crate::compare::compare(case, point_overrides, &dir, options, Some(&reference)).map_err(|e| match e {
+        Error::Io { .. } => Failure::Run(e.to_string()),
+        e => Failure::Input(e),
+    })?;
     let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.4}"));
     println!(
         "{:<10} {:>10} {:>8} {:>9} {:>10} {:>10} {:>10} {:>8}  largest settling speed (per body)",
@@ -440,15 +438,13 @@ fn compare(
     Ok(())
 }
 
+/// `multifield dkt RUN_DIR...`: analysis and plots of drafting–kissing–tumbling runs.
 fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Result<(), Failure> {
-    let reference = reference.or_else(|| {
-        let d = PathBuf::from("../shared/reference/dkt-uhlmann2005");
-        d.is_dir().then_some(d)
-    });
+    let reference = crate::dkt::ReferenceCurves::from_option(reference);
     let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.4}"));
     let mut analysed = Vec::new();
     for run in runs {
-        let (report, tracks, case) = crate::dkt::analyse(run, reference.as_deref())?;
+        let (report, tracks, case) = crate::dkt::analyse(run, Some(&reference))?;
         let json = serde_json::to_string_pretty(&report).map_err(|e| Failure::Run(e.to_string()))?;
         std::fs::write(run.join("dkt.json"), json + "\n")
             .map_err(|e| Failure::Run(format!("{}: {e}", run.display())))?;
@@ -464,11 +460,11 @@ fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Re
             None if !crate::dkt::is_reference_scene(case) => {
                 println!("(not the scene of the reference curves, d = 0.25 in 2 × 6: no comparison)")
             }
-            None => println!("(no reference curves found: pass --reference DIR)"),
+            None => println!("(no reference point within the run's times: no comparison)"),
         }
         let dir = out.unwrap_or_else(|| run.to_path_buf());
         std::fs::create_dir_all(&dir).map_err(|e| Failure::Run(format!("{}: {e}", dir.display())))?;
-        for p in crate::dkt::plot(&dir, report, tracks, case, reference.as_deref())? {
+        for p in crate::dkt::plot(&dir, report, tracks, case, Some(&reference))? {
             println!("wrote {} (and .svg)", p.display());
         }
         return Ok(());
@@ -506,7 +502,7 @@ fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Re
             case,
         })
         .collect();
-    for p in crate::dkt::plot_runs(&dir, &list, reference.as_deref())? {
+    for p in crate::dkt::plot_runs(&dir, &list, Some(&reference))? {
         println!("wrote {} (and .svg)", p.display());
     }
     Ok(())

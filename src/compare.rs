@@ -93,7 +93,11 @@ pub fn with_representation(case: &Case, rep: Representation) -> Result<Case, Err
     Ok(c)
 }
 
-fn figures(dir: &Path, label: &str, reference: Option<&Path>) -> Result<(RunFigures, BTreeMap<String, Track>), Error> {
+fn figures(
+    dir: &Path,
+    label: &str,
+    reference: Option<&dkt::ReferenceCurves>,
+) -> Result<(RunFigures, BTreeMap<String, Track>), Error> {
     let text = std::fs::read_to_string(dir.join("case.ron"))
         .map_err(|source| Error::Io { path: dir.join("case.ron"), source })?;
     let case = Case::from_ron(&text, &dir.join("case.ron"))?;
@@ -159,7 +163,7 @@ pub fn compare(
     point_overrides: &[String],
     out: &Path,
     options: &RunOptions,
-    reference: Option<&Path>,
+    reference: Option<&dkt::ReferenceCurves>,
 ) -> Result<Comparison, Error> {
     let resolved = with_representation(case, Representation::Resolved)?;
     let point = with_representation(case, Representation::MassPoint)?.with_overrides(point_overrides)?;

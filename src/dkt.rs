@@ -2,7 +2,9 @@
 //! the kiss time (the gap along gravity between the two centres first ≤ d) and the tumble
 //! time (the trailing disk passes the leading one along gravity), measures the RMS distance
 //! to Uhlmann (2005) along-gravity positions, and plots the trajectories against the
-//! published curves of `shared/reference/dkt-uhlmann2005` (PNG and SVG).
+//! published curves (PNG and SVG). The curves are those of
+//! `validation/reference/dkt-uhlmann2005`, built into the program ([`ReferenceCurves::Shipped`])
+//! unless a folder is given.
 
 use crate::core::case::Case;
 use crate::core::error::Error;
@@ -70,9 +72,73 @@ pub fn interpolate(ts: &[Real], vs: &[Real], t: Real) -> Option<Real> {
     Some(if t1 > t0 { v0 + (v1 - v0) * (t - t0) / (t1 - t0) } else { v1 })
 }
 
+/// Where the published DKT curves come from.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum ReferenceCurves {
+    /// The repository's `validation/reference/dkt-uhlmann2005`, built into the program: found
+    /// wherever the binary is installed.
+    #[default]
+    Shipped,
+    /// The files of this folder, named and laid out as `validation/reference/dkt-uhlmann2005`.
+    Folder(PathBuf),
+}
+
+/// The curves of `validation/reference/dkt-uhlmann2005` the analysis reads, built in.
+const SHIPPED: [(&str, &str); 6] = {
+    macro_rules! shipped {
+        ($($name:literal),*) => {
+            [$(($name, include_str!(concat!("../validation/reference/dkt-uhlmann2005/", $name)))),*]
+        };
+    }
+    shipped!(
+        "Uhlmann2005-fig6a-leading-particle.csv",
+        "Uhlmann2005-fig6a-trailing-particle.csv",
+        "Uhlmann2005-fig7a-leading-particle.csv",
+        "Uhlmann2005-fig7a-trailing-particle.csv",
+        "Koblitz2017-fig10c-leading-particle.csv",
+        "Koblitz2017-fig10c-trailing-particle.csv"
+    )
+};
+
+impl ReferenceCurves {
+    /// The curves of `--reference DIR`, or the shipped ones without it.
+    pub fn from_option(folder: Option<PathBuf>) -> Self {
+        folder.map_or(Self::Shipped, Self::Folder)
+    }
+
+    /// The two columns of the curve `file` (e.g. `Uhlmann2005-fig6a-leading-particle.csv`).
+    pub fn curve(&self, file: &str) -> Result<(Vec<Real>, Vec<Real>), Error> {
+        match self {
+            Self::Shipped => match SHIPPED.iter().find(|(name, _)| *name == file) {
+                Some((_, text)) => Ok(parse_reference(text)),
+                None => Err(Error::Model(format!(
+                    "{file}: not among the reference curves built into multifield ({}); \
+                     pass the folder that holds it",
+                    SHIPPED.map(|(name, _)| name).join(", ")
+                ))),
+            },
+            Self::Folder(dir) => read_reference(&dir.join(file)),
+        }
+    }
+}
+
+impl std::fmt::Display for ReferenceCurves {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Shipped => write!(f, "validation/reference/dkt-uhlmann2005 (built in)"),
+            Self::Folder(dir) => write!(f, "{}", dir.display()),
+        }
+    }
+}
+
 /// Reads a two-column reference file.
 pub fn read_reference(path: &Path) -> Result<(Vec<Real>, Vec<Real>), Error> {
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    Ok(parse_reference(&text))
+}
+
+/// The two whitespace-separated columns of a reference curve's text; other lines skipped.
+pub fn parse_reference(text: &str) -> (Vec<Real>, Vec<Real>) {
     let mut t = vec![];
     let mut v = vec![];
     for line in text.lines() {
@@ -82,7 +148,7 @@ pub fn read_reference(path: &Path) -> Result<(Vec<Real>, Vec<Real>), Error> {
             v.push(b);
         }
     }
-    Ok((t, v))
+    (t, v)
 }
 
 /// What the analysis found.
@@ -155,7 +221,10 @@ pub fn is_reference_scene(case: &Case) -> bool {
 
 /// Analyses the run in `dir`; with `reference` and the reference scene
 /// ([`is_reference_scene`]), measures against Uhlmann's curves.
-pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap<String, Track>, Case), Error> {
+pub fn analyse(
+    dir: &Path,
+    reference: Option<&ReferenceCurves>,
+) -> Result<(Report, BTreeMap<String, Track>, Case), Error> {
     let case_text = std::fs::read_to_string(dir.join("case.ron"))
         .map_err(|source| Error::Io { path: dir.join("case.ron"), source })?;
     let case = Case::from_ron(&case_text, &dir.join("case.ron"))?;
@@ -203,11 +272,11 @@ pub fn analyse(dir: &Path, reference: Option<&Path>) -> Result<(Report, BTreeMap
         let speed = |tr: &Track| (if fr.axis == 1 { tr.vy[k] } else { tr.vx[k] }).abs();
         report.max_settling_speed = report.max_settling_speed.max(speed(a)).max(speed(b));
     }
-    if let Some(dir) = reference {
+    if let Some(curves) = reference {
         let mut sum = 0.0;
         let mut count = 0.0;
         for (track, which) in [(a, "trailing"), (b, "leading")] {
-            let (rt, rs) = read_reference(&dir.join(format!("Uhlmann2005-fig6a-{which}-particle.csv")))?;
+            let (rt, rs) = curves.curve(&format!("Uhlmann2005-fig6a-{which}-particle.csv"))?;
             let s: Vec<Real> = (0..track.t.len()).map(|k| fr.along(track.x[k], track.y[k])).collect();
             for (t, r) in rt.iter().zip(&rs) {
                 if *t <= 0.28 {
@@ -244,14 +313,14 @@ pub fn plot(
     report: &Report,
     tracks: &BTreeMap<String, Track>,
     case: &Case,
-    reference: Option<&Path>,
+    reference: Option<&ReferenceCurves>,
 ) -> Result<Vec<PathBuf>, Error> {
     plot_runs(out, &[Run { label: "this run".into(), report, tracks, case }], reference)
 }
 
 /// Like [`plot`], for several runs of the same scene on one chart (a resolution study,
 /// or resolved against point bodies): each run in its own colour, both bodies solid.
-pub fn plot_runs(out: &Path, runs: &[Run], reference: Option<&Path>) -> Result<Vec<PathBuf>, Error> {
+pub fn plot_runs(out: &Path, runs: &[Run], reference: Option<&ReferenceCurves>) -> Result<Vec<PathBuf>, Error> {
     let Some(first) = runs.first() else {
         return Ok(vec![]);
     };
@@ -287,25 +356,25 @@ pub fn plot_runs(out: &Path, runs: &[Run], reference: Option<&Path>) -> Result<V
             });
         }
     }
-    if let Some(dir) = reference {
+    if let Some(curves) = reference {
         let d = first.report.diameter;
         for (k, which) in ["trailing", "leading"].into_iter().enumerate() {
             let (c_u, c_k) = if single { (k + 2, k + 4) } else { (0, 1) };
-            let (t, s) = read_reference(&dir.join(format!("Uhlmann2005-fig6a-{which}-particle.csv")))?;
+            let (t, s) = curves.curve(&format!("Uhlmann2005-fig6a-{which}-particle.csv"))?;
             along.push(Series {
                 label: format!("Uhlmann 2005, {which}"),
                 points: t.into_iter().zip(s).collect(),
                 color: c_u,
                 markers: true,
             });
-            let (t, s) = read_reference(&dir.join(format!("Uhlmann2005-fig7a-{which}-particle.csv")))?;
+            let (t, s) = curves.curve(&format!("Uhlmann2005-fig7a-{which}-particle.csv"))?;
             lateral.push(Series {
                 label: format!("Uhlmann 2005, {which}"),
                 points: t.into_iter().zip(s).collect(),
                 color: c_u,
                 markers: true,
             });
-            let (t, s) = read_reference(&dir.join(format!("Koblitz2017-fig10c-{which}-particle.csv")))?;
+            let (t, s) = curves.curve(&format!("Koblitz2017-fig10c-{which}-particle.csv"))?;
             let tref = d / 13.88;
             along.push(Series {
                 label: format!("Koblitz 2017, {which}"),

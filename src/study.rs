@@ -19,6 +19,7 @@ use crate::core::case::Case;
 use crate::core::error::Error;
 use crate::core::math::Real;
 use crate::core::simulation::Simulation;
+use crate::dkt::ReferenceCurves;
 use crate::run::{self, RunOptions};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -180,9 +181,13 @@ pub enum Reference {
         /// The exact history.
         law: Law,
     },
-    /// Uhlmann (2005)'s DKT curves in this folder (relative to the study file): the error
-    /// is the RMS distance of the along-gravity positions over [0, 0.28] s, in diameters
+    /// Uhlmann (2005)'s DKT curves shipped with multifield
+    /// (`validation/reference/dkt-uhlmann2005`, built into the program): the error is the RMS
+    /// distance of the along-gravity positions over [0, 0.28] s, in diameters
     /// ([`crate::dkt::analyse`]); the run must be their scene.
+    Uhlmann2005,
+    /// As [`Reference::Uhlmann2005`], with the curves of this folder (relative to the study
+    /// file), named and laid out as `validation/reference/dkt-uhlmann2005`.
     Uhlmann(PathBuf),
     /// The run of the same group (equal labels on every other axis) with the most cells,
     /// among the values of `axis`.
@@ -567,6 +572,7 @@ impl Study {
                     ));
                 }
             }
+            Reference::Uhlmann2005 => {}
             Reference::Uhlmann(dir) => {
                 let d = self.relative(file, dir);
                 if !d.join("Uhlmann2005-fig6a-leading-particle.csv").is_file() {
@@ -575,7 +581,8 @@ impl Study {
                         "reference",
                         format!(
                             "{}: no Uhlmann2005-fig6a-*-particle.csv there; give the folder of the reference \
-                             curves relative to the study file",
+                             curves relative to the study file, or `Uhlmann2005` for the curves built \
+                             into multifield",
                             d.display()
                         ),
                     ));
@@ -1045,6 +1052,9 @@ pub fn rows(plan: &Plan) -> Vec<Row> {
     let refs = reference_runs(plan);
     let mut rows: Vec<Row> = plan.runs.iter().map(|c| row_of(&c.dir, &plan.study)).collect();
     let usable = |s: &str| s == "completed";
+    let uhlmann = |dir: &Path, curves: ReferenceCurves| {
+        crate::dkt::analyse(dir, Some(&curves)).ok().and_then(|(r, _, _)| r.rms_position_error_over_d)
+    };
     for (k, c) in plan.runs.iter().enumerate() {
         if !usable(&rows[k].status) {
             continue;
@@ -1052,9 +1062,8 @@ pub fn rows(plan: &Plan) -> Vec<Row> {
         rows[k].error = match &plan.study.reference {
             Reference::None => None,
             Reference::Analytic { column, law } => analytic_error(&c.dir, column, law),
-            Reference::Uhlmann(d) => crate::dkt::analyse(&c.dir, Some(&plan.study.relative(&plan.file, d)))
-                .ok()
-                .and_then(|(r, _, _)| r.rms_position_error_over_d),
+            Reference::Uhlmann2005 => uhlmann(&c.dir, ReferenceCurves::Shipped),
+            Reference::Uhlmann(d) => uhlmann(&c.dir, ReferenceCurves::Folder(plan.study.relative(&plan.file, d))),
             Reference::Finest { compare, .. } | Reference::Baseline { compare, .. } => refs[k]
                 .filter(|&r| usable(&rows[r].status))
                 .and_then(|r| compare_runs(&c.dir, &plan.runs[r].dir, compare)),

@@ -1,7 +1,7 @@
 //! Drafting–kissing–tumbling of two rigid disks (Uhlmann 2005's case,
 //! `examples/dkt_uhlmann2005.ron`) at a resolution CI can afford, 8 cells per diameter:
 //! the trailing disk drafts in the leading one's wake, the settling speeds follow the
-//! published curves (`../shared/reference/dkt-uhlmann2005`, embedded below at the times
+//! published curves (`validation/reference/dkt-uhlmann2005`, copied below at the times
 //! the test reads them), and the pair kisses and tumbles before 0.35 s; and, at the
 //! example's 16 cells per diameter, a lone disk off the axis barely spins. Full-resolution
 //! runs and their figures: `docs/validation.md`.
@@ -200,4 +200,28 @@ fn under_direct_forcing_the_settling_speeds_converge_to_uhlmann() {
     }
     eprintln!("largest speed errors: {worst:?}");
     assert!(worst[0] < 0.10 && worst[1] < 0.05 && worst[1] < 0.6 * worst[0], "{worst:?}");
+}
+
+/// The speeds copied above are Uhlmann's fig. 6b in the repository's reference folder, and
+/// the curves built into the program are that folder's files.
+#[test]
+fn the_copied_speeds_and_the_built_in_curves_are_the_reference_folders() {
+    use multifield::dkt::{interpolate, read_reference, ReferenceCurves};
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("validation/reference/dkt-uhlmann2005");
+    let fig6b = |which: &str| read_reference(&dir.join(format!("Uhlmann2005-fig6b-{which}-particle.csv"))).unwrap();
+    let ((tl, vl), (tt, vt)) = (fig6b("leading"), fig6b("trailing"));
+    for (t, leading, trailing) in UHLMANN_SPEED {
+        let (l, tr) = (interpolate(&tl, &vl, t).unwrap(), interpolate(&tt, &vt, t).unwrap());
+        assert!((l - leading).abs() <= 0.005 && (tr - trailing).abs() <= 0.005, "t = {t}: {l:.4}, {tr:.4}");
+    }
+    let folder = ReferenceCurves::Folder(dir);
+    for fig in ["Uhlmann2005-fig6a", "Uhlmann2005-fig7a", "Koblitz2017-fig10c"] {
+        for which in ["leading", "trailing"] {
+            let file = format!("{fig}-{which}-particle.csv");
+            let shipped = ReferenceCurves::Shipped.curve(&file).unwrap();
+            assert!(shipped.0.len() > 40, "{file}: {} points", shipped.0.len());
+            assert_eq!(shipped, folder.curve(&file).unwrap(), "{file}");
+        }
+    }
+    assert!(ReferenceCurves::Shipped.curve("Uhlmann2005-fig8-leading-particle.csv").is_err());
 }

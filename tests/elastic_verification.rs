@@ -1,7 +1,7 @@
 //! Verification of MPM elasticity: the Lagrangian frame with the `linear_elastic` and
 //! `neo_hookean` point-stress models, solids in vacuum (`pressure: None`, no gravity).
 //!
-//! - **Vibrating bar** (Bardenhagen's test, METHOD.md §7): a bar fixed at x = 0 and free at
+//! - **Vibrating bar** (Bardenhagen's test, docs/method.md §7): a bar fixed at x = 0 and free at
 //!   x = L = 25, E = 100, ρ = 1, started in its first mode v = v0 sin(βx), β = π/(2L),
 //!   v0 = 0.1. The centre-of-mass velocity is v0/(βL) cos(ωt), ω = β sqrt(E/ρ): period 10.
 //!   Measured from the zero crossings over two periods, and the drift of the total energy

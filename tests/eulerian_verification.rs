@@ -1,6 +1,6 @@
 //! Verification of the Eulerian frame against analytic solutions of the incompressible
 //! Navier–Stokes equations `∂u/∂t + ∇·(u⊗u) = −∇p/ρ + ν∇²u + g`, `∇·u = 0`
-//! (METHOD.md §7), on small grids, through the whole step of the core (predictor,
+//! (docs/method.md §7), on small grids, through the whole step of the core (predictor,
 //! viscosity, projection).
 
 use multifield_core::boundary::{Boundaries, Boundary, Profile};

@@ -1,4 +1,4 @@
-//! Multifield coupling (METHOD.md §2–4, §6): the tests that expose where such methods fail.
+//! Multifield coupling (docs/method.md §2–4, §6): the tests that expose where such methods fail.
 //!
 //! - Exchange: two interpenetrating fields in a periodic box with a constant K relax as
 //!   slip(t) = slip(0) e^(−t/τ), τ = 1/(θ_aθ_b K (1/ρ_a + 1/ρ_b)); the implicit solve is

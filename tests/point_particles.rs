@@ -1,4 +1,4 @@
-//! Single-mass-point bodies (`representation: MassPoint`, METHOD.md §4): volume spreading,
+//! Single-mass-point bodies (`representation: MassPoint`, docs/method.md §4): volume spreading,
 //! settling against the closed forms of the drag laws, added mass, the rotation torque,
 //! drafting in the seed's DKT scene, the validity warnings and the errors of a bad case.
 //!

@@ -270,6 +270,13 @@ fn a_bad_metric_or_reference_is_refused() {
             reference: Exact(column: "disk_fy", value: 1.0))"#,
     );
     assert!(e.contains("reference.column") && e.contains("its metric columns: disk_fx"), "{e}");
+    let e = study_error(
+        "bad_uhlmann_folder",
+        r#"(name: "s", base: "box.ron",
+            axes: [(name: "dt", values: List(path: "time.fixed_dt", values: [0.1]))],
+            reference: Uhlmann("no_such_folder"))"#,
+    );
+    assert!(e.contains("no_such_folder: no Uhlmann2005-fig6a") && e.contains("or `Uhlmann2005`"), "{e}");
 }
 
 /// A body metric is the last row of its `bodies.csv` column, scaled; an exact reference

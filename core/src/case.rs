@@ -312,7 +312,7 @@ pub struct FieldSpec {
     pub stress: Vec<PluginSpec>,
     /// How a field of bodies is represented: `Resolved` (default; many material points per
     /// body, the frame above) or `MassPoint` (one point per disk carrying its mass, volume
-    /// and diameter, spread over the cells by exact disk ∩ cell areas; METHOD.md §4). The
+    /// and diameter, spread over the cells by exact disk ∩ cell areas; docs/method.md §4). The
     /// one switch between fully resolved and point-particle bodies: the rest of the case
     /// stays the same (an exchange entry may name the drag law the points feel in its
     /// `mass_point` model).
@@ -333,7 +333,7 @@ pub enum Representation {
 /// How an exchange term is integrated in time.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Integration {
-    /// Solved per location with the other fields (stable for any Δt; METHOD.md §3.4).
+    /// Solved per location with the other fields (stable for any Δt; docs/method.md §3 step 4).
     #[default]
     Implicit,
     /// Forward Euler from the provisional velocities (stable only for Δt < ρ/(θK)).

@@ -1,4 +1,4 @@
-//! The implicit momentum exchange at one location (METHOD.md §3, step 4).
+//! The implicit momentum exchange at one location (docs/method.md §3 step 4).
 //!
 //! Solves `(D + Δt L) ū = D u*` with `D = diag(ρ_k)` (bulk densities) and `L` the graph
 //! Laplacian with weights `θ_k θ_n K_kn`, and `(D + Δt L) w = θ` for the effective specific
@@ -11,7 +11,7 @@
 use crate::case::MAX_FIELDS;
 use crate::math::Real;
 
-/// Largest Δt·θK/ρ kept in the dense solve: beyond it digits are lost (METHOD.md §3).
+/// Largest Δt·θK/ρ kept in the dense solve: beyond it digits are lost (docs/method.md §3 step 4).
 pub const STIFFNESS_CLAMP: Real = 1e8;
 
 /// One location's data for N fields.

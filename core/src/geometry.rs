@@ -1,5 +1,5 @@
 //! Exact areas of a disk on the grid: how a single-mass-point body spreads its volume
-//! (METHOD.md §4). A bilinear kernel of a point whose disk is larger than a cell puts
+//! (docs/method.md §4). A bilinear kernel of a point whose disk is larger than a cell puts
 //! θ ≫ 1 in four cells; the exact disk ∩ cell area never exceeds the cell and sums to the
 //! disk's area, whatever the disk's size and position.
 

@@ -2,7 +2,7 @@
 //!
 //! The core of multifield: math types, the MAC grid, the case schema, the plugin traits
 //! and their registries, and the time loop that runs the phases of a step
-//! (see `shared/design/METHOD.md` §3). It depends on neither the frames nor the physics:
+//! (see `docs/method.md` §3). It depends on neither the frames nor the physics:
 //! they register themselves.
 #![warn(missing_docs)]
 // `!(x > 0.0)` is deliberate throughout validation: it also rejects NaN.

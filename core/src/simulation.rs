@@ -1,4 +1,4 @@
-//! The time loop: one step is a readable sequence of named phases (METHOD.md §3).
+//! The time loop: one step is a readable sequence of named phases (docs/method.md §3).
 //!
 //! Phases: (1) particles to grid, (2) volume fractions, (3) predictor, (4) exchange,
 //! (5) pressure, (6) corrector, (7) grid to particles, (8) bodies, (9) advection. Plugins

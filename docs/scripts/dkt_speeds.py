@@ -9,8 +9,9 @@ relative difference of each disk's settling speed from Uhlmann's at t = 0.05, 0.
 
     python3 docs/scripts/dkt_speeds.py runs/uhlmann_d8 runs/uhlmann_d12 ...
 
-The reference directory defaults to ../shared/reference/dkt-uhlmann2005 beside the repo;
-set DKT_REFERENCE to use another.
+The reference curves are the repository's validation/reference/dkt-uhlmann2005 (found from
+this script's own location, whatever the working directory); set DKT_REFERENCE to a folder
+laid out the same way to use others.
 """
 
 import bisect
@@ -20,7 +21,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-REF = Path(os.environ.get("DKT_REFERENCE", ROOT.parent / "shared/reference/dkt-uhlmann2005"))
+REF = Path(os.environ.get("DKT_REFERENCE", ROOT / "validation/reference/dkt-uhlmann2005"))
 D = 0.25
 
 

@@ -1,9 +1,9 @@
 //! Lagrangian frame: the field lives on material points {m, x, v, V⁰, F, stress}; the grid
 //! is scratch space rebuilt every step. FLIP for a fluid, MPM for a solid.
 //!
-//! Particles to grid (METHOD.md §1, §3.1): `m_i = Σ m_p S_ip`, `(mu)_i = Σ m_p S_ip (v_p + C_p (x_i − x_p))`,
+//! Particles to grid (docs/method.md §1, §3 step 1): `m_i = Σ m_p S_ip`, `(mu)_i = Σ m_p S_ip (v_p + C_p (x_i − x_p))`,
 //! `θ_c = Σ V_p S_pc / h²`, internal force `f_i = −Σ V_p σ_p ∇S_ip`; provisional `u* = u + Δt f/m`.
-//! Grid to particles (§3.7): `x_p += Δt Σ u_i S`, and per transfer scheme
+//! Grid to particles (§3 step 7): `x_p += Δt Σ u_i S`, and per transfer scheme
 //! PIC `v_p = Σ u_i S`; FLIP `v_p = α (v_p + Σ (u_i − u_i^old) S) + (1 − α) Σ u_i S`
 //! (Brackbill & Ruppel 1986); APIC `v_p = Σ u_i S`, `C_p` from the grid (Jiang et al. 2015);
 //! `F ← (I + Δt ∇v) F`, `V = det F · V⁰`.
@@ -329,7 +329,7 @@ impl Lagrangian {
         }
     }
 
-    /// Rigid projection (METHOD.md §4): each body's points take the rigid motion with the
+    /// Rigid projection (docs/method.md §4): each body's points take the rigid motion with the
     /// same linear and angular momentum as the grid gave them (plus the contact impulse),
     /// V = P/M, ω = L/I, and move rigidly. Records the hydrodynamic force and torque
     /// (momentum change from the grid less the weight). A deformable body only receives

@@ -1,5 +1,5 @@
 //! Mass-point frame: each disk of a field is ONE material point {m, X, U, ω, V = πd²/4, d}
-//! (METHOD.md §4), the `representation: MassPoint` of a body list.
+//! (docs/method.md §4), the `representation: MassPoint` of a body list.
 //!
 //! **Particles to grid.** The point's volume is spread over the cells its disk covers with
 //! the exact disk ∩ cell areas ([`multifield_core::geometry`]), so θ ≤ 1 in every cell and

@@ -5,14 +5,14 @@
 //!
 //!   F_ij = (c_ij / ε) ((R_i + R_j + ρ − d_ij)/ρ)² (X_i − X_j)/d_ij   for d_ij ≤ R_i + R_j + ρ,
 //!
-//! zero beyond; c_ij = ½ (W_i + W_j), W = (M − ρ_f V) |g| the buoyant weight (METHOD.md §4;
+//! zero beyond; c_ij = ½ (W_i + W_j), W = (M − ρ_f V) |g| the buoyant weight (docs/method.md §4;
 //! the full weight when there is no ambient fluid, `force_scale` when there is no gravity
 //! or the bodies are neutrally buoyant), ρ = min(`range_cells` · h, `max_range` · min(R_i, R_j)),
 //! ε = `stiffness`. The cap keeps the range a fraction of the bodies' size where the grid is
 //! coarse against them (point particles with d ≈ h), where 2h would push disks apart a
 //! diameter away; bodies resolved with 4 or more cells per radius never reach it. A wall acts through the mirror image
 //! of the body. Its stiffness k = 2c/(ερ) limits the step while bodies are in range:
-//! Δt ≤ `dt_factor` · sqrt(M/k) (METHOD.md §5).
+//! Δt ≤ `dt_factor` · sqrt(M/k) (docs/method.md §5).
 
 use multifield_core::boundary::{Boundary, Side};
 use multifield_core::math::{Real, Vector};

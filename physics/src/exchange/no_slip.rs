@@ -1,6 +1,6 @@
 //! No-slip coupling, K = ∞: the two fields move as one with their mass-weighted
 //! velocity (exact; no large number enters the solve). This is how a fully resolved body
-//! and the fluid around it share one velocity (METHOD.md §2).
+//! and the fluid around it share one velocity (docs/method.md §2).
 
 use multifield_core::math::Real;
 use multifield_core::plugin::{ExchangeContext, ExchangeModel};

@@ -32,7 +32,7 @@ pub(crate) fn check_elastic(young_modulus: Real, poisson_ratio: Real, cfl: Real)
 }
 
 /// Explicit elastic time step Δt = C h / (c + |v|) with the dilatational (P-wave) speed
-/// c = sqrt((λ + 2μ)/ρ) = sqrt((K + 4G/3)/ρ) of plane strain (METHOD.md §4, §5).
+/// c = sqrt((λ + 2μ)/ρ) = sqrt((K + 4G/3)/ρ) of plane strain (docs/method.md §4, §5).
 pub(crate) fn elastic_dt(cfl: Real, h: Real, p_wave_modulus: Real, density: Real, max_speed: Real) -> Real {
     cfl * h / ((p_wave_modulus / density).sqrt() + max_speed)
 }

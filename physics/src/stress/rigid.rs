@@ -1,7 +1,7 @@
 //! Rigid bodies: after the exchange and pressure update, every body of the field takes
 //! the rigid motion with the same linear and angular momentum as its points received from
 //! the grid, V = P/M, ω = L/I, v_p = V + ω × r_p, and its points move rigidly
-//! (METHOD.md §4). No elastic wave limits the time step: a rigid disk costs the fluid's
+//! (docs/method.md §4). No elastic wave limits the time step: a rigid disk costs the fluid's
 //! CFL step only, about 100× fewer steps than a stiff elastic one.
 
 use multifield_core::plugin::StressModel;
