@@ -462,6 +462,15 @@ fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Re
             }
             None => println!("(no reference point within the run's times: no comparison)"),
         }
+        if let Some(e) = report.rms_lateral_error_over_d {
+            println!("RMS distance to Uhlmann 2005 lateral positions over [0, 0.28]: {e:.3} d");
+        }
+        if let Some(e) = report.rms_speed_error_over_uref {
+            println!("RMS difference to Uhlmann 2005 settling speeds over [0, 0.28]: {e:.4} u_ref");
+        }
+        if let Some(e) = report.rms_angular_velocity_error_tref {
+            println!("RMS difference to Uhlmann 2005 angular velocities over [0, 0.28]: {e:.4} / t_ref");
+        }
         let dir = out.unwrap_or_else(|| run.to_path_buf());
         std::fs::create_dir_all(&dir).map_err(|e| Failure::Run(format!("{}: {e}", dir.display())))?;
         for p in crate::dkt::plot(&dir, report, tracks, case, Some(&reference))? {
@@ -470,8 +479,18 @@ fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Re
         return Ok(());
     }
     println!(
-        "{:<28} {:>9} {:>10} {:>10} {:>9} {:>11} {:>8} {:>10}",
-        "run", "cells/d", "kiss", "tumble", "min gap", "RMS to U05", "steps", "wall (s)"
+        "{:<28} {:>9} {:>10} {:>10} {:>9} {:>11} {:>11} {:>11} {:>11} {:>8} {:>10}",
+        "run",
+        "cells/d",
+        "kiss",
+        "tumble",
+        "min gap",
+        "RMS to U05",
+        "lateral",
+        "speed/u_ref",
+        "ω·t_ref",
+        "steps",
+        "wall (s)"
     );
     for (run, report, _, case) in &analysed {
         let h = case.domain.size[0] / case.domain.cells[0] as f64;
@@ -480,13 +499,16 @@ fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Re
             .and_then(|t| serde_json::from_str(&t).ok())
             .unwrap_or_default();
         println!(
-            "{:<28} {:>9.1} {:>10} {:>10} {:>8.3}d {:>11} {:>8} {:>10}",
+            "{:<28} {:>9.1} {:>10} {:>10} {:>8.3}d {:>11} {:>11} {:>11} {:>11} {:>8} {:>10}",
             run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned()),
             report.diameter / h,
             show(report.kiss_time),
             show(report.tumble_time),
             report.min_gap_over_d,
             report.rms_position_error_over_d.map_or("-".into(), |e| format!("{e:.3}d")),
+            report.rms_lateral_error_over_d.map_or("-".into(), |e| format!("{e:.3}d")),
+            report.rms_speed_error_over_uref.map_or("-".into(), |e| format!("{e:.4}")),
+            report.rms_angular_velocity_error_tref.map_or("-".into(), |e| format!("{e:.4}")),
             summary["steps"].as_u64().map_or("-".into(), |s| s.to_string()),
             summary["wall_seconds"].as_f64().map_or("-".into(), |s| format!("{s:.1}")),
         );

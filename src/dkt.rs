@@ -84,7 +84,7 @@ pub enum ReferenceCurves {
 }
 
 /// The curves of `validation/reference/dkt-uhlmann2005` the analysis reads, built in.
-const SHIPPED: [(&str, &str); 6] = {
+const SHIPPED: [(&str, &str); 10] = {
     macro_rules! shipped {
         ($($name:literal),*) => {
             [$(($name, include_str!(concat!("../validation/reference/dkt-uhlmann2005/", $name)))),*]
@@ -93,8 +93,12 @@ const SHIPPED: [(&str, &str); 6] = {
     shipped!(
         "Uhlmann2005-fig6a-leading-particle.csv",
         "Uhlmann2005-fig6a-trailing-particle.csv",
+        "Uhlmann2005-fig6b-leading-particle.csv",
+        "Uhlmann2005-fig6b-trailing-particle.csv",
         "Uhlmann2005-fig7a-leading-particle.csv",
         "Uhlmann2005-fig7a-trailing-particle.csv",
+        "Uhlmann2005-fig8-leading-particle.csv",
+        "Uhlmann2005-fig8-trailing-particle.csv",
         "Koblitz2017-fig10c-leading-particle.csv",
         "Koblitz2017-fig10c-trailing-particle.csv"
     )
@@ -168,8 +172,33 @@ pub struct Report {
     pub min_gap_over_d: Real,
     /// RMS distance to Uhlmann's along-gravity positions of both disks over [0, 0.28] s, in d.
     pub rms_position_error_over_d: Option<Real>,
+    /// RMS distance to Uhlmann's lateral positions (fig. 7a) of both disks over [0, 0.28] s,
+    /// in d, with the run mirrored about the channel's axis if that is nearer (which side
+    /// the pair drifts to is the symmetry breaking's choice).
+    pub rms_lateral_error_over_d: Option<Real>,
+    /// RMS difference to Uhlmann's settling speeds (fig. 6b) of both disks over [0, 0.28] s,
+    /// in units of u_ref = √(π d (ρs/ρf − 1) |g| / 2).
+    pub rms_speed_error_over_uref: Option<Real>,
+    /// RMS difference to Uhlmann's angular velocities (fig. 8) of both disks over
+    /// [0, 0.28] s, times t_ref = d/u_ref (mirrored with the lateral positions).
+    pub rms_angular_velocity_error_tref: Option<Real>,
     /// Largest speed of either disk along gravity.
     pub max_settling_speed: Real,
+}
+
+/// Over the times `≤ until` of the reference curve (`rt`, `rv`), the sum of squared
+/// differences of the run's `series` (interpolated at those times) and the count.
+fn squared_differences(t: &[Real], series: &[Real], rt: &[Real], rv: &[Real], until: Real) -> (Real, Real) {
+    let (mut sum, mut count) = (0.0, 0.0);
+    for (t_ref, r) in rt.iter().zip(rv) {
+        if (0.0..=until).contains(t_ref) {
+            if let Some(v) = interpolate(t, series, *t_ref) {
+                sum += (v - r).powi(2);
+                count += 1.0;
+            }
+        }
+    }
+    (sum, count)
 }
 
 /// Along-gravity coordinate measured from the upstream wall, for gravity along ±x or ±y.
@@ -273,25 +302,44 @@ pub fn analyse(
         report.max_settling_speed = report.max_settling_speed.max(speed(a)).max(speed(b));
     }
     if let Some(curves) = reference {
-        let mut sum = 0.0;
-        let mut count = 0.0;
-        for (track, which) in [(a, "trailing"), (b, "leading")] {
-            let (rt, rs) = curves.curve(&format!("Uhlmann2005-fig6a-{which}-particle.csv"))?;
-            let s: Vec<Real> = (0..track.t.len()).map(|k| fr.along(track.x[k], track.y[k])).collect();
-            for (t, r) in rt.iter().zip(&rs) {
-                if *t <= 0.28 {
-                    if let Some(v) = interpolate(&track.t, &s, *t) {
-                        sum += (v - r).powi(2);
-                        count += 1.0;
-                    }
-                }
+        // the window of the comparison: before the pair's paths part after the tumble
+        let until = 0.28;
+        let rms = |series: &dyn Fn(&Track, usize) -> Real, file: &str| -> Result<Option<Real>, Error> {
+            let (mut sum, mut count) = (0.0, 0.0);
+            for (track, which) in [(a, "trailing"), (b, "leading")] {
+                let (rt, rv) = curves.curve(&format!("Uhlmann2005-{file}-{which}-particle.csv"))?;
+                let s: Vec<Real> = (0..track.t.len()).map(|k| series(track, k)).collect();
+                let (ds, dc) = squared_differences(&track.t, &s, &rt, &rv, until);
+                sum += ds;
+                count += dc;
             }
-        }
-        if count > 0.0 {
-            report.rms_position_error_over_d = Some((sum / count).sqrt() / diameter);
-        }
+            Ok((count > 0.0).then(|| (sum / count).sqrt()))
+        };
+        report.rms_position_error_over_d = rms(&|tr, k| fr.along(tr.x[k], tr.y[k]), "fig6a")?.map(|e| e / diameter);
+        let lateral = |m: Real| rms(&|tr: &Track, k| m * fr.lateral(tr.x[k], tr.y[k]), "fig7a");
+        let (plain, mirrored) = (lateral(1.0)?, lateral(-1.0)?);
+        let mirror = if mirrored.unwrap_or(Real::INFINITY) < plain.unwrap_or(Real::INFINITY) { -1.0 } else { 1.0 };
+        report.rms_lateral_error_over_d = plain.zip(mirrored).map(|(p, m)| p.min(m) / diameter);
+        let u_ref = reference_speed(&case, diameter);
+        let speed = |tr: &Track, k: usize| fr.sign * if fr.axis == 1 { tr.vy[k] } else { tr.vx[k] };
+        report.rms_speed_error_over_uref = rms(&speed, "fig6b")?.zip(u_ref).map(|(e, u)| e / u);
+        // a mirror image turns the other way; gravity along x turns the frame by a right angle
+        let spin = |tr: &Track, k: usize| mirror * tr.omega[k];
+        report.rms_angular_velocity_error_tref = rms(&spin, "fig8")?.zip(u_ref).map(|(e, u)| e * diameter / u);
     }
     Ok((report, tracks, case))
+}
+
+/// u_ref = √(π d (ρs/ρf − 1) |g| / 2) of Uhlmann (2005), ρs the density of the field
+/// holding the bodies and ρf that of the first other field; `None` for bodies lighter than
+/// the fluid or a case without both.
+fn reference_speed(case: &Case, diameter: Real) -> Option<Real> {
+    let bodies = |f: &&crate::core::case::FieldSpec| matches!(f.region, crate::core::case::Region::Bodies(_));
+    let rho_s = case.fields.iter().find(bodies)?.density;
+    let rho_f = case.fields.iter().find(|f| !bodies(f))?.density;
+    let g = (case.gravity[0].powi(2) + case.gravity[1].powi(2)).sqrt();
+    let u2 = std::f64::consts::PI * diameter * (rho_s / rho_f - 1.0) * g / 2.0;
+    (u2 > 0.0).then(|| u2.sqrt())
 }
 
 /// One analysed run, for charts that overlay several.

@@ -163,17 +163,18 @@ fn dkt_restarts(name: &str, extra: &[&str]) {
     assert!(sim.bodies().iter().all(|(_, b)| b.velocity.y < 0.0), "the disks settle");
 }
 
-/// Coupled scene: Eulerian water, two rigid Lagrangian disks with contact, no-slip
-/// exchange, MG-preconditioned CG (warm-started from the checkpointed pressure).
+/// Coupled scene: Eulerian water, two rigid Lagrangian disks with contact resolved by
+/// direct forcing (the free disks' lagged marker forces carry over), MG-preconditioned CG
+/// (warm-started from the checkpointed pressure).
 #[test]
 fn a_restarted_dkt_run_is_bit_identical_to_the_uninterrupted_one() {
     dkt_restarts("dkt", &[]);
 }
 
-/// The same scene under direct forcing: the free disks' lagged marker forces carry over.
+/// The same scene with the seed's `no_slip` exchange.
 #[test]
-fn a_restarted_direct_forcing_run_is_bit_identical_to_the_uninterrupted_one() {
-    dkt_restarts("dkt_direct_forcing", &["exchange.0.model=\"direct_forcing\"", "exchange.0.mass_point=None"]);
+fn a_restarted_no_slip_run_is_bit_identical_to_the_uninterrupted_one() {
+    dkt_restarts("dkt_no_slip", &["exchange.0.model=\"no_slip\"", "contact.params.range_cells=2.0"]);
 }
 
 /// Mass-point disks (drag law with added mass and rotation, contact): the points' state

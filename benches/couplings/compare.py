@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """The resolved DKT under the two couplings: `direct_forcing` against `no_slip`, wall time.
 
-Runs examples/dkt_uhlmann2005.ron (Uhlmann 2005's two disks) at 24 cells per diameter
-(192 × 576) to t = 0.3 s with each coupling, interleaved, `--repeat R` times, on the same
+Runs examples/dkt_uhlmann2005.ron (Uhlmann 2005's two disks, direct forcing, the
+repulsion's range one cell) and the same with `no_slip` and range two cells (as
+examples/dkt_uhlmann2005_no_slip.ron) at 24 cells per diameter (192 × 576) to t = 0.3 s,
+interleaved, `--repeat R` times, on the same
 number of threads, and prints the median wall time of each (the time loop: `wall_seconds`
 of summary.json), the best in parentheses, the steps and the ratio of medians. Needs a
 release build:
@@ -26,8 +28,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 COUPLINGS = {
-    "no_slip": [],
-    "direct_forcing": ['exchange.0.model="direct_forcing"', "exchange.0.mass_point=None"],
+    "no_slip": ['exchange.0.model="no_slip"', "contact.params.range_cells=2.0"],
+    "direct_forcing": [],
 }
 
 
