@@ -80,3 +80,49 @@ fn the_plugins_command_lists_every_plugin_and_parameter() {
         }
     }
 }
+
+/// The default `multifield plugins` prints for a parameter is the one the plugin takes:
+/// every plugin is built with only its required parameters, and each other parameter's
+/// filled-in value (what `case.ron` records) equals its documented default.
+#[test]
+fn every_documented_default_is_the_default_the_plugin_takes() {
+    use multifield::core::registry::{build_contact, build_exchange, build_frame, build_pressure, build_stress};
+    multifield::link_all();
+    // values for the parameters that have no default
+    let required = serde_json::json!({
+        "young_modulus": 1.0e5, "poisson_ratio": 0.3, "viscosity": 0.01, "diameter": 0.1,
+        "stiffness": 1.0e3, "coefficient": 1.0,
+    });
+    let mut checked = 0;
+    for role in Role::ALL {
+        for e in entries(role) {
+            let mut params = serde_json::Map::new();
+            for p in e.params.iter().filter(|p| p.default.starts_with("required")) {
+                let v = required.get(p.name).unwrap_or_else(|| panic!("no test value for required `{}`", p.name));
+                params.insert(p.name.to_string(), v.clone());
+            }
+            let params = serde_json::Value::Object(params);
+            let path = format!("{}.{}", role.name(), e.name);
+            let filled = match role {
+                Role::Frame => build_frame(e.name, &params, &path).map(|m| m.params()),
+                Role::Stress => build_stress(e.name, &params, &path).map(|m| m.params()),
+                Role::Exchange => build_exchange(e.name, &params, &path).map(|m| m.params()),
+                Role::Pressure => build_pressure(e.name, &params, &path).map(|m| m.params()),
+                Role::Contact => build_contact(e.name, &params, &path).map(|m| m.params()),
+            }
+            .unwrap_or_else(|err| panic!("{path} with only its required parameters: {err}"));
+            for p in e.params.iter().filter(|p| !p.default.starts_with("required")) {
+                let documented = multifield::core::ron_value::parse(p.default)
+                    .unwrap_or_else(|err| panic!("{path}.{}: documented default `{}`: {err}", p.name, p.default));
+                let taken = &filled[p.name];
+                let same = match (documented.as_f64(), taken.as_f64()) {
+                    (Some(a), Some(b)) => a == b,
+                    _ => &documented == taken,
+                };
+                assert!(same, "{path}.{}: documented default {documented}, taken {taken}", p.name);
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 30, "{checked} defaults checked");
+}
