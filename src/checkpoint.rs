@@ -36,10 +36,11 @@
 //! else from the output directory) and the restarted run appends after them.
 
 use crate::core::case::{Case, Schedule};
+use crate::core::driver::{End, RunState, Step, Writer};
 use crate::core::error::Error;
 use crate::core::math::Real;
 use crate::core::plugin::{StateReader, StateWriter};
-use crate::core::simulation::Simulation;
+use crate::core::simulation::{Simulation, Status};
 use std::path::{Path, PathBuf};
 
 /// The first bytes of every checkpoint.
@@ -364,6 +365,7 @@ pub struct Checkpoints {
     interval: Real,
     next: Real,
     last_step: Option<u64>,
+    last_path: Option<PathBuf>,
 }
 
 impl Checkpoints {
@@ -379,7 +381,7 @@ impl Checkpoints {
                 let _ = std::fs::remove_file(e.path());
             }
         }
-        Ok(Self { folder, interval: schedule.interval, next, last_step })
+        Ok(Self { folder, interval: schedule.interval, next, last_step, last_path: None })
     }
 
     /// Whether a checkpoint is due after a step that ended at `t`; if so, moves the
@@ -392,6 +394,12 @@ impl Checkpoints {
             self.next += self.interval;
         }
         true
+    }
+
+    /// Whether a checkpoint is due after a step that ended at `t`, without moving the
+    /// schedule.
+    pub fn peek(&self, t: Real) -> bool {
+        t >= self.next - 1e-9 * self.interval
     }
 
     /// Simulated time of the next checkpoint.
@@ -412,12 +420,60 @@ impl Checkpoints {
         let path = self.folder.join(file_name(sim.steps));
         crate::output::write_atomically(&path, &bytes)?;
         self.last_step = Some(sim.steps);
+        self.last_path = Some(path.clone());
         let run_dir = self.folder.parent().unwrap_or(Path::new("."));
         let earlier: Vec<PathBuf> = list(run_dir).into_iter().filter(|(s, _)| *s < sim.steps).map(|(_, p)| p).collect();
         for old in earlier.iter().rev().skip(1) {
             std::fs::remove_file(old).map_err(|source| Error::Io { path: old.clone(), source })?;
         }
         Ok(path)
+    }
+}
+
+impl RunnerState {
+    /// The runner's part of a checkpoint from the driver's state (`next_checkpoint` is set
+    /// by [`Checkpoints::write`]).
+    pub fn of(state: &RunState) -> Self {
+        Self {
+            next_output: state.next_row,
+            last_row_written: state.last_row_written,
+            diagnostics_rows: state.rows,
+            max_divergence: state.max_divergence,
+            max_volume_fraction_error: state.max_volume_fraction_error,
+            pressure_iterations_total: state.pressure_iterations_total,
+            min_dt: state.min_dt,
+            last_dt_limit: state.last_dt_limit.clone(),
+            next_checkpoint: 0.0,
+        }
+    }
+}
+
+/// Checkpoints as a writer of the driver: after every step on the case's schedule (not
+/// after the step that ends a run as unstable: the run keeps its last good checkpoint), and
+/// at the end of a completed run (to be extended with a later `time.end`).
+impl Writer for Checkpoints {
+    fn name(&self) -> &str {
+        "checkpoints"
+    }
+    fn needs_grid_state(&self, step: &Step) -> bool {
+        // a checkpoint holds the grid state too: the same bits whenever it was written
+        !step.unstable && self.peek(step.sim.time)
+    }
+    fn after_step(&mut self, step: &Step) -> Result<(), Error> {
+        if !step.unstable && self.due(step.sim.time) {
+            self.write(step.sim, &RunnerState::of(step.state))?;
+        }
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, end: &End) -> Result<(), Error> {
+        if *end.status == Status::Completed && sim.steps > 0 && self.last_step() != Some(sim.steps) {
+            sim.refresh_grid_state()?;
+            self.write(sim, &RunnerState::of(end.state))?;
+        }
+        Ok(())
+    }
+    fn last_written(&self) -> Option<PathBuf> {
+        self.last_path.clone()
     }
 }
 

@@ -1,8 +1,9 @@
 //! Writers that run beside the diagnostics, each on its own schedule in simulated time
 //! (`output` in the case): HDF5 snapshots ([`crate::snapshot`]) and PNG pictures
-//! ([`crate::picture`]). The runner calls [`Writer::start`] before the first step,
-//! [`Writer::after_step`] after every step, with `last` set on the final step of the run
-//! whatever ended it; charts ([`crate::charts`]) are drawn from the CSV files at the end.
+//! ([`crate::picture`]), [`Writer`]s of the core's driver ([`crate::core::driver`]), which
+//! calls [`Writer::start`] before the first step and [`Writer::after_step`] after every
+//! step, with `last` set on the final step of the run whatever ended it; charts
+//! ([`crate::charts`]) are drawn from the CSV files at the end.
 //! Every file is written under a temporary name and renamed ([`write_atomically`]), so
 //! a killed run never leaves a half-written one.
 
@@ -11,18 +12,7 @@ use crate::core::math::Real;
 use crate::core::simulation::Simulation;
 use std::path::Path;
 
-/// An output writer with its own schedule.
-pub trait Writer {
-    /// Before the first step (t = 0, or the restart time).
-    fn start(&mut self, _sim: &Simulation) -> Result<(), Error> {
-        Ok(())
-    }
-    /// After every step; `last` on the run's final step.
-    fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error>;
-    /// Whether [`Writer::after_step`] would write now: the runner then brings the fields'
-    /// grid state up to date first ([`Simulation::refresh_grid_state`]).
-    fn due(&self, sim: &Simulation, last: bool) -> bool;
-}
+pub use crate::core::driver::{write_atomically, Writer};
 
 /// The writers the case asks for.
 pub fn writers(sim: &Simulation, dir: &Path) -> Result<Vec<Box<dyn Writer>>, Error> {
@@ -62,16 +52,6 @@ impl Due {
         }
         true
     }
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so
-/// that `path` is either the old file or the complete new one.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
 }
 
 #[cfg(test)]

@@ -38,13 +38,14 @@
 //! 0.08–0.17 s on two cores (most of it the PNG encoder).
 
 use crate::core::case::{PictureQuantity, PictureSpec};
+use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::Grid;
 use crate::core::math::Real;
 use crate::core::simulation::Simulation;
 use crate::frames::eulerian::Eulerian;
 use crate::frames::lagrangian::Lagrangian;
-use crate::output::{Due, Writer};
+use crate::output::Due;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use rayon::prelude::*;
@@ -641,8 +642,14 @@ impl Pictures {
 }
 
 impl Writer for Pictures {
-    fn due(&self, sim: &Simulation, last: bool) -> bool {
-        (self.due.peek(sim.time) || last) && self.last_step != Some(sim.steps)
+    fn name(&self) -> &str {
+        "pictures"
+    }
+    fn needs_grid_state_at_start(&self) -> bool {
+        true
+    }
+    fn needs_grid_state(&self, step: &Step) -> bool {
+        (self.due.peek(step.sim.time) || step.last) && self.last_step != Some(step.sim.steps)
     }
     fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
         if self.due.check(sim.time) && !self.resumed {
@@ -650,8 +657,8 @@ impl Writer for Pictures {
         }
         Ok(())
     }
-
-    fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error> {
+    fn after_step(&mut self, step: &Step) -> Result<(), Error> {
+        let (sim, last) = (step.sim, step.last);
         let due = self.due.check(sim.time);
         if (due || last) && self.last_step != Some(sim.steps) {
             self.draw(sim)?;

@@ -71,13 +71,14 @@
 //! difference is one-sided (first order, into the domain), across a periodic side it wraps.
 
 use crate::core::case::{Region, Schedule};
+use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::{FaceVelocity, Grid, Lattice};
 use crate::core::math::Real;
 use crate::core::simulation::{region_fraction, Simulation};
 use crate::frames::lagrangian::{Lagrangian, Points};
 use crate::frames::mass_point::MassPoint;
-use crate::output::{write_atomically, Due, Writer};
+use crate::output::{write_atomically, Due};
 use hdf5_pure::{AttrValue, FileBuilder, GroupBuilder, LibVer};
 use std::path::{Path, PathBuf};
 
@@ -699,23 +700,43 @@ impl Snapshots {
     }
 }
 
-impl Writer for Snapshots {
-    fn due(&self, sim: &Simulation, last: bool) -> bool {
+impl Snapshots {
+    /// Whether [`Snapshots::after_step`] writes now.
+    pub fn due(&self, sim: &Simulation, last: bool) -> bool {
         let done = self.written.last().is_some_and(|e| e.step == sim.steps);
         (self.due.peek(sim.time) || last) && !done
     }
-    fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
+    /// The snapshot at the start (t = 0, or the restart time).
+    pub fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
         self.due.check(sim.time);
         self.write(sim)
     }
-
-    fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error> {
+    /// After a step: a snapshot when one is due, and at the run's `last` step (once).
+    pub fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error> {
         let due = self.due.check(sim.time);
         let done = self.written.last().is_some_and(|e| e.step == sim.steps);
         if (due || last) && !done {
             self.write(sim)?;
         }
         Ok(())
+    }
+}
+
+impl Writer for Snapshots {
+    fn name(&self) -> &str {
+        "snapshots"
+    }
+    fn needs_grid_state_at_start(&self) -> bool {
+        true
+    }
+    fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
+        Snapshots::start(self, sim)
+    }
+    fn needs_grid_state(&self, step: &Step) -> bool {
+        self.due(step.sim, step.last)
+    }
+    fn after_step(&mut self, step: &Step) -> Result<(), Error> {
+        Snapshots::after_step(self, step.sim, step.last)
     }
 }
 

@@ -9,7 +9,6 @@ use multifield::core::case::{Case, Schedule};
 use multifield::core::math::Real;
 use multifield::core::simulation::Simulation;
 use multifield::frames::lagrangian::Lagrangian;
-use multifield::output::Writer;
 use multifield::run::{run, RunOptions};
 use multifield::snapshot::{file_name, xdmf_name, Snapshot, Snapshots};
 use std::path::{Path, PathBuf};

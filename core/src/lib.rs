@@ -10,6 +10,7 @@
 
 pub mod boundary;
 pub mod case;
+pub mod driver;
 pub mod error;
 pub mod exchange;
 pub mod field;

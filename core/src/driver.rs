@@ -1,0 +1,725 @@
+//! The run loop: a [`Driver`] advances a [`Simulation`] to `time.end` with the output
+//! [`Writer`]s and the [`StopCheck`]s it holds, and reports how the run ended.
+//!
+//! After every step the driver
+//! 1. updates the run's totals ([`RunState`]: largest divergence and |Σθ − 1|, pressure
+//!    iterations, smallest Δt);
+//! 2. asks every stop check whether the solution blew up (the first to answer stops the
+//!    run as [`Status::Unstable`] after this step's output);
+//! 3. decides whether a row of the tables is due (every `output.interval` of simulated
+//!    time, every step when it is 0, and always the run's last step);
+//! 4. brings the fields' grid state up to date if a writer needs it, and calls every
+//!    writer in the order they were added;
+//! 5. calls the progress callback.
+//!
+//! The run ends at `time.end` (the last step shortened to land on it), at `time.max_steps`
+//! (completed, with the reason), when a check fires (unstable), when Δt falls below
+//! `time.min_dt` (unstable), or when a step fails or a model panics (failed). The writers
+//! are then finished ([`Writer::finish`]): the tables get the last step's row if it was
+//! not a regular one, a checkpoint closes a completed run.
+//!
+//! A library user runs a case in a few lines:
+//!
+//! ```no_run
+//! # fn main() -> multifield_core::error::Result<()> {
+//! use multifield_core::case::Case;
+//! use multifield_core::driver::{DiagnosticsCsv, Driver};
+//! use multifield_core::simulation::Simulation;
+//! let case = Case::load(std::path::Path::new("examples/lid_driven_cavity.ron"), &[])?;
+//! let mut driver = Driver::new(Simulation::new(&case)?);
+//! driver.add_writer(DiagnosticsCsv::create("out/diagnostics.csv".into())?);
+//! let end = driver.run()?;
+//! println!("{}: {} steps, t = {}", end.status.label(), driver.sim.steps, driver.sim.time);
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! (plugins must be linked first: `multifield::link_all()` in the application crate.)
+
+use crate::boundary::{Boundary, Side};
+use crate::case::{BodyShape, Region};
+use crate::error::{Error, Result};
+use crate::math::Real;
+use crate::simulation::{Simulation, Status, StepDiagnostics};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Kinetic energy above this multiple of the reference energy ([`reference_energy`]) is a
+/// blow-up.
+pub const ENERGY_GROWTH: Real = 1e6;
+
+/// Bodies closer than this fraction of the sum of their radii (or of the radius to a wall)
+/// overlap: the run stops as unstable ([`body_overlap`]).
+pub const OVERLAP_FRACTION: Real = 0.5;
+
+/// The run's totals and the schedule of its table rows, as a checkpoint carries them.
+#[derive(Clone, Debug)]
+pub struct RunState {
+    /// Kinetic energy after the last step (the initial one before any).
+    pub final_kinetic_energy: Real,
+    /// Largest constraint residual max |∇·(Σθu) − β(Σθ−1)/Δt| so far.
+    pub max_divergence: Real,
+    /// Largest max |Σθ − 1| so far (NaN when a field steps alone and Σθ is not computed).
+    pub max_volume_fraction_error: Real,
+    /// Pressure iterations so far.
+    pub pressure_iterations_total: u64,
+    /// Smallest Δt so far (infinite before the first step).
+    pub min_dt: Real,
+    /// What limited the last step.
+    pub last_dt_limit: String,
+    /// Simulated time of the next regular table row (`output.interval`).
+    pub next_row: Real,
+    /// Whether the last step had a regular row (not only the one every run writes for its
+    /// last step).
+    pub last_row_written: bool,
+    /// Table rows so far.
+    pub rows: u64,
+}
+
+impl RunState {
+    /// The state of a run that starts now: the first row after one `output.interval`.
+    pub fn new(sim: &Simulation) -> Self {
+        Self {
+            final_kinetic_energy: if sim.steps > 0 { sim.last.kinetic_energy } else { sim.initial_energy },
+            max_divergence: 0.0,
+            max_volume_fraction_error: 0.0,
+            pressure_iterations_total: 0,
+            min_dt: Real::INFINITY,
+            last_dt_limit: String::new(),
+            next_row: sim.case.output.interval,
+            last_row_written: true,
+            rows: 0,
+        }
+    }
+
+    fn add(&mut self, d: &StepDiagnostics) {
+        self.final_kinetic_energy = d.kinetic_energy;
+        self.max_divergence = self.max_divergence.max(d.max_divergence);
+        // NaN where Σθ is not computed (a field that steps alone): `null` in summary.json
+        self.max_volume_fraction_error = if d.volume_fraction_error.is_nan() {
+            Real::NAN
+        } else {
+            self.max_volume_fraction_error.max(d.volume_fraction_error)
+        };
+        self.pressure_iterations_total += d.pressure_iterations as u64;
+        self.min_dt = self.min_dt.min(d.dt);
+        self.last_dt_limit = d.dt_limit.clone();
+    }
+}
+
+/// What a writer sees after a step.
+pub struct Step<'a> {
+    /// The simulation after the step.
+    pub sim: &'a Simulation,
+    /// The step's diagnostics.
+    pub diagnostics: &'a StepDiagnostics,
+    /// The run's final step, whatever ends it.
+    pub last: bool,
+    /// The run stops as unstable after this step.
+    pub unstable: bool,
+    /// A row of the tables is due (a regular one, or the unstable step's).
+    pub row: bool,
+    /// The totals and the rows' schedule after this step (this step's row counted).
+    pub state: &'a RunState,
+}
+
+/// What a writer sees when the run has ended.
+pub struct End<'a> {
+    /// How the run ended.
+    pub status: &'a Status,
+    /// The last step needs its row: it was not a regular one (the run stopped between
+    /// rows, or failed).
+    pub row: bool,
+    /// The totals and the rows' schedule after the last regular row (without the final
+    /// row of `row`): a restart from a checkpoint written now continues from it.
+    pub state: &'a RunState,
+}
+
+/// An output writer with its own schedule in simulated time.
+pub trait Writer {
+    /// The writer's name (`"diagnostics"`, `"bodies"`, `"snapshots"`, `"checkpoints"`, …).
+    fn name(&self) -> &str;
+    /// Whether [`Writer::start`] reads the fields' grid state (the driver brings it up to
+    /// date first).
+    fn needs_grid_state_at_start(&self) -> bool {
+        false
+    }
+    /// Before the first step (t = 0, or the restart time).
+    fn start(&mut self, _sim: &Simulation) -> Result<()> {
+        Ok(())
+    }
+    /// Whether [`Writer::after_step`] will read the fields' grid state now: the driver
+    /// then brings it up to date first ([`Simulation::refresh_grid_state`]).
+    fn needs_grid_state(&self, _step: &Step) -> bool {
+        false
+    }
+    /// After every step.
+    fn after_step(&mut self, step: &Step) -> Result<()>;
+    /// When the run has ended, before the driver returns.
+    fn finish(&mut self, _sim: &mut Simulation, _end: &End) -> Result<()> {
+        Ok(())
+    }
+    /// The last file this writer wrote, if it reports one (the last checkpoint).
+    fn last_written(&self) -> Option<PathBuf> {
+        None
+    }
+}
+
+/// A check after every step that stops the run as unstable, with the reason.
+pub trait StopCheck {
+    /// The reason to stop after the step `d` of `sim`, if any.
+    fn check(&mut self, sim: &Simulation, d: &StepDiagnostics) -> Option<String>;
+}
+
+/// The kinetic energy and the largest speed are finite.
+pub struct FiniteSolution;
+
+impl StopCheck for FiniteSolution {
+    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        (!d.kinetic_energy.is_finite() || !d.max_speed.is_finite()).then(|| {
+            format!(
+                "non-finite solution at step {}, t = {}: kinetic energy {}, largest speed {}",
+                d.step, d.time, d.kinetic_energy, d.max_speed
+            )
+        })
+    }
+}
+
+/// The kinetic energy stays below a bound ([`ENERGY_GROWTH`] × [`reference_energy`] by
+/// default).
+pub struct EnergyBound(pub Real);
+
+impl StopCheck for EnergyBound {
+    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        let bound = self.0;
+        (d.kinetic_energy > bound).then(|| {
+            format!(
+                "kinetic energy {:e} at step {}, t = {} exceeds the bound {bound:e} \
+                 ({ENERGY_GROWTH:e} × the reference energy; see `multifield::run`): reduce time.cfl or time.fixed_dt",
+                d.kinetic_energy, d.step, d.time
+            )
+        })
+    }
+}
+
+/// max |Σθ − 1| stays below `coupling.max_volume_fraction_error` (cases with a pressure
+/// solver, which enforces Σθ = 1).
+pub struct VolumeFractionDrift(pub Real);
+
+impl StopCheck for VolumeFractionDrift {
+    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        let theta = self.0;
+        (d.volume_fraction_error.is_nan() || d.volume_fraction_error > theta).then(|| {
+            format!(
+                "max |Σθ − 1| = {:.4e} at step {}, t = {} exceeds coupling.max_volume_fraction_error = {theta}: \
+                 the fields no longer fill the space; reduce time.cfl, raise points_per_cell or \
+                 coupling.volume_fraction_relaxation",
+                d.volume_fraction_error, d.step, d.time
+            )
+        })
+    }
+}
+
+/// Disk bodies do not pass through each other or a wall ([`body_overlap`]).
+pub struct BodyOverlap;
+
+impl StopCheck for BodyOverlap {
+    fn check(&mut self, sim: &Simulation, _d: &StepDiagnostics) -> Option<String> {
+        body_overlap(sim)
+    }
+}
+
+/// The checks every run makes (`multifield::run`'s module doc): a finite solution, the
+/// energy bound, Σθ in a case with a pressure solver, and disk bodies that do not overlap.
+pub fn default_checks(sim: &Simulation) -> Vec<Box<dyn StopCheck>> {
+    let mut checks: Vec<Box<dyn StopCheck>> =
+        vec![Box::new(FiniteSolution), Box::new(EnergyBound(ENERGY_GROWTH * reference_energy(sim)))];
+    if sim.case.pressure.is_some() {
+        checks.push(Box::new(VolumeFractionDrift(sim.case.coupling.max_volume_fraction_error)));
+    }
+    let has_disks =
+        sim.case.fields.iter().any(
+            |f| matches!(&f.region, Region::Bodies(b) if b.iter().any(|b| matches!(b.shape, BodyShape::Disk { .. }))),
+        );
+    if has_disks {
+        checks.push(Box::new(BodyOverlap));
+    }
+    checks
+}
+
+/// Energy scale E_ref of the instability bound: max(E₀, ½ M |g| L, ½ M U_b², ½ M (L / t_end)²),
+/// E₀ the initial kinetic energy, M the total mass, L the longer side of the domain, U_b the
+/// fastest prescribed boundary velocity and t_end `time.end`. Each term is an energy the
+/// case can reach physically (the start, a fall across the domain, the driving walls, a
+/// flow crossing the domain once in the run); a million times the largest is a blow-up.
+pub fn reference_energy(sim: &Simulation) -> Real {
+    let case = &sim.case;
+    let mass: Real = sim.fields.iter().map(|f| f.frame.mass()).sum();
+    let length = case.domain.size[0].max(case.domain.size[1]);
+    let g = (case.gravity[0].powi(2) + case.gravity[1].powi(2)).sqrt();
+    let wall = Side::ALL
+        .iter()
+        .map(|&s| match case.boundaries.side(s) {
+            Boundary::Velocity { velocity, .. } => (velocity[0].powi(2) + velocity[1].powi(2)).sqrt(),
+            _ => 0.0,
+        })
+        .fold(0.0, Real::max);
+    let crossing = length / case.time.end;
+    [sim.initial_energy, 0.5 * mass * g * length, 0.5 * mass * wall * wall, 0.5 * mass * crossing * crossing]
+        .into_iter()
+        .fold(0.0, Real::max)
+}
+
+/// Why the bodies of `sim` overlap each other or a wall, if they do: two disk bodies (one
+/// of them free) whose centres are closer than [`OVERLAP_FRACTION`] × the sum of their
+/// radii, or a free disk body whose centre is closer than [`OVERLAP_FRACTION`] × its radius
+/// to a wall (or outside the domain). Only disk bodies (by their shape in the case) are
+/// checked, with the radius of the body's state.
+pub fn body_overlap(sim: &Simulation) -> Option<String> {
+    let case = &sim.case;
+    let disks: Vec<&str> = case
+        .fields
+        .iter()
+        .flat_map(|f| match &f.region {
+            Region::Bodies(b) => {
+                b.iter().filter(|b| matches!(b.shape, BodyShape::Disk { .. })).map(|b| b.name.as_str()).collect()
+            }
+            _ => Vec::new(),
+        })
+        .collect();
+    if disks.is_empty() {
+        return None;
+    }
+    let bodies: Vec<_> =
+        sim.bodies().into_iter().map(|(_, b)| b).filter(|b| disks.contains(&b.name.as_str())).collect();
+    for (k, a) in bodies.iter().enumerate() {
+        for b in &bodies[..k] {
+            let d = (a.position - b.position).norm();
+            let contact = a.radius + b.radius;
+            if (a.free || b.free) && d < OVERLAP_FRACTION * contact {
+                return Some(format!(
+                    "bodies `{}` and `{}` overlap at step {}, t = {}: centres {d:.4e} apart, below \
+                     {OVERLAP_FRACTION} × the sum of the radii {contact:.4e}; strengthen the contact \
+                     (contact.params) or reduce time.cfl",
+                    b.name, a.name, sim.steps, sim.time
+                ));
+            }
+        }
+        if !a.free {
+            continue;
+        }
+        let (o, size) = (case.domain.origin, case.domain.size);
+        let walls = [
+            (Side::Left, a.position.x - o[0]),
+            (Side::Right, o[0] + size[0] - a.position.x),
+            (Side::Bottom, a.position.y - o[1]),
+            (Side::Top, o[1] + size[1] - a.position.y),
+        ];
+        for (side, gap) in walls {
+            if matches!(case.boundaries.side(side), Boundary::Periodic) {
+                continue;
+            }
+            if gap.is_nan() || gap < OVERLAP_FRACTION * a.radius {
+                return Some(format!(
+                    "body `{}` crosses the {side:?} wall at step {}, t = {}: its centre is {gap:.4e} from the wall, \
+                     below {OVERLAP_FRACTION} × its radius {:.4e}; add or strengthen the contact model or reduce time.cfl",
+                    a.name, sim.steps, sim.time, a.radius
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// How a run ended.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Completed, unstable or failed, with the reason.
+    pub status: Status,
+    /// What bounded a completed run short of `time.end` (`time.max_steps`), else empty.
+    pub reason: String,
+    /// Wall-clock time of the time loop, seconds.
+    pub wall_seconds: f64,
+}
+
+/// The progress callback: the simulation after a step, and the steps per second of
+/// wall-clock time since the driver started.
+pub type Progress = Box<dyn FnMut(&Simulation, f64)>;
+
+/// Advances a simulation to `time.end` with writers and stop checks.
+pub struct Driver {
+    /// The simulation it advances.
+    pub sim: Simulation,
+    /// The totals and the rows' schedule.
+    pub state: RunState,
+    writers: Vec<Box<dyn Writer>>,
+    checks: Vec<Box<dyn StopCheck>>,
+    progress: Option<Progress>,
+}
+
+impl Driver {
+    /// A driver of `sim` with the [`default_checks`] and no writers, its rows' schedule
+    /// starting now.
+    pub fn new(sim: Simulation) -> Self {
+        let state = RunState::new(&sim);
+        Self::resume(sim, state)
+    }
+
+    /// A driver of `sim` that continues a run whose totals and rows' schedule were `state`
+    /// (a restart).
+    pub fn resume(sim: Simulation, state: RunState) -> Self {
+        let checks = default_checks(&sim);
+        Self { sim, state, writers: Vec::new(), checks, progress: None }
+    }
+
+    /// Adds a writer, called after the ones added before it.
+    pub fn add_writer(&mut self, writer: impl Writer + 'static) -> &mut Self {
+        self.writers.push(Box::new(writer));
+        self
+    }
+
+    /// Adds a boxed writer.
+    pub fn add_boxed_writer(&mut self, writer: Box<dyn Writer>) -> &mut Self {
+        self.writers.push(writer);
+        self
+    }
+
+    /// Adds a stop check, asked after the ones before it.
+    pub fn add_check(&mut self, check: impl StopCheck + 'static) -> &mut Self {
+        self.checks.push(Box::new(check));
+        self
+    }
+
+    /// Removes every stop check (the default ones too).
+    pub fn clear_checks(&mut self) -> &mut Self {
+        self.checks.clear();
+        self
+    }
+
+    /// Calls `progress` after every step.
+    pub fn on_progress(&mut self, progress: impl FnMut(&Simulation, f64) + 'static) -> &mut Self {
+        self.progress = Some(Box::new(progress));
+        self
+    }
+
+    /// The writer named `name`, if one was added.
+    pub fn writer(&self, name: &str) -> Option<&dyn Writer> {
+        self.writers.iter().find(|w| w.name() == name).map(|w| w.as_ref())
+    }
+
+    /// Runs to `time.end` (or until a stop), then finishes the writers. `Err` only when a
+    /// writer fails (a file that cannot be written); instabilities and failed steps end in
+    /// an [`Outcome`] that says so.
+    pub fn run(&mut self) -> Result<Outcome> {
+        let Self { sim, state, writers, checks, progress } = self;
+        if writers.iter().any(|w| w.needs_grid_state_at_start()) {
+            sim.refresh_grid_state()?;
+        }
+        for w in writers.iter_mut() {
+            w.start(sim)?;
+        }
+        let time = sim.case.time.clone();
+        let interval = sim.case.output.interval;
+        let start = Instant::now();
+        let steps_at_start = sim.steps;
+        let mut status = Status::Completed;
+        let mut reason = String::new();
+        let done = |t: Real| t >= time.end * (1.0 - 1e-12);
+        while !done(sim.time) {
+            if let Some(max) = time.max_steps {
+                if sim.steps >= max {
+                    reason = format!("stopped by time.max_steps = {max} at t = {} (time.end = {})", sim.time, time.end);
+                    break;
+                }
+            }
+            let (dt, limit) = sim.choose_dt();
+            let last_step = dt >= (time.end - sim.time) * (1.0 - 1e-9);
+            if (dt < time.min_dt || dt.is_nan()) && !last_step {
+                status = Status::Unstable(format!(
+                    "Δt = {dt:e} (limited by {limit}) fell below time.min_dt = {:e} at step {}, t = {}",
+                    time.min_dt,
+                    sim.steps + 1,
+                    sim.time
+                ));
+                break;
+            }
+            let stepped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sim.step_with(dt, limit)));
+            let d = match stepped {
+                Ok(Ok(d)) => d,
+                Ok(Err(e)) => {
+                    status = Status::Failed(format!("step {}, t = {}: {e}", sim.steps + 1, sim.time));
+                    break;
+                }
+                Err(p) => {
+                    status = Status::Failed(format!(
+                        "step {}, t = {}: a model panicked: {}",
+                        sim.steps + 1,
+                        sim.time,
+                        panic_message(p)
+                    ));
+                    break;
+                }
+            };
+            state.add(&d);
+            let unstable = checks.iter_mut().find_map(|c| c.check(sim, &d));
+            let row = interval <= 0.0 || d.time >= state.next_row * (1.0 - 1e-9) || unstable.is_some() || done(d.time);
+            if row {
+                state.rows += 1;
+                if interval > 0.0 {
+                    while state.next_row <= d.time * (1.0 + 1e-9) {
+                        state.next_row += interval;
+                    }
+                }
+            }
+            state.last_row_written = row;
+            let last = unstable.is_some() || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+            let needs_grid = {
+                let step = Step { sim, diagnostics: &d, last, unstable: unstable.is_some(), row, state };
+                writers.iter().any(|w| w.needs_grid_state(&step))
+            };
+            if needs_grid && sim.grid_state_stale() {
+                sim.refresh_grid_state()?;
+            }
+            let step = Step { sim, diagnostics: &d, last, unstable: unstable.is_some(), row, state };
+            for w in writers.iter_mut() {
+                w.after_step(&step)?;
+            }
+            if let Some(reason) = unstable {
+                status = Status::Unstable(reason);
+                break;
+            }
+            if let Some(p) = progress.as_mut() {
+                let rate = (sim.steps - steps_at_start) as f64 / start.elapsed().as_secs_f64().max(1e-9);
+                p(sim, rate);
+            }
+        }
+        let final_row = !state.last_row_written && sim.steps > 0;
+        let before = state.clone();
+        let end = End { status: &status, row: final_row, state: &before };
+        for w in writers.iter_mut() {
+            w.finish(sim, &end)?;
+        }
+        if final_row {
+            state.rows += 1;
+        }
+        Ok(Outcome { status, reason, wall_seconds: start.elapsed().as_secs_f64() })
+    }
+}
+
+fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "panic".into())
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so
+/// that `path` is either the old file or the complete new one.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// A number as it round-trips, in plain notation for moderate magnitudes and in
+/// scientific notation otherwise (`1.5e-16`, not 0.000000000000000150…).
+pub fn number(x: Real) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// The columns of `diagnostics.csv`, in order.
+pub const CSV_HEADER: &str = "step,time,dt,dt_limit,kinetic_energy,momentum_x,momentum_y,mass,max_speed,\
+max_divergence,volume_fraction_error,pressure_iterations,pressure_residual";
+
+/// Header of `bodies.csv` (one row per body per output time).
+pub const BODIES_HEADER: &str =
+    "step,time,body,x,y,vx,vy,omega,fx,fy,torque,fx_pressure,fy_pressure,fx_viscous,fy_viscous";
+
+/// `diagnostics.csv`: a row of [`CSV_HEADER`] per table row of the run (and the last
+/// step's), flushed row by row so that a killed run leaves a readable file.
+pub struct DiagnosticsCsv {
+    file: BufWriter<File>,
+    path: PathBuf,
+}
+
+impl DiagnosticsCsv {
+    /// A new file at `path` (replaced if it exists), with its header.
+    pub fn create(path: PathBuf) -> Result<Self> {
+        let file = create_csv(&path, CSV_HEADER)?;
+        Ok(Self { file, path })
+    }
+
+    /// Continues `path` after a restart ([`resume_csv`]).
+    pub fn resume(path: PathBuf, source: Option<&Path>, keep: impl Fn(u64) -> bool) -> Result<Self> {
+        let (file, _) = resume_csv(&path, source, CSV_HEADER, keep)?;
+        Ok(Self { file, path })
+    }
+
+    fn write(&mut self, d: &StepDiagnostics) -> Result<()> {
+        let limit = d.dt_limit.replace([',', '"', '\n'], ";");
+        let x = number;
+        writeln!(
+            self.file,
+            "{},{},{},{limit},{},{},{},{},{},{},{},{},{}",
+            d.step,
+            x(d.time),
+            x(d.dt),
+            x(d.kinetic_energy),
+            x(d.momentum.x),
+            x(d.momentum.y),
+            x(d.mass),
+            x(d.max_speed),
+            x(d.max_divergence),
+            x(d.volume_fraction_error),
+            d.pressure_iterations,
+            x(d.pressure_residual)
+        )
+        .and_then(|_| self.file.flush())
+        .map_err(|source| Error::Io { path: self.path.clone(), source })
+    }
+}
+
+impl Writer for DiagnosticsCsv {
+    fn name(&self) -> &str {
+        "diagnostics"
+    }
+    fn after_step(&mut self, step: &Step) -> Result<()> {
+        if step.row {
+            self.write(step.diagnostics)?;
+        }
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, end: &End) -> Result<()> {
+        if end.row {
+            self.write(&sim.last)?;
+        }
+        Ok(())
+    }
+}
+
+/// `bodies.csv`: centroid, velocity, angular velocity, hydrodynamic force and torque of
+/// every body at every table row (and at the start of a new run), and the force's pressure
+/// and viscous parts where the coupling gives them ([`Simulation::pressure_forces`]; empty
+/// cells elsewhere), flushed row by row.
+pub struct BodiesCsv {
+    file: BufWriter<File>,
+    path: PathBuf,
+    resumed: bool,
+}
+
+impl BodiesCsv {
+    /// A new file at `path` (replaced if it exists), with its header; the bodies at the
+    /// start are its first rows.
+    pub fn create(path: PathBuf) -> Result<Self> {
+        let file = create_csv(&path, BODIES_HEADER)?;
+        Ok(Self { file, path, resumed: false })
+    }
+
+    /// Continues `path` after a restart ([`resume_csv`]).
+    pub fn resume(path: PathBuf, source: Option<&Path>, keep: impl Fn(u64) -> bool) -> Result<Self> {
+        let (file, _) = resume_csv(&path, source, BODIES_HEADER, keep)?;
+        Ok(Self { file, path, resumed: true })
+    }
+
+    fn write(&mut self, sim: &Simulation) -> Result<()> {
+        let x = number;
+        let pressure = sim.pressure_forces();
+        for ((_, b), p) in sim.bodies().into_iter().zip(pressure) {
+            let name = b.name.replace([',', '"', '\n'], ";");
+            // the pressure and viscous parts where the coupling gives them, else empty
+            let parts = p.map_or_else(
+                || ",,,".to_string(),
+                |p| format!("{},{},{},{}", x(p.x), x(p.y), x(b.force.x - p.x), x(b.force.y - p.y)),
+            );
+            writeln!(
+                self.file,
+                "{},{},{name},{},{},{},{},{},{},{},{},{parts}",
+                sim.steps,
+                x(sim.time),
+                x(b.position.x),
+                x(b.position.y),
+                x(b.velocity.x),
+                x(b.velocity.y),
+                x(b.angular_velocity),
+                x(b.force.x),
+                x(b.force.y),
+                x(b.torque)
+            )
+            .map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        }
+        self.file.flush().map_err(|source| Error::Io { path: self.path.clone(), source })
+    }
+}
+
+impl Writer for BodiesCsv {
+    fn name(&self) -> &str {
+        "bodies"
+    }
+    fn start(&mut self, sim: &Simulation) -> Result<()> {
+        if !self.resumed {
+            self.write(sim)?;
+        }
+        Ok(())
+    }
+    fn after_step(&mut self, step: &Step) -> Result<()> {
+        if step.row {
+            self.write(step.sim)?;
+        }
+        Ok(())
+    }
+    fn finish(&mut self, sim: &mut Simulation, end: &End) -> Result<()> {
+        if end.row {
+            self.write(sim)?;
+        }
+        Ok(())
+    }
+}
+
+fn create_csv(path: &Path, header: &str) -> Result<BufWriter<File>> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let mut file = BufWriter::new(File::create(path).map_err(io)?);
+    writeln!(file, "{header}").and_then(|_| file.flush()).map_err(io)?;
+    Ok(file)
+}
+
+/// Continues the CSV file `path` after a restart: the header and the complete rows whose
+/// step (first column) passes `keep`, taken from `source` (the same file in the
+/// checkpoint's run directory) if it exists, else from `path` itself, are written to
+/// `path` (atomically), which is then opened for appending. Returns it and the rows kept.
+pub fn resume_csv(
+    path: &Path,
+    source: Option<&Path>,
+    header: &str,
+    keep: impl Fn(u64) -> bool,
+) -> Result<(BufWriter<File>, u64)> {
+    let from = source.filter(|s| s.is_file()).unwrap_or(path);
+    let old = match std::fs::read_to_string(from) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        Err(source) => return Err(Error::Io { path: from.to_path_buf(), source }),
+    };
+    let mut text = format!("{header}\n");
+    let mut rows = 0;
+    // complete lines only: a run killed while writing a row leaves part of it
+    for line in old.split_inclusive('\n').skip(1).filter(|l| l.ends_with('\n')) {
+        let step = line.split(',').next().and_then(|s| s.parse::<u64>().ok());
+        if step.is_some_and(&keep) {
+            text.push_str(line);
+            rows += 1;
+        }
+    }
+    write_atomically(path, text.as_bytes())?;
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    Ok((BufWriter::new(file), rows))
+}
