@@ -9,7 +9,7 @@
 
 use multifield::core::case::Case;
 use multifield::core::math::{Real, Vector};
-use multifield::core::plugin::{PointStressContext, StressModel};
+use multifield::core::plugin::{PointStressContext, StressKind, StressModel};
 use multifield::core::simulation::Simulation;
 use multifield::frames::collocated::Simd;
 use multifield::frames::lagrangian::Lagrangian;
@@ -206,11 +206,8 @@ impl StressModel for RateProbe {
     fn params(&self) -> serde_json::Value {
         serde_json::json!({ "volumetric": self.volumetric })
     }
-    fn acts_on_points(&self) -> bool {
-        true
-    }
-    fn volumetric_only(&self) -> bool {
-        self.volumetric
+    fn kind(&self) -> StressKind {
+        StressKind::Points { volumetric_only: self.volumetric, velocity_gradient: true }
     }
     fn point_stress(&self, _ctx: &mut PointStressContext) {}
 }

@@ -186,7 +186,7 @@ pub trait Frame: Send + Sync {
     /// Whether this frame advances itself in one pass ([`Frame::step_alone`]) in place of
     /// the multifield phases. The core then requires the field to be the case's only one,
     /// with no pressure solve, exchange or contact, and no stress model acting on the grid
-    /// ([`StressModel::acts_on_grid`]). Default: false.
+    /// ([`StressKind::Grid`]). Default: false.
     fn steps_alone(&self) -> bool {
         false
     }
@@ -481,6 +481,67 @@ pub struct PointStressContext<'a> {
     pub stress: &'a mut [Matrix],
 }
 
+/// What a stress model is, in one value ([`StressModel::kind`]): the frames and the core
+/// read every capability from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StressKind {
+    /// Makes the field's bodies move rigidly (after the pressure update); no stress, no
+    /// time-step limit of its own.
+    Rigid,
+    /// Acts on the grid's velocities ([`StressModel::apply_on_grid`]): a viscosity. Such a
+    /// model needs the staggered grid state, which a frame that steps alone does not write.
+    Grid {
+        /// The dynamic viscosity μ of a Newtonian stress σ = 2μD, whose `apply_on_grid` is
+        /// `u ← u + Δt (μ/ρ⁰) ∇²u`: a frame may integrate it implicitly instead
+        /// ([`Frame::implicit_diffusion_number`]). `None`: not Newtonian.
+        newtonian_viscosity: Option<Real>,
+    },
+    /// A Cauchy stress at the material points ([`StressModel::point_stress`], MPM).
+    Points {
+        /// The stress depends on F only through J = det F (the equation of state of a
+        /// fluid). When every point-stress model of a field says so, the Lagrangian frame
+        /// keeps F = diag(J, 1) after each update: a flowing fluid stretches F without
+        /// bound (exponentially at stagnation points and in chaotic flow, until det F has
+        /// lost all precision) while J stays near 1.
+        volumetric_only: bool,
+        /// The stress reads the points' velocity gradient
+        /// ([`PointStressContext::velocity_gradient`]; a rate-dependent stress). A frame may
+        /// leave ∇v at the points unwritten when no point-stress model of the field reads
+        /// it (the collocated grid does: a quarter of the bytes its gather stores).
+        velocity_gradient: bool,
+    },
+}
+
+impl StressKind {
+    /// A stress at the points.
+    pub fn acts_on_points(self) -> bool {
+        matches!(self, Self::Points { .. })
+    }
+    /// A stress on the grid's velocities.
+    pub fn acts_on_grid(self) -> bool {
+        matches!(self, Self::Grid { .. })
+    }
+    /// Rigid bodies.
+    pub fn is_rigid(self) -> bool {
+        self == Self::Rigid
+    }
+    /// A point stress that depends on F only through J.
+    pub fn volumetric_only(self) -> bool {
+        matches!(self, Self::Points { volumetric_only: true, .. })
+    }
+    /// A point stress that reads the points' velocity gradient.
+    pub fn uses_velocity_gradient(self) -> bool {
+        matches!(self, Self::Points { velocity_gradient: true, .. })
+    }
+    /// μ of a Newtonian grid stress.
+    pub fn newtonian_viscosity(self) -> Option<Real> {
+        match self {
+            Self::Grid { newtonian_viscosity } => newtonian_viscosity,
+            _ => None,
+        }
+    }
+}
+
 /// A stress (constitutive) model of one field.
 pub trait StressModel: Send + Sync {
     /// Registered name.
@@ -491,45 +552,12 @@ pub trait StressModel: Send + Sync {
     fn apply_on_grid(&self, _ctx: &mut GridStressContext) -> Result<(), String> {
         Ok(())
     }
-    /// Whether this model needs point stresses (MPM).
-    fn acts_on_points(&self) -> bool {
-        false
-    }
-    /// Whether [`StressModel::apply_on_grid`] does anything: such a model needs the
-    /// staggered grid state, which a frame that steps alone does not write. Default: the
-    /// opposite of [`StressModel::acts_on_points`]; a model that does both says so.
-    fn acts_on_grid(&self) -> bool {
-        !self.acts_on_points()
-    }
-    /// Adds this model's Cauchy stress at every point. Default: nothing.
+    /// What this model is: which part of the field it acts on and what it needs from the
+    /// frame ([`StressKind`]). Every model says it: there is no default to be wrong.
+    fn kind(&self) -> StressKind;
+    /// Adds this model's Cauchy stress at every point (a [`StressKind::Points`] model).
+    /// Default: nothing.
     fn point_stress(&self, _ctx: &mut PointStressContext) {}
-    /// Whether this model's point stress depends on F only through J = det F (the
-    /// equation of state of a fluid). When every point-stress model of a field says so,
-    /// the Lagrangian frame keeps F = diag(J, 1) after each update: a flowing fluid
-    /// stretches F without bound (exponentially at stagnation points and in chaotic flow,
-    /// until det F has lost all precision) while J stays near 1. Default: false.
-    fn volumetric_only(&self) -> bool {
-        false
-    }
-    /// Whether this model's point stress reads the points' velocity gradient
-    /// ([`PointStressContext::velocity_gradient`]; a rate-dependent stress). A frame may
-    /// leave ∇v at the points unwritten when no point-stress model of the field reads it
-    /// (the collocated grid does: a quarter of the bytes its gather stores). Default: true,
-    /// so that a model that does not say is given ∇v. A model that returns false but reads
-    /// ∇v gets stale values (zero on the collocated grid), with no error.
-    fn uses_velocity_gradient(&self) -> bool {
-        true
-    }
-    /// The dynamic viscosity μ of a Newtonian stress σ = 2μD, whose [`StressModel::apply_on_grid`]
-    /// is `u ← u + Δt (μ/ρ⁰) ∇²u`: a frame may integrate it implicitly instead
-    /// ([`Frame::implicit_diffusion_number`]). Default: `None` (not Newtonian).
-    fn newtonian_viscosity(&self) -> Option<Real> {
-        None
-    }
-    /// Whether this model makes the field's bodies move rigidly.
-    fn is_rigid(&self) -> bool {
-        false
-    }
     /// Largest stable time step of this model, or `None` if it sets none.
     fn stable_dt(&self, _ctx: &TimeStepContext) -> Option<Real> {
         None

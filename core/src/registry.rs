@@ -1,6 +1,6 @@
 //! Plugin registries: a name maps to a builder that turns RON parameters into a typed model.
 //!
-//! Crates register with `inventory::submit!` (see [`crate::register_stress!`] and friends);
+//! Crates register with `inventory::submit!` (see [`crate::register!`]);
 //! the core never lists them. Inventory drops a crate nobody references, so each plugin
 //! crate exposes a `link()` function that the binary and the tests call.
 

@@ -1328,13 +1328,13 @@ fn check_alone(case: &Case, fields: &[Field], pressure: bool) -> Result<()> {
     if case.contact.is_some() {
         return Err(why("but the case has a contact model: set `contact: None`".into()));
     }
-    if let Some(m) = field.stress.iter().find(|m| m.is_rigid()) {
+    if let Some(m) = field.stress.iter().find(|m| m.kind().is_rigid()) {
         return Err(why(format!(
             "but its stress `{}` makes bodies rigid, and a field on this grid has none: remove it",
             m.model()
         )));
     }
-    if let Some(m) = field.stress.iter().find(|m| m.acts_on_grid()) {
+    if let Some(m) = field.stress.iter().find(|m| m.kind().acts_on_grid()) {
         return Err(why(format!(
             "but its stress `{}` acts on the staggered grid: use a point stress (e.g. weakly_compressible)",
             m.model()
@@ -1369,7 +1369,7 @@ fn check_forcing(case: &Case, fields: &[Field], k: usize, fa: usize, fb: usize) 
             ),
         ));
     };
-    if !b.frame.is_lagrangian() || !b.stress.iter().any(|m| m.is_rigid()) {
+    if !b.frame.is_lagrangian() || !b.stress.iter().any(|m| m.kind().is_rigid()) {
         return Err(Error::invalid(
             format!("fields.{}.stress", b.name),
             format!(
@@ -1480,12 +1480,10 @@ fn point_drag_params(
         }
     }
     if has("viscosity") && !params.contains_key("viscosity") {
-        let mu = fluid
-            .stress
-            .iter()
-            .find(|s| s.model == "newtonian")
-            .and_then(|s| s.params.get("viscosity"))
-            .and_then(|v| v.as_f64());
+        // the fluid's Newtonian viscosity, whichever model gives it (its kind says so)
+        let mu = fluid.stress.iter().find_map(|s| {
+            registry::build_stress(&s.model, &s.params, path).ok().and_then(|m| m.kind().newtonian_viscosity())
+        });
         if let Some(mu) = mu {
             params.insert("viscosity".into(), serde_json::json!(mu));
         }

@@ -308,7 +308,7 @@ impl Collocated {
         let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
         self.update(bc, dt, gravity, tiny);
         // ∇v at the points only for a point stress that reads it
-        let velocity_gradient = models.iter().any(|m| m.acts_on_points() && m.uses_velocity_gradient());
+        let velocity_gradient = models.iter().any(|m| m.kind().uses_velocity_gradient());
         let figures = self.gather(grid, bc, pts, transfer, volumetric_only, velocity_gradient, dt);
         self.finite = figures.kinetic_energy.is_finite() && figures.max_speed.is_finite();
         figures
@@ -339,7 +339,7 @@ impl Collocated {
                 touched.fill(0);
                 let pts = k * n / PARTS..(k + 1) * n / PARTS;
                 sigma.iter_mut().for_each(|s| *s = Matrix::zeros());
-                for model in input.models.iter().filter(|m| m.acts_on_points()) {
+                for model in input.models.iter().filter(|m| m.kind().acts_on_points()) {
                     model.point_stress(&mut PointStressContext {
                         dt: input.dt,
                         density: input.density,

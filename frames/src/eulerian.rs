@@ -667,12 +667,12 @@ impl Eulerian {
 
     /// The field's Newtonian viscosity μ when the frame integrates it implicitly: with
     /// `diffusion: "crank_nicolson"` and every grid stress of the field Newtonian
-    /// ([`StressModel::newtonian_viscosity`]; their viscosities add). `None`: explicit.
+    /// ([`StressKind::newtonian_viscosity`](multifield_core::plugin::StressKind::newtonian_viscosity); their viscosities add). `None`: explicit.
     pub fn implicit_viscosity(&self, stress: &[Box<dyn StressModel>]) -> Option<Real> {
         if self.diffusion != Diffusion::CrankNicolson || stress.is_empty() {
             return None;
         }
-        stress.iter().filter(|m| m.acts_on_grid()).map(|m| m.newtonian_viscosity()).sum()
+        stress.iter().filter(|m| m.kind().acts_on_grid()).map(|m| m.kind().newtonian_viscosity()).sum()
     }
 
     /// Backward Euler for the viscosity of the midpoint: (I − c L) u½ = u½ (as built so

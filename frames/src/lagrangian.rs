@@ -65,7 +65,7 @@ pub struct Points {
     pub f: Vec<Matrix>,
     /// Velocity gradients of the last step. On the collocated grid they are written only
     /// when a point-stress model of the field reads them
-    /// (`StressModel::uses_velocity_gradient`); otherwise they keep their last value (zero
+    /// (`StressKind::Points { velocity_gradient }`); otherwise they keep their last value (zero
     /// from the start).
     pub grad_v: Vec<Matrix>,
     /// Cauchy stress of the last evaluation.
@@ -241,9 +241,9 @@ impl Lagrangian {
 
     /// Whether the field has point-stress models, and whether all are `volumetric_only`.
     fn classify_stress(&mut self, ctx: &FrameContext) {
-        self.has_point_stress = ctx.stress.iter().any(|s| s.acts_on_points());
-        self.volumetric_only =
-            self.has_point_stress && ctx.stress.iter().filter(|s| s.acts_on_points()).all(|s| s.volumetric_only());
+        self.has_point_stress = ctx.stress.iter().any(|s| s.kind().acts_on_points());
+        self.volumetric_only = self.has_point_stress
+            && ctx.stress.iter().filter(|s| s.kind().acts_on_points()).all(|s| s.kind().volumetric_only());
     }
 
     /// The stress of every point from the field's point-stress models (zero without one);
@@ -253,7 +253,7 @@ impl Lagrangian {
         let pts = &mut self.points;
         if self.has_point_stress {
             pts.stress.par_iter_mut().for_each(|s| *s = Matrix::zeros());
-            for model in ctx.stress.iter().filter(|s| s.acts_on_points()) {
+            for model in ctx.stress.iter().filter(|s| s.kind().acts_on_points()) {
                 model.point_stress(&mut PointStressContext {
                     dt: ctx.dt,
                     density: ctx.density,
@@ -970,7 +970,7 @@ impl Frame for Lagrangian {
         // examples/mpm88.ron go unstable near step 1,400.)
         let grid_j = self.has_point_stress && self.volumetric_only && shape == Shape::Quadratic;
         let musl = self.has_point_stress && !grid_j;
-        let rigid = ctx.stress.iter().any(|m| m.is_rigid()) && !self.bodies.is_empty();
+        let rigid = ctx.stress.iter().any(|m| m.kind().is_rigid()) && !self.bodies.is_empty();
         if !self.bodies.is_empty() {
             self.x_old.clone_from(&self.points.x);
         }

@@ -18,7 +18,7 @@
 
 use super::{check_elastic, elastic_dt, lame};
 use multifield_core::math::{Matrix, Real};
-use multifield_core::plugin::{PointStressContext, StressModel, TimeStepContext};
+use multifield_core::plugin::{PointStressContext, StressKind, StressModel, TimeStepContext};
 use multifield_core::registry::{params_value, ParamDoc};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -100,11 +100,8 @@ impl StressModel for LinearElastic {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
-    fn acts_on_points(&self) -> bool {
-        true
-    }
-    fn uses_velocity_gradient(&self) -> bool {
-        false
+    fn kind(&self) -> StressKind {
+        StressKind::Points { volumetric_only: false, velocity_gradient: false }
     }
     fn point_stress(&self, ctx: &mut PointStressContext) {
         ctx.stress.par_iter_mut().zip(ctx.deformation_gradient.par_iter()).for_each(|(s, f)| *s += self.stress(f));

@@ -6,7 +6,7 @@
 
 use multifield_core::boundary::Side;
 use multifield_core::math::Real;
-use multifield_core::plugin::{GridStressContext, StressModel, TimeStepContext};
+use multifield_core::plugin::{GridStressContext, StressKind, StressModel, TimeStepContext};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
 
@@ -56,8 +56,8 @@ impl StressModel for Newtonian {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
-    fn newtonian_viscosity(&self) -> Option<Real> {
-        Some(self.viscosity)
+    fn kind(&self) -> StressKind {
+        StressKind::Grid { newtonian_viscosity: Some(self.viscosity) }
     }
     fn stable_dt(&self, ctx: &TimeStepContext) -> Option<Real> {
         let h2 = ctx.grid.h * ctx.grid.h;

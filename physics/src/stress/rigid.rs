@@ -4,7 +4,7 @@
 //! (docs/method.md §4). No elastic wave limits the time step: a rigid disk costs the fluid's
 //! CFL step only, about 100× fewer steps than a stiff elastic one.
 
-use multifield_core::plugin::StressModel;
+use multifield_core::plugin::{StressKind, StressModel};
 use multifield_core::registry::params_value;
 use serde::{Deserialize, Serialize};
 
@@ -35,10 +35,7 @@ impl StressModel for Rigid {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
-    fn is_rigid(&self) -> bool {
-        true
-    }
-    fn acts_on_grid(&self) -> bool {
-        false
+    fn kind(&self) -> StressKind {
+        StressKind::Rigid
     }
 }

@@ -18,7 +18,7 @@
 
 use multifield_core::boundary::Side;
 use multifield_core::math::Real;
-use multifield_core::plugin::{GridStressContext, StressModel, TimeStepContext};
+use multifield_core::plugin::{GridStressContext, StressKind, StressModel, TimeStepContext};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
 
@@ -109,6 +109,10 @@ impl StressModel for PowerLaw {
     }
     fn params(&self) -> serde_json::Value {
         params_value(self)
+    }
+    fn kind(&self) -> StressKind {
+        // a viscosity on the grid's velocities, not Newtonian (no implicit integration)
+        StressKind::Grid { newtonian_viscosity: None }
     }
     fn stable_dt(&self, ctx: &TimeStepContext) -> Option<Real> {
         Some(self.safety * ctx.grid.h * ctx.grid.h * ctx.density / (4.0 * self.max_viscosity))
