@@ -22,50 +22,25 @@ const MAX_POINTS: usize = 4000;
 /// Colour index of the domain's box.
 const BOX_COLOR: usize = 5;
 
-/// A CSV file: its header and rows, as text.
-struct Table {
-    header: Vec<String>,
-    rows: Vec<Vec<String>>,
-}
+/// A CSV file ([`crate::core::table::Table`]), for charts: its complete rows.
+struct Table(crate::core::table::Table);
 
 impl Table {
     /// The file at `path`: `None` when it does not exist or has no data row.
     fn read(path: &Path) -> Result<Option<Table>, Error> {
-        let text = match std::fs::read_to_string(path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(source) => return Err(Error::Io { path: path.to_path_buf(), source }),
-        };
-        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-        let Some(head) = lines.next() else {
-            return Ok(None);
-        };
-        let header: Vec<String> = head.split(',').map(|s| s.trim().to_string()).collect();
-        // a row cut short by a killed run is left out
-        let rows: Vec<Vec<String>> = lines
-            .map(|l| l.split(',').map(|s| s.trim().to_string()).collect::<Vec<_>>())
-            .filter(|r| r.len() == header.len())
-            .collect();
-        Ok((!rows.is_empty()).then_some(Table { header, rows }))
-    }
-
-    fn index(&self, name: &str) -> Option<usize> {
-        self.header.iter().position(|h| h == name)
+        Ok(crate::core::table::Table::read(path)?.filter(|t| !t.rows.is_empty()).map(Table))
     }
 
     /// Column `name` as numbers (NaN where a cell is not one; all NaN when missing).
     fn numbers(&self, name: &str) -> Vec<Real> {
-        match self.index(name) {
-            Some(k) => self.rows.iter().map(|r| r[k].parse().unwrap_or(Real::NAN)).collect(),
-            None => vec![Real::NAN; self.rows.len()],
-        }
+        self.0.numbers(name).unwrap_or_else(|| vec![Real::NAN; self.0.rows.len()])
     }
 
     /// Column `name` as text.
     fn text(&self, name: &str) -> Vec<String> {
-        match self.index(name) {
-            Some(k) => self.rows.iter().map(|r| r[k].clone()).collect(),
-            None => vec![String::new(); self.rows.len()],
+        match self.0.index(name) {
+            Some(k) => self.0.rows.iter().map(|r| r[k].to_string()).collect(),
+            None => vec![String::new(); self.0.rows.len()],
         }
     }
 }

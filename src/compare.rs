@@ -201,27 +201,27 @@ pub fn compare(
     let io = |path: PathBuf, e: std::io::Error| Error::Io { path, source: e };
     let json = serde_json::to_string_pretty(&cmp).map_err(|e| Error::Model(e.to_string()))?;
     std::fs::write(out.join("comparison.json"), json + "\n").map_err(|e| io(out.join("comparison.json"), e))?;
-    let mut csv = String::from(
-        "representation,status,cells_per_diameter,steps,wall_seconds,body,final_settling_speed,max_settling_speed,kiss_time,tumble_time\n",
-    );
+    let header = "representation,status,cells_per_diameter,steps,wall_seconds,body,final_settling_speed,\
+                  max_settling_speed,kiss_time,tumble_time";
+    let mut rows = Vec::new();
     for run in [&cmp.resolved, &cmp.point] {
         for b in &run.bodies {
             let opt = |t: Option<Real>| t.map_or(String::new(), |t| t.to_string());
-            csv += &format!(
-                "{},{},{},{},{},{},{},{},{},{}\n",
-                run.representation,
-                run.status,
-                run.cells_per_diameter,
-                run.steps,
-                run.wall_seconds,
-                b.body,
-                b.final_settling_speed,
-                b.max_settling_speed,
+            rows.push(vec![
+                run.representation.to_string(),
+                run.status.to_string(),
+                run.cells_per_diameter.to_string(),
+                run.steps.to_string(),
+                run.wall_seconds.to_string(),
+                b.body.clone(),
+                b.final_settling_speed.to_string(),
+                b.max_settling_speed.to_string(),
                 opt(run.kiss_time),
-                opt(run.tumble_time)
-            );
+                opt(run.tumble_time),
+            ]);
         }
     }
+    let csv = crate::core::table::to_text(&header.split(',').collect::<Vec<_>>(), rows)?;
     std::fs::write(out.join("comparison.csv"), csv).map_err(|e| io(out.join("comparison.csv"), e))?;
     // overlays: every body of both runs, along gravity and its speed
     let fr = dkt::Frame::new(case);

@@ -30,18 +30,24 @@ pub struct Track {
     pub omega: Vec<Real>,
 }
 
-/// Reads `bodies.csv` into one track per body name.
+/// Reads `bodies.csv` into one track per body name (its complete rows; a row whose time
+/// does not advance the body's track is skipped).
 pub fn read_bodies(path: &Path) -> Result<BTreeMap<String, Track>, Error> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let table = crate::core::table::Table::read(path)?.ok_or_else(|| Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+    })?;
     let mut out: BTreeMap<String, Track> = BTreeMap::new();
-    for (n, line) in text.lines().enumerate().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
-        if f.len() < 8 {
-            continue;
-        }
+    for (n, f) in table.rows.iter().enumerate() {
         let num = |k: usize| {
             f[k].parse::<Real>().map_err(|_| {
-                Error::Model(format!("{}:{}: column {} is not a number: `{}`", path.display(), n + 1, k + 1, f[k]))
+                Error::Model(format!(
+                    "{}:{}: column {} is not a number: `{}`",
+                    path.display(),
+                    table.line(n),
+                    k + 1,
+                    &f[k]
+                ))
             })
         };
         let time = num(1)?;

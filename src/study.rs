@@ -874,19 +874,12 @@ struct Csv {
 }
 
 impl Csv {
+    /// The complete rows of the table at `path` as numbers (NaN where a cell is not one).
     fn read(path: &Path) -> Option<Csv> {
-        let text = std::fs::read_to_string(path).ok()?;
-        let mut lines = text.lines();
-        let header: Vec<String> = lines.next()?.split(',').map(|s| s.trim().to_string()).collect();
-        let (mut rows, mut names) = (Vec::new(), Vec::new());
-        for l in lines {
-            let fields: Vec<&str> = l.split(',').map(str::trim).collect();
-            if fields.len() == header.len() {
-                names.push(fields.get(2).map_or(String::new(), |s| s.to_string()));
-                rows.push(fields.iter().map(|s| s.parse().unwrap_or(Real::NAN)).collect());
-            }
-        }
-        Some(Csv { header, rows, names })
+        let table = crate::core::table::Table::read(path).ok()??;
+        let names = table.rows.iter().map(|r| r.get(2).unwrap_or_default().to_string()).collect();
+        let rows = table.rows.iter().map(|r| r.iter().map(|s| s.parse().unwrap_or(Real::NAN)).collect()).collect();
+        Some(Csv { header: table.header, rows, names })
     }
     fn column(&self, name: &str) -> Option<Vec<Real>> {
         let k = self.header.iter().position(|h| h == name)?;
@@ -1097,34 +1090,26 @@ pub fn header(study: &Study) -> Vec<String> {
     h
 }
 
-/// A CSV field, quoted when it holds a comma, a quote or a line break.
-fn field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\"").replace(['\n', '\r'], " "))
-    } else {
-        s.to_string()
-    }
-}
-
 /// Writes `results.csv` (atomically) and returns its rows.
 pub fn write_results(plan: &Plan) -> Result<Vec<Row>, Error> {
     let rows = rows(plan);
-    let mut text = header(&plan.study).join(",") + "\n";
     let x = |v: Option<Real>| v.map(run::number).unwrap_or_default();
+    let mut table = Vec::new();
     for (c, r) in plan.runs.iter().zip(&rows) {
-        let mut f: Vec<String> = c.labels.iter().map(|l| field(l)).collect();
+        let mut f: Vec<String> = c.labels.clone();
         f.push(r.status.clone());
-        f.push(field(&r.reason));
+        // one line per run: a reason's line breaks become spaces
+        f.push(r.reason.replace(['\n', '\r'], " "));
         for v in [r.wall_seconds, r.steps, r.error, r.max_divergence, r.max_volume_fraction_error, r.energy_drift] {
             f.push(x(v));
         }
         f.extend(r.metrics.iter().map(|v| x(*v)));
         let dir = c.dir.strip_prefix(&plan.out).unwrap_or(&c.dir);
-        f.push(field(&dir.display().to_string()));
-        text.push_str(&f.join(","));
-        text.push('\n');
+        f.push(dir.display().to_string());
+        table.push(f);
     }
-    crate::output::write_atomically(&plan.out.join("results.csv"), text.as_bytes())?;
+    let text = crate::core::table::to_text(&header(&plan.study), table)?;
+    crate::output::write_atomically(&plan.out.join("results.csv"), &text)?;
     Ok(rows)
 }
 
@@ -1149,7 +1134,7 @@ mod tests {
 
     #[test]
     fn csv_fields_with_commas_are_quoted() {
-        assert_eq!(field("a, b \"c\""), "\"a, b \"\"c\"\"\"");
-        assert_eq!(field("plain"), "plain");
+        let text = crate::core::table::to_text(&["a"], [vec!["a, b \"c\"".to_string()], vec!["plain".into()]]).unwrap();
+        assert_eq!(String::from_utf8(text).unwrap(), "a\n\"a, b \"\"c\"\"\"\nplain\n");
     }
 }

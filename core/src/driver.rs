@@ -41,8 +41,8 @@ use crate::case::{BodyShape, Region};
 use crate::error::{Error, Result};
 use crate::math::Real;
 use crate::simulation::{Simulation, Status, StepDiagnostics};
+use crate::table::{self, Table};
 use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -546,7 +546,7 @@ pub const BODIES_HEADER: &str =
 /// `diagnostics.csv`: a row of [`CSV_HEADER`] per table row of the run (and the last
 /// step's), flushed row by row so that a killed run leaves a readable file.
 pub struct DiagnosticsCsv {
-    file: BufWriter<File>,
+    file: csv::Writer<File>,
     path: PathBuf,
 }
 
@@ -564,14 +564,12 @@ impl DiagnosticsCsv {
     }
 
     fn write(&mut self, d: &StepDiagnostics) -> Result<()> {
-        let limit = d.dt_limit.replace([',', '"', '\n'], ";");
         let x = number;
-        writeln!(
-            self.file,
-            "{},{},{},{limit},{},{},{},{},{},{},{},{},{}",
-            d.step,
+        let row = [
+            d.step.to_string(),
             x(d.time),
             x(d.dt),
+            d.dt_limit.clone(),
             x(d.kinetic_energy),
             x(d.momentum.x),
             x(d.momentum.y),
@@ -579,11 +577,11 @@ impl DiagnosticsCsv {
             x(d.max_speed),
             x(d.max_divergence),
             x(d.volume_fraction_error),
-            d.pressure_iterations,
-            x(d.pressure_residual)
-        )
-        .and_then(|_| self.file.flush())
-        .map_err(|source| Error::Io { path: self.path.clone(), source })
+            d.pressure_iterations.to_string(),
+            x(d.pressure_residual),
+        ];
+        write_row(&mut self.file, &self.path, &row)?;
+        flush(&mut self.file, &self.path)
     }
 }
 
@@ -610,7 +608,7 @@ impl Writer for DiagnosticsCsv {
 /// and viscous parts where the coupling gives them ([`Simulation::pressure_forces`]; empty
 /// cells elsewhere), flushed row by row.
 pub struct BodiesCsv {
-    file: BufWriter<File>,
+    file: csv::Writer<File>,
     path: PathBuf,
     resumed: bool,
 }
@@ -633,17 +631,10 @@ impl BodiesCsv {
         let x = number;
         let pressure = sim.pressure_forces();
         for ((_, b), p) in sim.bodies().into_iter().zip(pressure) {
-            let name = b.name.replace([',', '"', '\n'], ";");
-            // the pressure and viscous parts where the coupling gives them, else empty
-            let parts = p.map_or_else(
-                || ",,,".to_string(),
-                |p| format!("{},{},{},{}", x(p.x), x(p.y), x(b.force.x - p.x), x(b.force.y - p.y)),
-            );
-            writeln!(
-                self.file,
-                "{},{},{name},{},{},{},{},{},{},{},{},{parts}",
-                sim.steps,
+            let mut row = vec![
+                sim.steps.to_string(),
                 x(sim.time),
+                b.name.clone(),
                 x(b.position.x),
                 x(b.position.y),
                 x(b.velocity.x),
@@ -651,11 +642,16 @@ impl BodiesCsv {
                 x(b.angular_velocity),
                 x(b.force.x),
                 x(b.force.y),
-                x(b.torque)
-            )
-            .map_err(|source| Error::Io { path: self.path.clone(), source })?;
+                x(b.torque),
+            ];
+            // the pressure and viscous parts where the coupling gives them, else empty
+            match p {
+                Some(p) => row.extend([x(p.x), x(p.y), x(b.force.x - p.x), x(b.force.y - p.y)]),
+                None => row.extend(std::iter::repeat_n(String::new(), 4)),
+            }
+            write_row(&mut self.file, &self.path, &row)?;
         }
-        self.file.flush().map_err(|source| Error::Io { path: self.path.clone(), source })
+        flush(&mut self.file, &self.path)
     }
 }
 
@@ -683,10 +679,25 @@ impl Writer for BodiesCsv {
     }
 }
 
-fn create_csv(path: &Path, header: &str) -> Result<BufWriter<File>> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
-    let mut file = BufWriter::new(File::create(path).map_err(io)?);
-    writeln!(file, "{header}").and_then(|_| file.flush()).map_err(io)?;
+fn csv_error(path: &Path, e: csv::Error) -> Error {
+    match e.into_kind() {
+        csv::ErrorKind::Io(source) => Error::Io { path: path.to_path_buf(), source },
+        other => Error::Model(format!("{}: {other:?}", path.display())),
+    }
+}
+
+fn write_row<S: AsRef<[u8]>>(file: &mut csv::Writer<File>, path: &Path, row: &[S]) -> Result<()> {
+    file.write_record(row).map_err(|e| csv_error(path, e))
+}
+
+fn flush(file: &mut csv::Writer<File>, path: &Path) -> Result<()> {
+    file.flush().map_err(|source| Error::Io { path: path.to_path_buf(), source })
+}
+
+fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
+    let mut file = table::writer(File::create(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?);
+    write_row(&mut file, path, &header.split(',').collect::<Vec<_>>())?;
+    flush(&mut file, path)?;
     Ok(file)
 }
 
@@ -699,27 +710,23 @@ pub fn resume_csv(
     source: Option<&Path>,
     header: &str,
     keep: impl Fn(u64) -> bool,
-) -> Result<(BufWriter<File>, u64)> {
+) -> Result<(csv::Writer<File>, u64)> {
     let from = source.filter(|s| s.is_file()).unwrap_or(path);
-    let old = match std::fs::read_to_string(from) {
-        Ok(text) => text,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
-        Err(source) => return Err(Error::Io { path: from.to_path_buf(), source }),
+    // complete rows only: a run killed while writing a row leaves part of it
+    let rows: Vec<Vec<String>> = match Table::read(from)? {
+        Some(old) => old
+            .rows
+            .iter()
+            .filter(|r| r.get(0).and_then(|s| s.parse::<u64>().ok()).is_some_and(&keep))
+            .map(|r| r.iter().map(str::to_string).collect())
+            .collect(),
+        None => Vec::new(),
     };
-    let mut text = format!("{header}\n");
-    let mut rows = 0;
-    // complete lines only: a run killed while writing a row leaves part of it
-    for line in old.split_inclusive('\n').skip(1).filter(|l| l.ends_with('\n')) {
-        let step = line.split(',').next().and_then(|s| s.parse::<u64>().ok());
-        if step.is_some_and(&keep) {
-            text.push_str(line);
-            rows += 1;
-        }
-    }
-    write_atomically(path, text.as_bytes())?;
+    let kept = rows.len() as u64;
+    write_atomically(path, &table::to_text(&header.split(',').collect::<Vec<_>>(), rows)?)?;
     let file = std::fs::OpenOptions::new()
         .append(true)
         .open(path)
         .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-    Ok((BufWriter::new(file), rows))
+    Ok((table::writer(file), kept))
 }
