@@ -56,6 +56,15 @@ pub struct Marker {
     pub volume: Real,
 }
 
+/// How many markers a circle of radius `rm` gets on a grid of spacing `h`: about one per
+/// `h` of its circumference, and an even number, so that they are symmetric about both
+/// axes through the centre and a disk falling along an axis feels no lateral force from
+/// their placing (23 markers at 8 cells per diameter pushed a lone settling disk 0.002 d
+/// sideways).
+pub fn marker_count(rm: Real, h: Real) -> usize {
+    2 * ((PI * rm / h).round() as usize).max(2)
+}
+
 /// Appends `N = 2 max(2, round(π r_m / h))` markers (an even number) equally spaced on the circle of radius
 /// `r_m = radius − retraction·h`, the first at angle 0, each of volume `(2π r_m / N) h`.
 ///
@@ -69,10 +78,7 @@ pub fn circle_markers(center: Vector, radius: Real, h: Real, retraction: Real, o
     if !(radius > 0.0 && rm > 0.0 && h > 0.0 && (rm / h).is_finite() && center.iter().all(|c| c.is_finite())) {
         return;
     }
-    // an even number: the markers are then symmetric about both axes through the centre,
-    // and a disk falling along an axis feels no lateral force from their placing (23
-    // markers at 8 cells per diameter pushed a lone settling disk 0.002 d sideways)
-    let n = 2 * ((PI * rm / h).round() as usize).max(2);
+    let n = marker_count(rm, h);
     let volume = 2.0 * PI * rm / n as Real * h;
     out.extend((0..n).map(|l| {
         let t = 2.0 * PI * l as Real / n as Real;
@@ -283,7 +289,7 @@ pub fn disk_pressure_force(
     radius: Real,
     retraction: Real,
 ) -> Vector {
-    let markers = 2 * ((PI * (radius - retraction * grid.h) / grid.h).round() as usize).max(2);
+    let markers = marker_count(radius - retraction * grid.h, grid.h);
     let n = (4 * markers).max(64);
     let ds = 2.0 * PI * radius / n as Real;
     let mut force = Vector::zeros();
