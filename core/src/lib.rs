@@ -23,6 +23,7 @@ pub mod poisson;
 pub mod registry;
 pub mod ron_value;
 pub mod simulation;
+pub mod state;
 
 pub use error::{Error, Result};
 #[doc(hidden)]

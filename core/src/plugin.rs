@@ -9,6 +9,7 @@ use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{Matrix, Real, Vector};
 use crate::poisson::{PoissonProblem, SolveStats};
+use serde::{Deserialize, Serialize};
 use std::any::Any;
 
 /// What a frame needs to seed its initial state.
@@ -114,8 +115,8 @@ pub struct ImmersedBoundary {
     pub retraction: Real,
 }
 
-/// The state of one body of a field, as frames report it.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// The state of one body of a field, as frames report it (and checkpoint it).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BodyState {
     /// Name from the case.
     pub name: String,

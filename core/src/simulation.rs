@@ -18,6 +18,7 @@ use crate::plugin::{
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
+use serde::{Deserialize, Serialize};
 
 /// One field of a running simulation.
 pub struct Field {
@@ -61,7 +62,7 @@ struct ForcedPair {
 }
 
 /// Figures of one step, written to `diagnostics.csv`.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StepDiagnostics {
     /// Step number (1 for the first step).
     pub step: u64,
