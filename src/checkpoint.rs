@@ -46,7 +46,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
 /// Version of the format; a checkpoint of another version is refused.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// Signature, version, payload length, checksum.
 const HEADER: usize = 8 + 4 + 8 + 8;
 /// Folder of the checkpoints in a run directory.

@@ -233,12 +233,12 @@ pub trait Frame: Send + Sync {
     /// The frame's state that carries over from one step to the next (for checkpoints):
     /// everything [`Frame::load_state`] needs to continue bit for bit, on a frame built
     /// and initialized from the same case. Scratch space rebuilt every step need not be
-    /// in it. Encode with [`StateWriter`].
+    /// in it. Encode a `#[derive(Serialize)]` struct of it with [`crate::state::encode`].
     fn save_state(&self) -> Result<Vec<u8>, String> {
         Err(format!("frame `{}` cannot be checkpointed (it does not implement Frame::save_state)", self.model()))
     }
     /// Restores what [`Frame::save_state`] wrote, into a frame built and initialized from
-    /// the same case. Decode with [`StateReader`].
+    /// the same case. Decode the frame's struct with [`crate::state::decode`].
     fn load_state(&mut self, _bytes: &[u8]) -> Result<(), String> {
         Err(format!(
             "frame `{}` cannot be restored from a checkpoint (it does not implement Frame::load_state)",
