@@ -10,17 +10,20 @@
 //! of earlier steps are deleted but the newest of them, so the folder holds the last two
 //! and a run killed at any moment loses at most one interval. (The rename is atomic for a
 //! killed process; after a power cut a file the system had not yet flushed fails its
-//! length or checksum check and is refused, naming the other one.)
+//! length or CRC-32 check and is refused, naming the other one.)
 //!
-//! A checkpoint holds, in a little-endian binary format:
+//! A checkpoint is a fixed-length header followed by a payload, both plain
+//! `#[derive(Serialize, Deserialize)]` structs encoded with
+//! [postcard](https://docs.rs/postcard) (integers as varints, reals as their 8 bytes
+//! little-endian, bit for bit):
 //!
 //! | part | contents |
 //! |---|---|
-//! | header | the signature [`MAGIC`], the format [`VERSION`] (u32), the payload's length and checksum (u64 each) |
-//! | position | step (u64), simulated time (f64) |
+//! | header | the signature [`MAGIC`], the format [`VERSION`] (u32), the payload's length (u64) and its CRC-32 (u32), fixed-width little-endian: 24 bytes |
+//! | position | step, simulated time |
 //! | case | the case as run, RON text as in `case.ron` (every default filled in) |
 //! | runner | [`RunnerState`]: next diagnostics time, whether the last step has its row, rows written, the summary's running figures, next checkpoint time |
-//! | simulation | [`Simulation::save_state`]: time, steps, pressure (the warm start of the next solve), last step's figures, initial energy, contact forces, every field's grid state and its frame's own state (Eulerian: θ, face velocities, steps taken; Lagrangian: every point array including the APIC matrices, and each body's state) |
+//! | simulation | [`Simulation::save_state`]: time, steps, pressure (the warm start of the next solve), last step's figures, initial energy, contact forces, every field's grid state and its frame's own state, each the frame's derived struct in postcard (Eulerian: θ, face velocities, steps taken; Lagrangian: every point array including the APIC matrices, and each body's state; mass points: each point's state), and the lagged marker forces of each direct forcing |
 //!
 //! The pressure solvers keep only caches that every solve rebuilds from its problem (the
 //! multigrid hierarchy, the Cholesky factorizations), so a solve depends only on the
@@ -29,8 +32,10 @@
 //! A run continued from the checkpoint of step n into a directory deletes the checkpoints
 //! of later steps there ([`discard_after`]), as it drops the rows after step n.
 //!
-//! A restart refuses a checkpoint that is missing, truncated, corrupt, of another format
-//! version, or written by another case: the case may differ only in `time` (e.g. a later
+//! A restart refuses a checkpoint that is missing, truncated, corrupt (its CRC-32 does not
+//! match), of another format version (an older multifield's checkpoint cannot be continued
+//! by this one: run the case again from t = 0, or continue it with the multifield that
+//! wrote it), or written by another case: the case may differ only in `time` (e.g. a later
 //! `time.end`), `output` and `description`. The rows of `diagnostics.csv` and
 //! `bodies.csv` up to the checkpoint's step are kept (from the checkpoint's run directory,
 //! else from the output directory) and the restarted run appends after them.
@@ -39,22 +44,58 @@ use crate::core::case::{Case, Schedule};
 use crate::core::driver::{End, RunState, Step, Writer};
 use crate::core::error::Error;
 use crate::core::math::Real;
-use crate::core::plugin::{StateReader, StateWriter};
 use crate::core::simulation::{Simulation, Status};
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// The first bytes of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
-/// Version of the format; a checkpoint of another version is refused.
-pub const VERSION: u32 = 2;
-/// Signature, version, payload length, checksum.
-const HEADER: usize = 8 + 4 + 8 + 8;
+/// Version of the format; a checkpoint of another version is refused. Version 2 was the
+/// hand-written encoding with a 64-bit checksum; version 3 is derived structs encoded
+/// with postcard, with a CRC-32.
+pub const VERSION: u32 = 3;
+/// Length of the [`Header`]: signature, version, payload length, CRC-32.
+const HEADER: usize = 8 + 4 + 8 + 4;
 /// Folder of the checkpoints in a run directory.
 pub const FOLDER: &str = "checkpoints";
 
+/// The fixed-length start of a checkpoint. Its fields are fixed-width little-endian (not
+/// postcard's varints), so the version sits at the same bytes 8–11 in every version of the
+/// format and the length is known before the payload is read.
+#[derive(Serialize, Deserialize)]
+struct Header {
+    /// [`MAGIC`].
+    magic: [u8; 8],
+    /// [`VERSION`].
+    #[serde(with = "postcard::fixint::le")]
+    version: u32,
+    /// Bytes of the payload that follows.
+    #[serde(with = "postcard::fixint::le")]
+    length: u64,
+    /// CRC-32 of the payload (detects truncation and corruption, not tampering).
+    #[serde(with = "postcard::fixint::le")]
+    crc32: u32,
+}
+
+/// What follows the [`Header`]: borrowed when written, owned when read.
+#[derive(Serialize, Deserialize)]
+struct Payload<'a> {
+    /// Steps taken.
+    step: u64,
+    /// Simulated time.
+    time: Real,
+    /// The case as run, RON text as in `case.ron` (every default filled in).
+    case: Cow<'a, str>,
+    /// The runner's state.
+    runner: Cow<'a, RunnerState>,
+    /// [`Simulation::save_state`].
+    simulation: Cow<'a, [u8]>,
+}
+
 /// The runner's own state at a checkpoint: what `diagnostics.csv`, the summary and the
 /// checkpoint schedule need to continue.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunnerState {
     /// Simulated time of the next `diagnostics.csv` row.
     pub next_output: Real,
@@ -76,33 +117,6 @@ pub struct RunnerState {
     pub last_dt_limit: String,
     /// Simulated time of the next checkpoint.
     pub next_checkpoint: Real,
-}
-
-impl RunnerState {
-    fn write(&self, w: &mut StateWriter) {
-        w.f64(self.next_output);
-        w.bool(self.last_row_written);
-        w.u64(self.diagnostics_rows);
-        w.f64(self.max_divergence);
-        w.f64(self.max_volume_fraction_error);
-        w.u64(self.pressure_iterations_total);
-        w.f64(self.min_dt);
-        w.str(&self.last_dt_limit);
-        w.f64(self.next_checkpoint);
-    }
-    fn read(r: &mut StateReader) -> Result<Self, String> {
-        Ok(Self {
-            next_output: r.f64("runner: next output time")?,
-            last_row_written: r.bool("runner: last row written")?,
-            diagnostics_rows: r.u64("runner: diagnostics rows")?,
-            max_divergence: r.f64("runner: max divergence")?,
-            max_volume_fraction_error: r.f64("runner: max volume fraction error")?,
-            pressure_iterations_total: r.u64("runner: pressure iterations")?,
-            min_dt: r.f64("runner: min dt")?,
-            last_dt_limit: r.str("runner: last dt limit")?,
-            next_checkpoint: r.f64("runner: next checkpoint time")?,
-        })
-    }
 }
 
 /// A checkpoint read from a file (checked: complete, of this version, checksum right).
@@ -158,40 +172,28 @@ pub fn list(run_dir: &Path) -> Vec<(u64, PathBuf)> {
     out
 }
 
-/// A 64-bit checksum of `bytes` (word-wise multiply–rotate; detects truncation and
-/// corruption, not tampering).
-fn checksum(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325 ^ (bytes.len() as u64);
-    let mut chunks = bytes.chunks_exact(8);
-    for c in &mut chunks {
-        let w = u64::from_le_bytes(c.try_into().expect("8 bytes"));
-        h = (h ^ w).wrapping_mul(0x9e37_79b9_7f4a_7c15).rotate_left(29);
-    }
-    let mut last = [0u8; 8];
-    last[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
-    h = (h ^ u64::from_le_bytes(last)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    h ^= h >> 33;
-    h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
-    h ^ (h >> 33)
-}
-
 /// The bytes of a checkpoint of `sim` with the runner's state `runner`.
 pub fn encode(sim: &Simulation, runner: &RunnerState) -> Result<Vec<u8>, Error> {
-    let mut w = StateWriter::new();
-    w.u64(sim.steps);
-    w.f64(sim.time);
-    w.str(&sim.case.to_ron());
-    runner.write(&mut w);
-    w.bytes(&sim.save_state()?);
-    let payload = w.into_bytes();
-    let mut out = Vec::with_capacity(HEADER + payload.len());
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&checksum(&payload).to_le_bytes());
+    let simulation = sim.save_state()?;
+    let case = sim.case.to_ron();
+    let payload = Payload {
+        step: sim.steps,
+        time: sim.time,
+        case: Cow::Borrowed(&case),
+        runner: Cow::Borrowed(runner),
+        simulation: Cow::Borrowed(&simulation),
+    };
+    let payload = postcard::to_stdvec(&payload).map_err(|e| Error::Model(format!("checkpoint: {e}")))?;
+    let header =
+        Header { magic: *MAGIC, version: VERSION, length: payload.len() as u64, crc32: crc32fast::hash(&payload) };
+    let mut out = postcard::to_stdvec(&header).map_err(|e| Error::Model(format!("checkpoint: {e}")))?;
+    debug_assert_eq!(out.len(), HEADER);
     out.extend_from_slice(&payload);
     Ok(out)
 }
+
+/// The way on when no checkpoint will do.
+const FROM_START: &str = "run the case from t = 0 without --restart";
 
 /// A bad checkpoint: the message says what is wrong with `path` and how to go on.
 fn bad(path: &Path, what: String) -> Error {
@@ -204,10 +206,11 @@ fn bad(path: &Path, what: String) -> Error {
             fix = format!("; restart from the complete checkpoint {} instead", good.display());
         }
     }
-    if fix.is_empty() {
-        fix = "; restart from another checkpoint (a run with output.checkpoints writes them into \
-               <run directory>/checkpoints/), or run the case from t = 0 without --restart"
-            .into();
+    if fix.is_empty() && !what.contains(FROM_START) {
+        fix = format!(
+            "; restart from another checkpoint (a run with output.checkpoints writes them into <run \
+             directory>/checkpoints/), or {FROM_START}"
+        );
     }
     Error::Model(format!("checkpoint {}: {what}{fix}", path.display()))
 }
@@ -234,16 +237,16 @@ fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
             bytes.len()
         ));
     }
-    let word = |k: usize| u64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
-    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
+    let (header, payload): (Header, _) =
+        postcard::take_from_bytes(bytes).map_err(|e| format!("the header does not read: {e}"))?;
+    if header.version != VERSION {
+        let (version, by) = (header.version, if header.version < VERSION { "an older" } else { "a newer" });
         return Err(format!(
-            "format version {version}, this multifield reads version {VERSION}: continue it with the \
-                 multifield that wrote it"
+            "format version {version} (written by {by} multifield), this multifield reads version {VERSION}: \
+             {FROM_START}, or continue it with the multifield that wrote it"
         ));
     }
-    let (length, sum) = (word(12), word(20));
-    let payload = &bytes[HEADER..];
+    let length = header.length;
     if (payload.len() as u64) < length {
         return Err(format!(
             "truncated: {} of {} bytes (a run killed while writing it, or an incomplete copy)",
@@ -254,17 +257,19 @@ fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
     if payload.len() as u64 > length {
         return Err(format!("{} bytes, {} expected: extra bytes after the end", bytes.len(), HEADER as u64 + length));
     }
-    if checksum(payload) != sum {
-        return Err("corrupt: the checksum does not match its contents".into());
+    if crc32fast::hash(payload) != header.crc32 {
+        return Err("corrupt: the CRC-32 of its contents does not match the one stored".into());
     }
-    let mut r = StateReader::new(payload);
-    let step = r.u64("step")?;
-    let time = r.f64("time")?;
-    let case = Case::from_ron(&r.str("case")?, path).map_err(|e| format!("the case it holds does not parse: {e}"))?;
-    let runner = RunnerState::read(&mut r)?;
-    let simulation = r.bytes("simulation state")?.to_vec();
-    r.finish("checkpoint")?;
-    Ok(Checkpoint { path: path.to_path_buf(), step, time, case, runner, simulation })
+    let p: Payload = crate::core::state::decode(payload, "the contents do not read")?;
+    let case = Case::from_ron(&p.case, path).map_err(|e| format!("the case it holds does not parse: {e}"))?;
+    Ok(Checkpoint {
+        path: path.to_path_buf(),
+        step: p.step,
+        time: p.time,
+        case,
+        runner: p.runner.into_owned(),
+        simulation: p.simulation.into_owned(),
+    })
 }
 
 /// Entries of `case` that a restart may change.
@@ -482,13 +487,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn checksums_see_truncation_and_flipped_bits() {
-        let a: Vec<u8> = (0..1000u32).map(|k| (k * 7 % 251) as u8).collect();
-        let mut b = a.clone();
-        b[500] ^= 1;
-        assert_ne!(checksum(&a), checksum(&b));
-        assert_ne!(checksum(&a), checksum(&a[..999]));
-        assert_ne!(checksum(&[0; 7]), checksum(&[0; 8]));
+    fn the_header_has_a_fixed_layout() {
+        let header = Header { magic: *MAGIC, version: VERSION, length: 1 << 40, crc32: 0xdead_beef };
+        let b = postcard::to_stdvec(&header).unwrap();
+        assert_eq!(b.len(), HEADER);
+        assert_eq!(&b[..8], MAGIC);
+        assert_eq!(b[8..12], VERSION.to_le_bytes(), "the version where every version has it");
+        assert_eq!(b[12..20], (1u64 << 40).to_le_bytes());
+        assert_eq!(b[20..24], 0xdead_beef_u32.to_le_bytes());
     }
 
     #[test]

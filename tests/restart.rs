@@ -9,6 +9,8 @@
 //! - a run killed mid-write (a leftover temporary checkpoint, a half-written row, rows past
 //!   the last checkpoint) continues from its last complete checkpoint, and a truncated
 //!   checkpoint is refused with the reason and the complete one to use (exit code 2);
+//! - a file that is not a checkpoint, a corrupt one (CRC-32), one with extra bytes and one of
+//!   an older format version are refused, each saying what is wrong and what to do;
 //! - a checkpoint of a case with another grid is refused with the entry that differs.
 
 use multifield::checkpoint::{self, Checkpoint};
@@ -364,6 +366,54 @@ fn a_run_killed_mid_write_continues_from_its_last_complete_checkpoint() {
             == std::fs::read(dir.join("checkpoints").join(&end)).unwrap()
     );
     assert_eq!(checkpoints(&dir).iter().map(|c| c.0).collect::<Vec<_>>(), [15, 20], "the last two are kept");
+}
+
+/// A file that is not a checkpoint, a corrupt one (a flipped bit: its CRC-32 does not
+/// match), one with bytes after its end and one of an older format version are refused,
+/// each saying what is wrong and what to do; the older version's message says to run the
+/// case from t = 0 (or to continue with the multifield that wrote it).
+#[test]
+fn a_foreign_corrupt_or_older_checkpoint_is_refused() {
+    let case = taylor_green(&["time.end=0.05"]);
+    let dir = out_dir("refused");
+    run_into(&case, &dir, None);
+    let bytes = std::fs::read(&checkpoints(&dir).last().unwrap().1).unwrap();
+    assert!(checkpoint::read(&checkpoints(&dir).last().unwrap().1).is_ok());
+    let refused = |name: &str, bytes: &[u8]| {
+        // outside a checkpoints folder: no other checkpoint to name
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let e = run(&case, &dir, &RunOptions { restart: Some(path.clone()), ..RunOptions::quiet() })
+            .expect_err("refused")
+            .to_string();
+        assert!(e.starts_with(&format!("checkpoint {}: ", path.display())), "{e}");
+        e
+    };
+    let e = refused("foreign.bin", b"(name: \"taylor_green\")");
+    assert!(
+        e.contains("not a multifield checkpoint") && e.contains("run the case from t = 0 without --restart"),
+        "{e}"
+    );
+
+    let mut corrupt = bytes.clone();
+    corrupt[bytes.len() / 2] ^= 0x10;
+    let e = refused("corrupt.bin", &corrupt);
+    assert!(e.contains("corrupt: the CRC-32 of its contents does not match"), "{e}");
+    assert!(e.contains("restart from another checkpoint"), "{e}");
+
+    let mut longer = bytes.clone();
+    longer.push(0);
+    let e = refused("longer.bin", &longer);
+    assert!(e.contains("extra bytes after the end"), "{e}");
+
+    // the version sits at bytes 8–11 (u32, little-endian) in every version of the format
+    assert_eq!(bytes[8..12], checkpoint::VERSION.to_le_bytes());
+    let mut older = bytes.clone();
+    older[8..12].copy_from_slice(&2u32.to_le_bytes());
+    let e = refused("older.bin", &older);
+    assert!(e.contains("format version 2 (written by an older multifield), this multifield reads version 3"), "{e}");
+    assert!(e.contains("run the case from t = 0 without --restart, or continue it with the multifield that"), "{e}");
+    assert!(!e.contains("restart from another checkpoint"), "{e}");
 }
 
 /// Another grid (or another field) is refused with the entries that differ; `time` and

@@ -2,12 +2,13 @@
 
 use crate::grid::{FaceVelocity, Grid};
 use crate::math::Real;
+use serde::{Deserialize, Serialize};
 
 /// One field's quantities on the MAC grid for the current step.
 ///
 /// A Lagrangian frame rebuilds it from its points every step; an Eulerian frame keeps
 /// its state here. The core reads and updates it through the phases of a step.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct FieldState {
     /// Volume fraction θ at cell centres.
     pub theta: Vec<Real>,

@@ -5,6 +5,7 @@
 //! on the faces normal to y ("y-faces", `nx × (ny + 1)`). Cells are square with side `h`.
 
 use crate::math::{Real, Vector};
+use serde::{Deserialize, Serialize};
 
 /// Which of the three staggered lattices a quantity lives on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,7 +105,7 @@ impl Grid {
 }
 
 /// Velocity components on the two face lattices of a grid.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct FaceVelocity {
     /// x component on x-faces.
     pub u: Vec<Real>,

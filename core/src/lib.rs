@@ -24,6 +24,7 @@ pub mod registry;
 pub mod ron_value;
 pub mod simulation;
 pub mod table;
+pub mod state;
 
 pub use error::{Error, Result};
 #[doc(hidden)]

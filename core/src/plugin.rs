@@ -9,6 +9,7 @@ use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{Matrix, Real, Vector};
 use crate::poisson::{PoissonProblem, SolveStats};
+use serde::{Deserialize, Serialize};
 use std::any::Any;
 
 /// What a frame needs to seed its initial state.
@@ -114,8 +115,8 @@ pub struct ImmersedBoundary {
     pub retraction: Real,
 }
 
-/// The state of one body of a field, as frames report it.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// The state of one body of a field, as frames report it (and checkpoint it).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BodyState {
     /// Name from the case.
     pub name: String,
@@ -232,12 +233,12 @@ pub trait Frame: Send + Sync {
     /// The frame's state that carries over from one step to the next (for checkpoints):
     /// everything [`Frame::load_state`] needs to continue bit for bit, on a frame built
     /// and initialized from the same case. Scratch space rebuilt every step need not be
-    /// in it. Encode with [`StateWriter`].
+    /// in it. Encode a `#[derive(Serialize)]` struct of it with [`crate::state::encode`].
     fn save_state(&self) -> Result<Vec<u8>, String> {
         Err(format!("frame `{}` cannot be checkpointed (it does not implement Frame::save_state)", self.model()))
     }
     /// Restores what [`Frame::save_state`] wrote, into a frame built and initialized from
-    /// the same case. Decode with [`StateReader`].
+    /// the same case. Decode the frame's struct with [`crate::state::decode`].
     fn load_state(&mut self, _bytes: &[u8]) -> Result<(), String> {
         Err(format!(
             "frame `{}` cannot be restored from a checkpoint (it does not implement Frame::load_state)",
@@ -260,183 +261,6 @@ pub fn apply_grid_stresses(ctx: &mut FrameContext, dt: Real) -> Result<(), Strin
         m.apply_on_grid(&mut sc).map_err(|e| format!("stress `{}`: {e}", m.model()))?;
     }
     Ok(())
-}
-
-/// Encoder of checkpoint state: little-endian `u64` and `f64`, length-prefixed arrays,
-/// strings and byte blocks. [`StateReader`] reads the same sequence back.
-#[derive(Debug, Default)]
-pub struct StateWriter {
-    bytes: Vec<u8>,
-}
-
-impl StateWriter {
-    /// An empty encoder.
-    pub fn new() -> Self {
-        Self::default()
-    }
-    /// An unsigned integer.
-    pub fn u64(&mut self, x: u64) {
-        self.bytes.extend_from_slice(&x.to_le_bytes());
-    }
-    /// A flag (one `u64`, 0 or 1).
-    pub fn bool(&mut self, x: bool) {
-        self.u64(u64::from(x));
-    }
-    /// A real number, bit for bit.
-    pub fn f64(&mut self, x: Real) {
-        self.bytes.extend_from_slice(&x.to_bits().to_le_bytes());
-    }
-    /// A vector (two reals).
-    pub fn vector(&mut self, v: Vector) {
-        self.f64(v.x);
-        self.f64(v.y);
-    }
-    /// A length-prefixed block of bytes.
-    pub fn bytes(&mut self, b: &[u8]) {
-        self.u64(b.len() as u64);
-        self.bytes.extend_from_slice(b);
-    }
-    /// A length-prefixed UTF-8 string.
-    pub fn str(&mut self, s: &str) {
-        self.bytes(s.as_bytes());
-    }
-    /// A length-prefixed array of reals.
-    pub fn f64s(&mut self, x: &[Real]) {
-        self.u64(x.len() as u64);
-        self.bytes.reserve(8 * x.len());
-        for v in x {
-            self.bytes.extend_from_slice(&v.to_bits().to_le_bytes());
-        }
-    }
-    /// A length-prefixed array of unsigned integers.
-    pub fn u64s(&mut self, x: impl ExactSizeIterator<Item = u64>) {
-        self.u64(x.len() as u64);
-        for v in x {
-            self.u64(v);
-        }
-    }
-    /// A length-prefixed array of vectors (x, y each).
-    pub fn vectors(&mut self, x: &[Vector]) {
-        self.u64(x.len() as u64);
-        for v in x {
-            self.vector(*v);
-        }
-    }
-    /// A length-prefixed array of 2 × 2 matrices (row by row).
-    pub fn matrices(&mut self, x: &[Matrix]) {
-        self.u64(x.len() as u64);
-        for m in x {
-            for v in [m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)]] {
-                self.f64(v);
-            }
-        }
-    }
-    /// The bytes written.
-    pub fn into_bytes(self) -> Vec<u8> {
-        self.bytes
-    }
-}
-
-/// Decoder of what a [`StateWriter`] wrote. Every read says what it expected when the
-/// bytes run out or a length does not fit.
-#[derive(Debug)]
-pub struct StateReader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> StateReader<'a> {
-    /// A decoder of `bytes`.
-    pub fn new(bytes: &'a [u8]) -> Self {
-        Self { bytes, pos: 0 }
-    }
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
-        let rest = self.bytes.len() - self.pos;
-        if n > rest {
-            return Err(format!("{what}: needs {n} bytes at offset {}, only {rest} left", self.pos));
-        }
-        let out = &self.bytes[self.pos..self.pos + n];
-        self.pos += n;
-        Ok(out)
-    }
-    /// An unsigned integer.
-    pub fn u64(&mut self, what: &str) -> Result<u64, String> {
-        let b = self.take(8, what)?;
-        Ok(u64::from_le_bytes(b.try_into().expect("8 bytes")))
-    }
-    /// A flag.
-    pub fn bool(&mut self, what: &str) -> Result<bool, String> {
-        match self.u64(what)? {
-            0 => Ok(false),
-            1 => Ok(true),
-            x => Err(format!("{what}: {x} is not a flag (0 or 1)")),
-        }
-    }
-    /// A real number.
-    pub fn f64(&mut self, what: &str) -> Result<Real, String> {
-        Ok(Real::from_bits(self.u64(what)?))
-    }
-    /// A vector.
-    pub fn vector(&mut self, what: &str) -> Result<Vector, String> {
-        Ok(Vector::new(self.f64(what)?, self.f64(what)?))
-    }
-    /// The length of an array of `size`-byte items, checked against the bytes left.
-    fn len(&mut self, size: usize, what: &str) -> Result<usize, String> {
-        let n = self.u64(what)?;
-        let rest = (self.bytes.len() - self.pos) as u64;
-        if n.checked_mul(size as u64).is_none_or(|b| b > rest) {
-            return Err(format!("{what}: {n} entries of {size} bytes at offset {}, only {rest} bytes left", self.pos));
-        }
-        Ok(n as usize)
-    }
-    /// A length-prefixed block of bytes.
-    pub fn bytes(&mut self, what: &str) -> Result<&'a [u8], String> {
-        let n = self.len(1, what)?;
-        self.take(n, what)
-    }
-    /// A length-prefixed UTF-8 string.
-    pub fn str(&mut self, what: &str) -> Result<String, String> {
-        let b = self.bytes(what)?;
-        String::from_utf8(b.to_vec()).map_err(|_| format!("{what}: not UTF-8"))
-    }
-    /// A length-prefixed array of reals.
-    pub fn f64s(&mut self, what: &str) -> Result<Vec<Real>, String> {
-        let n = self.len(8, what)?;
-        let b = self.take(8 * n, what)?;
-        Ok(b.chunks_exact(8).map(|c| Real::from_bits(u64::from_le_bytes(c.try_into().expect("8 bytes")))).collect())
-    }
-    /// A length-prefixed array of reals into `out`, whose length it must have.
-    pub fn f64s_into(&mut self, out: &mut [Real], what: &str) -> Result<(), String> {
-        let v = self.f64s(what)?;
-        if v.len() != out.len() {
-            return Err(format!("{what}: {} values in the checkpoint, {} here", v.len(), out.len()));
-        }
-        out.copy_from_slice(&v);
-        Ok(())
-    }
-    /// A length-prefixed array of unsigned integers.
-    pub fn u64s(&mut self, what: &str) -> Result<Vec<u64>, String> {
-        let n = self.len(8, what)?;
-        (0..n).map(|_| self.u64(what)).collect()
-    }
-    /// A length-prefixed array of vectors.
-    pub fn vectors(&mut self, what: &str) -> Result<Vec<Vector>, String> {
-        let n = self.len(16, what)?;
-        (0..n).map(|_| self.vector(what)).collect()
-    }
-    /// A length-prefixed array of 2 × 2 matrices.
-    pub fn matrices(&mut self, what: &str) -> Result<Vec<Matrix>, String> {
-        let n = self.len(32, what)?;
-        (0..n).map(|_| Ok(Matrix::new(self.f64(what)?, self.f64(what)?, self.f64(what)?, self.f64(what)?))).collect()
-    }
-    /// Checks that every byte was read.
-    pub fn finish(&self, what: &str) -> Result<(), String> {
-        let rest = self.bytes.len() - self.pos;
-        if rest != 0 {
-            return Err(format!("{what}: {rest} bytes left over (a checkpoint of another version?)"));
-        }
-        Ok(())
-    }
 }
 
 /// Data a stress model needs to say its stable time step.

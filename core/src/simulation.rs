@@ -13,11 +13,13 @@ use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
     BodyState, BodyStep, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
-    FrameFigures, ImmersedBoundary, InitContext, Partner, PressureSolver, StateReader, StateWriter, StressModel,
-    TimeStepContext,
+    FrameFigures, ImmersedBoundary, InitContext, Partner, PressureSolver, StressModel, TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
+use crate::state;
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// One field of a running simulation.
 pub struct Field {
@@ -60,8 +62,33 @@ struct ForcedPair {
     lag: Vec<Vec<Vector>>,
 }
 
+/// What a [`Simulation`] carries from one step to the next ([`Simulation::save_state`]):
+/// borrowed when saved, owned when loaded.
+#[derive(Serialize, Deserialize)]
+struct SimulationState<'a> {
+    time: Real,
+    steps: u64,
+    initial_energy: Real,
+    pressure: Cow<'a, [Real]>,
+    last: Cow<'a, StepDiagnostics>,
+    body_forces: Cow<'a, [Vec<(Vector, Real)>]>,
+    fields: Vec<FieldCheckpoint<'a>>,
+    /// Per direct forcing, the lagged marker forces ([`ForcedPair::lag`]).
+    marker_forces: Vec<Cow<'a, [Vec<Vector>]>>,
+}
+
+/// One field in a [`SimulationState`]: its name and frame (checked on loading), its grid
+/// state and its frame's own state ([`Frame::save_state`], opaque to the core).
+#[derive(Serialize, Deserialize)]
+struct FieldCheckpoint<'a> {
+    name: Cow<'a, str>,
+    model: Cow<'a, str>,
+    grid: Cow<'a, FieldState>,
+    frame: Cow<'a, [u8]>,
+}
+
 /// Figures of one step, written to `diagnostics.csv`.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StepDiagnostics {
     /// Step number (1 for the first step).
     pub step: u64,
@@ -404,53 +431,27 @@ impl Simulation {
     /// and numeric factorizations), which every solve rebuilds from its problem: a solve
     /// depends only on the problem and the initial guess.
     pub fn save_state(&self) -> Result<Vec<u8>> {
-        let mut w = StateWriter::new();
-        w.f64(self.time);
-        w.u64(self.steps);
-        w.f64(self.initial_energy);
-        w.f64s(&self.pressure);
-        let d = &self.last;
-        w.u64(d.step);
-        w.f64(d.time);
-        w.f64(d.dt);
-        w.str(&d.dt_limit);
-        w.f64(d.kinetic_energy);
-        w.vector(d.momentum);
-        w.f64(d.mass);
-        w.f64(d.max_speed);
-        w.f64(d.max_divergence);
-        w.f64(d.volume_fraction_error);
-        w.u64(d.pressure_iterations as u64);
-        w.f64(d.pressure_residual);
-        w.u64(self.body_forces.len() as u64);
-        for forces in &self.body_forces {
-            w.u64(forces.len() as u64);
-            for (f, t) in forces {
-                w.vector(*f);
-                w.f64(*t);
-            }
-        }
-        w.u64(self.fields.len() as u64);
+        let mut fields = Vec::with_capacity(self.fields.len());
         for f in &self.fields {
-            w.str(&f.name);
-            w.str(f.frame.model());
-            let s = &f.state;
-            for a in [&s.theta, &s.theta_u, &s.theta_v, &s.mass_u, &s.mass_v] {
-                w.f64s(a);
-            }
-            for v in [&s.velocity, &s.velocity_old, &s.pressure_acceleration, &s.specific_volume, &s.body_force] {
-                w.f64s(&v.u);
-                w.f64s(&v.v);
-            }
             let frame = f.frame.save_state().map_err(|m| Error::Model(format!("field `{}`: {m}", f.name)))?;
-            w.bytes(&frame);
+            fields.push(FieldCheckpoint {
+                name: Cow::Borrowed(&f.name),
+                model: Cow::Borrowed(f.frame.model()),
+                grid: Cow::Borrowed(&f.state),
+                frame: Cow::Owned(frame),
+            });
         }
-        w.u64(self.forcings.len() as u64);
-        for p in &self.forcings {
-            w.u64(p.lag.len() as u64);
-            p.lag.iter().for_each(|forces| w.vectors(forces));
-        }
-        Ok(w.into_bytes())
+        let saved = SimulationState {
+            time: self.time,
+            steps: self.steps,
+            initial_energy: self.initial_energy,
+            pressure: Cow::Borrowed(&self.pressure),
+            last: Cow::Borrowed(&self.last),
+            body_forces: Cow::Borrowed(&self.body_forces),
+            fields,
+            marker_forces: self.forcings.iter().map(|p| Cow::Borrowed(&p.lag[..])).collect(),
+        };
+        state::encode(&saved).map_err(Error::Model)
     }
 
     /// Restores what [`Simulation::save_state`] wrote, into a simulation built from the
@@ -463,45 +464,24 @@ impl Simulation {
     }
 
     fn load_state_inner(&mut self, bytes: &[u8]) -> std::result::Result<(), String> {
-        let mut r = StateReader::new(bytes);
-        let time = r.f64("time")?;
-        let steps = r.u64("steps")?;
-        let initial_energy = r.f64("initial energy")?;
+        let saved: SimulationState = state::decode(bytes, "simulation state")?;
         let mut pressure = vec![0.0; self.grid.n_cells()];
-        r.f64s_into(&mut pressure, "pressure")?;
-        let last = StepDiagnostics {
-            step: r.u64("last step")?,
-            time: r.f64("last step")?,
-            dt: r.f64("last step")?,
-            dt_limit: r.str("last step")?,
-            kinetic_energy: r.f64("last step")?,
-            momentum: r.vector("last step")?,
-            mass: r.f64("last step")?,
-            max_speed: r.f64("last step")?,
-            max_divergence: r.f64("last step")?,
-            volume_fraction_error: r.f64("last step")?,
-            pressure_iterations: r.u64("last step")? as usize,
-            pressure_residual: r.f64("last step")?,
-        };
-        let n = r.u64("contact forces")? as usize;
+        state::copy_into(&mut pressure, &saved.pressure, "pressure")?;
+        let n = saved.body_forces.len();
         if n != self.fields.len() {
             return Err(format!("contact forces of {n} fields in the checkpoint, {} fields here", self.fields.len()));
         }
-        let mut body_forces = Vec::with_capacity(n);
-        for _ in 0..n {
-            let m = r.u64("contact forces")? as usize;
-            let forces: std::result::Result<Vec<_>, String> =
-                (0..m).map(|_| Ok((r.vector("contact force")?, r.f64("contact torque")?))).collect();
-            body_forces.push(forces?);
-        }
-        let n = r.u64("fields")? as usize;
+        let n = saved.fields.len();
         if n != self.fields.len() {
             return Err(format!("{n} fields in the checkpoint, {} here", self.fields.len()));
         }
-        for f in &mut self.fields {
-            let name = r.str("field name")?;
-            let model = r.str("frame model")?;
-            if name != f.name || model != f.frame.model() {
+        let n = saved.marker_forces.len();
+        if n != self.forcings.len() {
+            return Err(format!("{n} direct forcings in the checkpoint, {} here", self.forcings.len()));
+        }
+        for (f, c) in self.fields.iter_mut().zip(&saved.fields) {
+            let (name, model) = (&c.name, &c.model);
+            if *name != f.name || *model != f.frame.model() {
                 return Err(format!(
                     "the checkpoint holds field `{name}` ({model} frame) where the case has `{}` ({} frame)",
                     f.name,
@@ -509,46 +489,37 @@ impl Simulation {
                 ));
             }
             let what = |q: &str| format!("field `{name}`: {q}");
-            let s = &mut f.state;
-            r.f64s_into(&mut s.theta, &what("volume fraction"))?;
-            r.f64s_into(&mut s.theta_u, &what("x-face volume fraction"))?;
-            r.f64s_into(&mut s.theta_v, &what("y-face volume fraction"))?;
-            r.f64s_into(&mut s.mass_u, &what("x-face mass"))?;
-            r.f64s_into(&mut s.mass_v, &what("y-face mass"))?;
-            for (v, q) in [
-                (&mut s.velocity, "velocity"),
-                (&mut s.velocity_old, "old velocity"),
-                (&mut s.pressure_acceleration, "pressure acceleration"),
-                (&mut s.specific_volume, "specific volume"),
-                (&mut s.body_force, "immersed-boundary force"),
+            let (s, g) = (&mut f.state, &c.grid);
+            for (a, b, q) in [
+                (&mut s.theta, &g.theta, "volume fraction"),
+                (&mut s.theta_u, &g.theta_u, "x-face volume fraction"),
+                (&mut s.theta_v, &g.theta_v, "y-face volume fraction"),
+                (&mut s.mass_u, &g.mass_u, "x-face mass"),
+                (&mut s.mass_v, &g.mass_v, "y-face mass"),
             ] {
-                r.f64s_into(&mut v.u, &what(&format!("{q} on x-faces")))?;
-                r.f64s_into(&mut v.v, &what(&format!("{q} on y-faces")))?;
+                state::copy_into(a, b, &what(q))?;
             }
-            let frame = r.bytes(&what("frame state"))?;
-            f.frame.load_state(frame).map_err(|m| format!("field `{name}`: {m}"))?;
+            for (v, w, q) in [
+                (&mut s.velocity, &g.velocity, "velocity"),
+                (&mut s.velocity_old, &g.velocity_old, "old velocity"),
+                (&mut s.pressure_acceleration, &g.pressure_acceleration, "pressure acceleration"),
+                (&mut s.specific_volume, &g.specific_volume, "specific volume"),
+                (&mut s.body_force, &g.body_force, "immersed-boundary force"),
+            ] {
+                state::copy_into(&mut v.u, &w.u, &what(&format!("{q} on x-faces")))?;
+                state::copy_into(&mut v.v, &w.v, &what(&format!("{q} on y-faces")))?;
+            }
+            f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;
         }
-        let n = r.u64("immersed boundaries")? as usize;
-        if n != self.forcings.len() {
-            return Err(format!("{n} direct forcings in the checkpoint, {} here", self.forcings.len()));
+        for (p, lag) in self.forcings.iter_mut().zip(saved.marker_forces) {
+            p.lag = lag.into_owned();
         }
-        let mut lags = Vec::with_capacity(n);
-        for _ in 0..n {
-            let bodies = r.u64("marker forces")? as usize;
-            let lag: std::result::Result<Vec<Vec<Vector>>, String> =
-                (0..bodies).map(|_| r.vectors("marker forces")).collect();
-            lags.push(lag?);
-        }
-        r.finish("simulation state")?;
-        for (p, lag) in self.forcings.iter_mut().zip(lags) {
-            p.lag = lag;
-        }
-        self.time = time;
-        self.steps = steps;
-        self.initial_energy = initial_energy;
+        self.time = saved.time;
+        self.steps = saved.steps;
+        self.initial_energy = saved.initial_energy;
         self.pressure = pressure;
-        self.last = last;
-        self.body_forces = body_forces;
+        self.last = saved.last.into_owned();
+        self.body_forces = saved.body_forces.into_owned();
         Ok(())
     }
 

@@ -63,14 +63,14 @@ use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::case::Region;
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
 use multifield_core::math::{Real, Vector};
-use multifield_core::plugin::{
-    apply_grid_stresses, Frame, FrameContext, InitContext, StateReader, StateWriter, StressModel,
-};
+use multifield_core::plugin::{apply_grid_stresses, Frame, FrameContext, InitContext, StressModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::simulation::region_fraction;
+use multifield_core::state;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
+use std::borrow::Cow;
 
 /// Slope limiter of the MUSCL reconstruction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -913,25 +913,31 @@ impl Frame for Eulerian {
     /// rest of the work space is scratch, rebuilt every step.
     fn save_state(&self) -> Result<Vec<u8>, String> {
         let w = &self.work;
-        let mut out = StateWriter::new();
-        out.u64(w.steps);
-        out.f64s(&w.theta);
-        out.f64s(&w.velocity.u);
-        out.f64s(&w.velocity.v);
-        Ok(out.into_bytes())
+        state::encode(&EulerianState {
+            steps: w.steps,
+            theta: Cow::Borrowed(&w.theta),
+            velocity: Cow::Borrowed(&w.velocity),
+        })
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut r = StateReader::new(bytes);
-        let steps = r.u64("eulerian steps")?;
+        let saved: EulerianState = state::decode(bytes, "eulerian state")?;
         let w = &mut self.work;
-        r.f64s_into(&mut w.theta, "eulerian volume fraction")?;
-        r.f64s_into(&mut w.velocity.u, "eulerian velocity on x-faces")?;
-        r.f64s_into(&mut w.velocity.v, "eulerian velocity on y-faces")?;
-        r.finish("eulerian state")?;
-        w.steps = steps;
+        state::copy_into(&mut w.theta, &saved.theta, "eulerian volume fraction")?;
+        state::copy_into(&mut w.velocity.u, &saved.velocity.u, "eulerian velocity on x-faces")?;
+        state::copy_into(&mut w.velocity.v, &saved.velocity.v, "eulerian velocity on y-faces")?;
+        w.steps = saved.steps;
         Ok(())
     }
+}
+
+/// What an Eulerian frame carries from step to step ([`Frame::save_state`]): borrowed
+/// when saved, owned when loaded.
+#[derive(Serialize, Deserialize)]
+struct EulerianState<'a> {
+    steps: u64,
+    theta: Cow<'a, [Real]>,
+    velocity: Cow<'a, FaceVelocity>,
 }
 
 #[cfg(test)]

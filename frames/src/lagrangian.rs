@@ -19,13 +19,14 @@ use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{
-    BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StateReader, StateWriter,
-    StressModel,
+    BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StressModel,
 };
 use multifield_core::registry::{params_value, ParamDoc};
+use multifield_core::state;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
+use std::borrow::Cow;
 
 /// Grid-to-particle transfer scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -51,7 +52,7 @@ pub enum GridLayout {
 }
 
 /// Material points of one field (structure of arrays).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Points {
     /// Positions.
     pub x: Vec<Vector>,
@@ -1092,91 +1093,47 @@ impl Frame for Lagrangian {
     /// next rigid projection give the hydrodynamic force). The scatter buffers, current
     /// volumes and start positions are scratch, rebuilt every step.
     fn save_state(&self) -> Result<Vec<u8>, String> {
-        let p = &self.points;
-        let mut w = StateWriter::new();
-        w.vectors(&p.x);
-        w.vectors(&p.v);
-        w.f64s(&p.m);
-        w.f64s(&p.vol0);
-        w.matrices(&p.f);
-        w.matrices(&p.grad_v);
-        w.matrices(&p.stress);
-        w.vectors(&p.c_u);
-        w.vectors(&p.c_v);
-        w.u64s(p.body.iter().map(|&b| u64::from(b)));
-        w.u64(self.bodies.len() as u64);
-        for b in &self.bodies {
-            let s = &b.state;
-            w.str(&s.name);
-            for x in [s.mass, s.inertia, s.volume, s.radius] {
-                w.f64(x);
-            }
-            w.vector(s.position);
-            w.vector(s.velocity);
-            w.f64(s.angular_velocity);
-            w.vector(s.force);
-            w.f64(s.torque);
-        }
-        Ok(w.into_bytes())
+        state::encode(&LagrangianState {
+            points: Cow::Borrowed(&self.points),
+            bodies: self.bodies.iter().map(|b| Cow::Borrowed(&b.state)).collect(),
+        })
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut r = StateReader::new(bytes);
-        let body = |b: Vec<u64>| -> Result<Vec<u32>, String> {
-            b.into_iter().map(|b| u32::try_from(b).map_err(|_| format!("point body index {b}"))).collect()
-        };
-        let p = Points {
-            x: r.vectors("point positions")?,
-            v: r.vectors("point velocities")?,
-            m: r.f64s("point masses")?,
-            vol0: r.f64s("point initial volumes")?,
-            f: r.matrices("point deformation gradients")?,
-            grad_v: r.matrices("point velocity gradients")?,
-            stress: r.matrices("point stresses")?,
-            c_u: r.vectors("point affine velocities (x)")?,
-            c_v: r.vectors("point affine velocities (y)")?,
-            body: body(r.u64s("point body indices")?)?,
-        };
+        let saved: LagrangianState = state::decode(bytes, "lagrangian state")?;
+        let p = saved.points.into_owned();
         let n = p.len();
         let lengths = [p.v.len(), p.m.len(), p.vol0.len(), p.f.len(), p.grad_v.len()];
         let more = [p.stress.len(), p.c_u.len(), p.c_v.len(), p.body.len()];
         if lengths.iter().chain(&more).any(|&l| l != n) {
             return Err(format!("the point arrays have different lengths ({n} positions)"));
         }
-        let nb = r.u64("bodies")? as usize;
+        let nb = saved.bodies.len();
         if nb != self.bodies.len() {
             return Err(format!("{nb} bodies in the checkpoint, {} in the case", self.bodies.len()));
         }
         if let Some(&b) = p.body.iter().find(|&&b| b as usize > nb) {
             return Err(format!("a point of body {b} in a field of {nb} bodies"));
         }
-        let mut states = Vec::with_capacity(nb);
-        for b in &self.bodies {
-            let name = r.str("body name")?;
-            if name != b.state.name {
-                return Err(format!("body `{name}` in the checkpoint where the case has `{}`", b.state.name));
-            }
-            let mut s = b.state.clone();
-            s.mass = r.f64("body mass")?;
-            s.inertia = r.f64("body inertia")?;
-            s.volume = r.f64("body volume")?;
-            s.radius = r.f64("body radius")?;
-            s.position = r.vector("body position")?;
-            s.velocity = r.vector("body velocity")?;
-            s.angular_velocity = r.f64("body angular velocity")?;
-            s.force = r.vector("body force")?;
-            s.torque = r.f64("body torque")?;
-            states.push(s);
+        if let Some((s, b)) = saved.bodies.iter().zip(&self.bodies).find(|(s, b)| s.name != b.state.name) {
+            return Err(format!("body `{}` in the checkpoint where the case has `{}`", s.name, b.state.name));
         }
-        r.finish("lagrangian state")?;
-        for (b, s) in self.bodies.iter_mut().zip(states) {
-            b.state = s;
+        for (b, s) in self.bodies.iter_mut().zip(saved.bodies) {
+            b.state = s.into_owned();
         }
         self.points = p;
         self.vol.clear();
         self.x_old.clear();
         Ok(())
     }
+}
+
+/// What a Lagrangian frame carries from step to step ([`Frame::save_state`]): every
+/// point array and each body's state; borrowed when saved, owned when loaded.
+#[derive(Serialize, Deserialize)]
+struct LagrangianState<'a> {
+    points: Cow<'a, Points>,
+    bodies: Vec<Cow<'a, BodyState>>,
 }
 
 #[cfg(test)]

@@ -28,10 +28,12 @@ use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::geometry::disk_cell_fractions;
 use multifield_core::grid::Grid;
 use multifield_core::math::{Real, Vector};
-use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext, StateReader, StateWriter};
+use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext};
 use multifield_core::registry::params_value;
+use multifield_core::state;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
+use std::borrow::Cow;
 use std::f64::consts::PI;
 
 /// The mass-point frame (no parameters).
@@ -402,49 +404,33 @@ impl Frame for MassPoint {
         self
     }
 
-    /// Each point's name, position, velocity, angular velocity, last force and torque, and
-    /// largest Reynolds number. The footprints are rebuilt every step.
+    /// Each point's state (name, mass, position, velocity, angular velocity, last force and
+    /// torque, …) and largest Reynolds number. The footprints are rebuilt every step.
     fn save_state(&self) -> Result<Vec<u8>, String> {
-        let mut w = StateWriter::new();
-        w.u64(self.points.len() as u64);
-        for p in &self.points {
-            let s = &p.state;
-            w.str(&s.name);
-            w.vector(s.position);
-            w.vector(s.velocity);
-            w.f64(s.angular_velocity);
-            w.vector(s.force);
-            w.f64(s.torque);
-            w.f64(p.max_reynolds);
-        }
-        Ok(w.into_bytes())
+        let points: Vec<_> = self.points.iter().map(|p| (Cow::Borrowed(&p.state), p.max_reynolds)).collect();
+        state::encode(&MassPointState { points })
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut r = StateReader::new(bytes);
-        let n = r.u64("points")? as usize;
+        let saved: MassPointState = state::decode(bytes, "mass-point state")?;
+        let n = saved.points.len();
         if n != self.points.len() {
             return Err(format!("{n} points in the checkpoint, {} bodies in the case", self.points.len()));
         }
-        let mut states = Vec::with_capacity(n);
-        for p in &self.points {
-            let name = r.str("point name")?;
-            if name != p.state.name {
-                return Err(format!("point `{name}` in the checkpoint where the case has `{}`", p.state.name));
-            }
-            let mut s = p.state.clone();
-            s.position = r.vector("point position")?;
-            s.velocity = r.vector("point velocity")?;
-            s.angular_velocity = r.f64("point angular velocity")?;
-            s.force = r.vector("point force")?;
-            s.torque = r.f64("point torque")?;
-            states.push((s, r.f64("point Reynolds number")?));
+        if let Some(((s, _), p)) = saved.points.iter().zip(&self.points).find(|((s, _), p)| s.name != p.state.name) {
+            return Err(format!("point `{}` in the checkpoint where the case has `{}`", s.name, p.state.name));
         }
-        r.finish("mass-point state")?;
-        for (p, (s, re)) in self.points.iter_mut().zip(states) {
-            p.state = s;
+        for (p, (s, re)) in self.points.iter_mut().zip(saved.points) {
+            p.state = s.into_owned();
             p.max_reynolds = re;
         }
         Ok(())
     }
+}
+
+/// What a mass-point frame carries from step to step ([`Frame::save_state`]): each
+/// point's state and largest Reynolds number; borrowed when saved, owned when loaded.
+#[derive(Serialize, Deserialize)]
+struct MassPointState<'a> {
+    points: Vec<(Cow<'a, BodyState>, Real)>,
 }
