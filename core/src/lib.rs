@@ -23,8 +23,8 @@ pub mod poisson;
 pub mod registry;
 pub mod ron_value;
 pub mod simulation;
-pub mod table;
 pub mod state;
+pub mod table;
 
 pub use error::{Error, Result};
 #[doc(hidden)]
