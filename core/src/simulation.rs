@@ -1,8 +1,11 @@
 //! The time loop: one step is a readable sequence of named phases (docs/method.md §3).
 //!
-//! Phases: (1) particles to grid, (2) volume fractions, (3) predictor, (4) exchange,
-//! (5) pressure, (6) corrector, (7) grid to particles, (8) bodies, (9) advection. Plugins
-//! attach to phases through their traits; nothing depends on registration order.
+//! Phases, in the order [`Simulation::step_with`] runs them, with the design's numbers
+//! (docs/method.md §3): (1) particles to grid, (2) volume fractions, (2b) the direct
+//! forcing's lagged marker forces, (3) predictor, (4) exchange, (8a) contact forces,
+//! (4b) immersed boundaries, (5–6) pressure and corrector, (7) grid to particles (with 8b,
+//! the bodies' rigid projection and contact impulse), (9) advection. Plugins attach to
+//! phases through their traits; nothing depends on registration order.
 
 use crate::boundary::Boundaries;
 use crate::case::{BodyShape, Case, Integration, Motion, PluginSpec, Region, Representation, MAX_FIELDS};
@@ -1166,8 +1169,9 @@ impl Simulation {
         c.iter().fold(0.0, |m, x| m.max(x.abs()))
     }
 
-    /// Phase 8 (bodies): contact forces from the positions at the start of the step; the
-    /// frames apply them with the rigid projection in grid-to-particles.
+    /// Phase 8a (bodies, right after the exchange): contact forces from the positions at
+    /// the start of the step; the frames apply them with the rigid projection in
+    /// grid-to-particles (8b).
     fn contact_forces(&mut self) {
         let Some(c) = &self.contact else {
             return;
