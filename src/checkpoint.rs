@@ -45,6 +45,7 @@ use crate::core::driver::{End, RunState, Step, Writer};
 use crate::core::error::Error;
 use crate::core::math::Real;
 use crate::core::simulation::{Simulation, Status};
+use crate::output::Due;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -367,8 +368,7 @@ pub fn discard_after(run_dir: &Path, step: u64) -> Result<(), Error> {
 #[derive(Debug)]
 pub struct Checkpoints {
     folder: PathBuf,
-    interval: Real,
-    next: Real,
+    due: Due,
     last_step: Option<u64>,
     last_path: Option<PathBuf>,
 }
@@ -386,30 +386,18 @@ impl Checkpoints {
                 let _ = std::fs::remove_file(e.path());
             }
         }
-        Ok(Self { folder, interval: schedule.interval, next, last_step, last_path: None })
+        Ok(Self { folder, due: Due::new(next, schedule.interval), last_step, last_path: None })
     }
 
     /// Whether a checkpoint is due after a step that ended at `t`; if so, moves the
-    /// schedule past `t` (the rule of [`crate::output::Due`]).
+    /// schedule past `t` ([`Due::check`]).
     pub fn due(&mut self, t: Real) -> bool {
-        if t < self.next - 1e-9 * self.interval {
-            return false;
-        }
-        while self.next <= t + 1e-9 * self.interval {
-            self.next += self.interval;
-        }
-        true
-    }
-
-    /// Whether a checkpoint is due after a step that ended at `t`, without moving the
-    /// schedule.
-    pub fn peek(&self, t: Real) -> bool {
-        t >= self.next - 1e-9 * self.interval
+        self.due.check(t)
     }
 
     /// Simulated time of the next checkpoint.
     pub fn next(&self) -> Real {
-        self.next
+        self.due.next()
     }
 
     /// Step of the last checkpoint written (or started from).
@@ -420,7 +408,7 @@ impl Checkpoints {
     /// Writes the checkpoint of `sim` (atomically), then deletes those of earlier steps
     /// but the newest of them. `runner.next_checkpoint` is set here.
     pub fn write(&mut self, sim: &Simulation, runner: &RunnerState) -> Result<PathBuf, Error> {
-        let runner = RunnerState { next_checkpoint: self.next, ..runner.clone() };
+        let runner = RunnerState { next_checkpoint: self.due.next(), ..runner.clone() };
         let bytes = encode(sim, &runner)?;
         let path = self.folder.join(file_name(sim.steps));
         crate::output::write_atomically(&path, &bytes)?;
@@ -451,6 +439,22 @@ impl RunnerState {
             next_checkpoint: 0.0,
         }
     }
+
+    /// The driver's state of `sim` restored from this, the next table row at `next_row`
+    /// (this one's `next_output` when the interval is unchanged).
+    pub fn run_state(&self, sim: &Simulation, next_row: Real) -> RunState {
+        RunState {
+            max_divergence: self.max_divergence,
+            max_volume_fraction_error: self.max_volume_fraction_error,
+            pressure_iterations_total: self.pressure_iterations_total,
+            min_dt: self.min_dt,
+            last_dt_limit: self.last_dt_limit.clone(),
+            next_row,
+            last_row_written: self.last_row_written,
+            rows: self.diagnostics_rows,
+            ..RunState::new(sim)
+        }
+    }
 }
 
 /// Checkpoints as a writer of the driver: after every step on the case's schedule (not
@@ -462,7 +466,7 @@ impl Writer for Checkpoints {
     }
     fn needs_grid_state(&self, step: &Step) -> bool {
         // a checkpoint holds the grid state too: the same bits whenever it was written
-        !step.unstable && self.peek(step.sim.time)
+        !step.unstable && self.due.peek(step.sim.time)
     }
     fn after_step(&mut self, step: &Step) -> Result<(), Error> {
         if !step.unstable && self.due(step.sim.time) {

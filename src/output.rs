@@ -38,6 +38,10 @@ impl Due {
     pub fn new(first: Real, interval: Real) -> Self {
         Self { next: first, interval }
     }
+    /// Simulated time of the next write.
+    pub fn next(&self) -> Real {
+        self.next
+    }
     /// Whether a write is due at time `t`, without moving the schedule.
     pub fn peek(&self, t: Real) -> bool {
         t >= self.next - 1e-9 * self.interval

@@ -258,17 +258,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             } else {
                 0.0
             };
-            let state = RunState {
-                max_divergence: r.max_divergence,
-                max_volume_fraction_error: r.max_volume_fraction_error,
-                pressure_iterations_total: r.pressure_iterations_total,
-                min_dt: r.min_dt,
-                last_dt_limit: r.last_dt_limit.clone(),
-                next_row,
-                last_row_written: r.last_row_written,
-                rows: r.diagnostics_rows,
-                ..RunState::new(&sim)
-            };
+            let state = r.run_state(&sim, next_row);
             // the rows up to the checkpoint's step; its own row only when it was a regular one
             let (step, with_last) = (c.step, r.last_row_written);
             let keep = move |s: u64| s < step || (s == step && with_last);
