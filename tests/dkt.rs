@@ -264,6 +264,7 @@ fn the_dkt_analysis_measures_a_run_made_of_uhlmanns_curves() {
     };
     let at =
         |c: &(Vec<Real>, Vec<Real>), t: Real| interpolate(&c.0, &c.1, t.clamp(c.0[0], *c.0.last().unwrap())).unwrap();
+    let curves = ["trailing", "leading"].map(|w| (w, ["fig6a", "fig7a", "fig6b", "fig8"].map(|f| curve(f, w))));
     let write = |name: &str, mirror: Real, shift: Real, faster: Real| {
         let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("dkt_analysis").join(name);
         std::fs::create_dir_all(&dir).unwrap();
@@ -271,9 +272,8 @@ fn the_dkt_analysis_measures_a_run_made_of_uhlmanns_curves() {
         let mut csv = String::from("step,time,body,x,y,vx,vy,omega,fx,fy,torque\n");
         for k in 0..=1200 {
             let t = k as Real * 2.5e-4;
-            for which in ["trailing", "leading"] {
-                let (s, x) = (at(&curve("fig6a", which), t), at(&curve("fig7a", which), t));
-                let (v, w) = (at(&curve("fig6b", which), t), at(&curve("fig8", which), t));
+            for (which, [c6a, c7a, c6b, c8]) in &curves {
+                let (s, x, v, w) = (at(c6a, t), at(c7a, t), at(c6b, t), at(c8, t));
                 let x = 1.0 + mirror * (x + shift * d);
                 csv += &format!("{k},{t},{which},{x},{},0,{},{},0,0,0\n", 6.0 - s, -(v + faster * u_ref), mirror * w);
             }
