@@ -66,6 +66,9 @@ enum Command {
     },
     /// List every registered plugin by role, with its parameters, units and defaults.
     Plugins,
+    /// List every output quantity that snapshots and pictures accept: where it is
+    /// defined (the mixture's cells, a field's cells, points), its units and formula.
+    Quantities,
     /// Run a scene with its bodies resolved and again as single mass points; report the
     /// kiss and tumble times, settling speeds, their differences and the cost of each, and
     /// overlay the trajectories (PNG and SVG).
@@ -177,6 +180,10 @@ pub fn main() -> ExitCode {
         }
         Some(Command::Plugins) => {
             plugins();
+            Ok(())
+        }
+        Some(Command::Quantities) => {
+            quantities();
             Ok(())
         }
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
@@ -333,6 +340,24 @@ fn check(case: &Case, file: &Path) -> Result<(), Failure> {
         "output   a diagnostics row every {}",
         if c.output.interval > 0.0 { format!("{} of simulated time", c.output.interval) } else { "step".into() }
     );
+    let names = |v: &[crate::core::case::QuantityName]| v.iter().map(|q| q.as_str()).collect::<Vec<_>>().join(", ");
+    if let Some(s) = &c.output.snapshots {
+        println!(
+            "output   a snapshot every {} (mixture: {}; each field: {}; points: {})",
+            s.interval,
+            names(&s.mixture),
+            names(&s.fields),
+            names(&s.points)
+        );
+    }
+    if let Some(p) = &c.output.pictures {
+        let (q, field) = crate::picture::picked(&sim, p).map_err(|e| Failure::Input(e.in_file(file)))?;
+        let of = field.map_or("the mixture".to_string(), |k| format!("field {}", sim.fields[k].name));
+        println!("output   a picture of the {} of {of} every {}, {} pixels wide", q.name, p.interval, p.width);
+    }
+    if let Some(k) = &c.output.checkpoints {
+        println!("output   a checkpoint every {}", k.interval);
+    }
     Ok(())
 }
 
@@ -351,6 +376,23 @@ fn plugins() {
         }
         println!();
     }
+}
+
+fn quantities() {
+    let all = crate::core::quantity::quantities();
+    println!("output quantities ({}), for output.snapshots (mixture, fields, points) and output.pictures:", all.len());
+    for q in all {
+        let kind = if q.components == 3 { "×3" } else { "" };
+        println!("  {:<12} {:<16} {:<3} [{}] {}", q.name, q.places(), kind, q.units, q.description);
+    }
+    let d = |v: &[&str]| v.join(", ");
+    println!();
+    println!(
+        "snapshots write by default: mixture {}; fields {}; points {} (and the points' body).",
+        d(&crate::core::case::DEFAULT_MIXTURE_QUANTITIES),
+        d(&crate::core::case::DEFAULT_FIELD_QUANTITIES),
+        d(&crate::core::case::DEFAULT_POINT_QUANTITIES)
+    );
 }
 
 /// `multifield study STUDY.ron`: exit 0 when every run ended (completed, unstable or

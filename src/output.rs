@@ -17,10 +17,10 @@ pub use crate::core::driver::{write_atomically, Writer};
 /// The writers the case asks for.
 pub fn writers(sim: &Simulation, dir: &Path) -> Result<Vec<Box<dyn Writer>>, Error> {
     let mut out: Vec<Box<dyn Writer>> = Vec::new();
-    if let Some(s) = sim.case.output.snapshots {
+    if let Some(s) = sim.case.output.snapshots.clone() {
         out.push(Box::new(crate::snapshot::Snapshots::create(sim, dir, s)?));
     }
-    if let Some(p) = sim.case.output.pictures {
+    if let Some(p) = sim.case.output.pictures.clone() {
         out.push(Box::new(crate::picture::Pictures::create(sim, dir, p)?));
     }
     Ok(out)

@@ -5,22 +5,28 @@
 //! first at t = 0, then every `output.pictures.interval` of simulated time, and always the
 //! last step of the run. Each picture is `width` pixels wide: the domain with its aspect
 //! (y up), a band above it with the case name and the time, and a band below with the
-//! colour bar and its numeric range. What the colours show (`quantity`):
+//! colour bar and its numeric range. What the colours show is a cell quantity of the
+//! registry ([`crate::core::quantity`]; `multifield quantities` lists them, plugins add
+//! more): `quantity: "vorticity"` (the default), `"speed"`, `"pressure"`, `"divergence"`,
+//! … of the mixture, or of one field with `field: Some("water")`. A quantity that only
+//! fields have (`"theta"`) without a `field` is drawn for the field that fills the rest
+//! (or the first field). The former identifiers are still read: `Vorticity`, `Speed` (as
+//! `"velocity"`) and `VolumeFraction` (as `"theta"`). The colour map is the quantity's:
 //!
-//! - `Vorticity`: ω = ∂v/∂x − ∂u/∂y of the mixture velocity Σθu/Σθ at cell centres
-//!   (centred differences), on a diverging blue–white–red map symmetric about 0; the range
-//!   ±ω_max is the frame's 99.5th percentile of |ω| (the thin layers on body surfaces
-//!   would wash out the wakes with the maximum), brighter values saturate;
-//! - `Speed`: |Σθu/Σθ| on a sequential map (viridis), from 0 to the frame's largest speed
-//!   (the components interpolated to the pixel, then combined, so zeros stay sharp);
-//! - `VolumeFraction`: θ of the field that fills the rest (region `Rest`), or of the first
-//!   field, from 0 to 1 (viridis).
+//! - signed quantities (vorticity, divergence): a diverging blue–white–red map symmetric
+//!   about 0; the range ± the frame's 99.5th percentile of |x| (the thin layers on body
+//!   surfaces would wash out the wakes with the maximum), brighter values saturate;
+//! - magnitudes (speed, density): viridis from 0 to the frame's largest value; a vector
+//!   (velocity) is drawn as its magnitude, its components interpolated to the pixel and
+//!   then combined, so that zeros stay sharp;
+//! - fractions (θ): viridis from 0 to 1; other quantities (pressure): viridis from the
+//!   smallest to the largest value.
 //!
-//! Cells that no field occupies (Σθ ≈ 0, e.g. the vacuum around colliding disks) are grey.
-//! Material points are drawn as dots (at most [`MAX_POINTS`], a deterministic sample),
-//! bodies as black circles of their radius at their centroid. The state comes from the
-//! frames themselves (an Eulerian field's own θ and face velocities, a Lagrangian field's
-//! points spread to cell centres with linear weights), so the frame at t = 0 shows the
+//! Cells that no field occupies (Σθ ≤ 1e-6, e.g. the vacuum around colliding disks) are
+//! grey. Material points are drawn as dots (at most [`MAX_POINTS`], a deterministic
+//! sample), bodies as black circles of their radius at their centroid. The cell values are
+//! those a snapshot holds ([`crate::core::quantity::Sample`]: the grid state after a step,
+//! reconstructed from the initial condition at t = 0), so the frame at t = 0 shows the
 //! initial state.
 //!
 //! Make an animation of the frames with ffmpeg:
@@ -37,14 +43,13 @@
 //! ([`Pictures::create`]). A frame of a domain 320 × 1280 cells, 640 pixels wide, takes
 //! 0.08–0.17 s on two cores (most of it the PNG encoder).
 
-use crate::core::case::{PictureQuantity, PictureSpec};
+use crate::core::case::PictureSpec;
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::Grid;
 use crate::core::math::Real;
+use crate::core::quantity::{self, Colours, Place, PointSet, Quantity, Sample};
 use crate::core::simulation::Simulation;
-use crate::frames::eulerian::Eulerian;
-use crate::frames::lagrangian::Lagrangian;
 use crate::output::Due;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -162,9 +167,9 @@ pub fn sequential(t: f64) -> [u8; 3] {
     ramp(&VIRIDIS, t)
 }
 
-/// A cell-centred scalar of the picture and its colour range. A speed is held as its two
+/// A cell-centred scalar of the picture and its colour range. A vector is held as its two
 /// components (`values`, `second`), interpolated apart and then combined, so that a zero
-/// of the velocity stays a zero between cell centres.
+/// of the vector stays a zero between cell centres.
 struct Scalar {
     values: Vec<Real>,
     second: Option<Vec<Real>>,
@@ -172,100 +177,6 @@ struct Scalar {
     hi: Real,
     diverging: bool,
     label: String,
-}
-
-/// Σθ and Σθu, Σθv at cell centres, over every field; and the θ of each field.
-fn mixture(sim: &Simulation) -> (Vec<Real>, Vec<Real>, Vec<Real>, Vec<Vec<Real>>) {
-    let g = &sim.grid;
-    let n = g.n_cells();
-    let (px, py) = (sim.boundaries.periodic_x(), sim.boundaries.periodic_y());
-    let (mut theta, mut tu, mut tv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let mut per_field = Vec::with_capacity(sim.fields.len());
-    for f in &sim.fields {
-        let any = f.frame.as_any();
-        let (th, u, v) = if let Some(e) = any.downcast_ref::<Eulerian>() {
-            let (u, v) = cell_velocity(g, &e.velocity().u, &e.velocity().v);
-            (e.theta().to_vec(), u, v)
-        } else if let Some(l) = any.downcast_ref::<Lagrangian>() {
-            spread_points(g, l, px, py)
-        } else {
-            let s = &f.state;
-            let (u, v) = cell_velocity(g, &s.velocity.u, &s.velocity.v);
-            (s.theta.clone(), u, v)
-        };
-        for c in 0..n {
-            theta[c] += th[c];
-            tu[c] += th[c] * u[c];
-            tv[c] += th[c] * v[c];
-        }
-        per_field.push(th);
-    }
-    (theta, tu, tv, per_field)
-}
-
-/// Face velocities averaged to cell centres.
-fn cell_velocity(g: &Grid, u: &[Real], v: &[Real]) -> (Vec<Real>, Vec<Real>) {
-    let mut cu = vec![0.0; g.n_cells()];
-    let mut cv = vec![0.0; g.n_cells()];
-    if u.len() != g.n_xfaces() || v.len() != g.n_yfaces() {
-        return (cu, cv);
-    }
-    for j in 0..g.ny {
-        for i in 0..g.nx {
-            cu[g.cell(i, j)] = 0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]);
-            cv[g.cell(i, j)] = 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)]);
-        }
-    }
-    (cu, cv)
-}
-
-/// θ and velocity at cell centres from material points, with linear weights (wrapped on a
-/// periodic side, clamped to the edge cell on the others, which conserves volume there).
-fn spread_points(g: &Grid, l: &Lagrangian, px: bool, py: bool) -> (Vec<Real>, Vec<Real>, Vec<Real>) {
-    let n = g.n_cells();
-    let (mut vol, mut mu, mut mv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let p = &l.points;
-    let index = |k: i64, len: usize, periodic: bool| -> usize {
-        if periodic {
-            k.rem_euclid(len as i64) as usize
-        } else {
-            k.clamp(0, len as i64 - 1) as usize
-        }
-    };
-    for k in 0..p.len() {
-        let x = p.x[k];
-        let fx = (x.x - g.origin.x) / g.h - 0.5;
-        let fy = (x.y - g.origin.y) / g.h - 0.5;
-        if !(fx.is_finite() && fy.is_finite()) {
-            continue;
-        }
-        let (i0, j0) = (fx.floor(), fy.floor());
-        let (a, b) = (fx - i0, fy - j0);
-        let w = p.volume(k);
-        let vel = p.v[k];
-        for (dj, wy) in [(0, 1.0 - b), (1, b)] {
-            let j = index(j0 as i64 + dj, g.ny, py);
-            for (di, wx) in [(0, 1.0 - a), (1, a)] {
-                let i = index(i0 as i64 + di, g.nx, px);
-                let c = g.cell(i, j);
-                let s = w * wx * wy;
-                vol[c] += s;
-                mu[c] += s * vel.x;
-                mv[c] += s * vel.y;
-            }
-        }
-    }
-    let area = g.cell_area();
-    let mut u = vec![0.0; n];
-    let mut v = vec![0.0; n];
-    for c in 0..n {
-        if vol[c] > 0.0 {
-            u[c] = mu[c] / vol[c];
-            v[c] = mv[c] / vol[c];
-        }
-        vol[c] /= area;
-    }
-    (vol, u, v)
 }
 
 /// The `q` quantile of the finite values (0 when there are none).
@@ -287,75 +198,71 @@ fn range_end(x: Real) -> Real {
     }
 }
 
-fn scalar(sim: &Simulation, quantity: PictureQuantity) -> Scalar {
-    let g = &sim.grid;
-    let (theta, tu, tv, per_field) = mixture(sim);
-    let occupied = |c: usize| theta[c] > 1e-6;
-    let u: Vec<Real> = (0..g.n_cells()).map(|c| if occupied(c) { tu[c] / theta[c] } else { Real::NAN }).collect();
-    let v: Vec<Real> = (0..g.n_cells()).map(|c| if occupied(c) { tv[c] / theta[c] } else { Real::NAN }).collect();
-    match quantity {
-        PictureQuantity::Vorticity => {
-            let (px, py) = (sim.boundaries.periodic_x(), sim.boundaries.periodic_y());
-            let mut w = vec![Real::NAN; g.n_cells()];
-            for j in 0..g.ny {
-                for i in 0..g.nx {
-                    let c = g.cell(i, j);
-                    if !occupied(c) {
-                        continue;
-                    }
-                    let dvdx = derivative(&v, g, i, j, true, px);
-                    let dudy = derivative(&u, g, i, j, false, py);
-                    w[c] = dvdx - dudy;
-                }
+/// The quantity a picture draws and the field it draws it for (None: the mixture).
+pub fn picked(sim: &Simulation, spec: &PictureSpec) -> Result<(&'static Quantity, Option<usize>), Error> {
+    let bad = |m: String| Error::invalid("output.pictures.quantity", m);
+    let name = spec.quantity.as_str();
+    match &spec.field {
+        Some(f) => {
+            let k = sim
+                .fields
+                .iter()
+                .position(|x| &x.name == f)
+                .ok_or_else(|| Error::invalid("output.pictures.field", format!("no field `{f}`")))?;
+            Ok((quantity::find(name, Place::Field).map_err(bad)?, Some(k)))
+        }
+        None => match quantity::find(name, Place::Mixture) {
+            Ok(q) => Ok((q, None)),
+            Err(_) => {
+                let k = sim.fields.iter().position(|f| f.fills_rest).unwrap_or(0);
+                Ok((quantity::find(name, Place::Field).map_err(bad)?, Some(k)))
             }
-            let abs: Vec<Real> = w.iter().map(|x| x.abs()).collect();
-            let m = range_end(quantile(&abs, VORTICITY_PERCENTILE));
-            Scalar { values: w, second: None, lo: -m, hi: m, diverging: true, label: "vorticity".into() }
-        }
-        PictureQuantity::Speed => {
-            let m = u.iter().zip(&v).map(|(u, v)| u.hypot(*v)).filter(|x| x.is_finite()).fold(0.0, Real::max);
-            Scalar { values: u, second: Some(v), lo: 0.0, hi: range_end(m), diverging: false, label: "speed".into() }
-        }
-        PictureQuantity::VolumeFraction => {
-            let k = sim.fields.iter().position(|f| f.fills_rest).unwrap_or(0);
-            let values = per_field.get(k).cloned().unwrap_or_else(|| vec![0.0; g.n_cells()]);
-            let label = match sim.fields.get(k) {
-                Some(f) => format!("volume fraction of {}", f.name),
-                None => "volume fraction".into(),
-            };
-            Scalar { values, second: None, lo: 0.0, hi: 1.0, diverging: false, label }
-        }
+        },
     }
 }
 
-/// ∂f/∂x (`along_x`) or ∂f/∂y at cell (i, j): centred where both neighbours hold a value,
-/// one-sided where one does, 0 where none does.
-fn derivative(f: &[Real], g: &Grid, i: usize, j: usize, along_x: bool, periodic: bool) -> Real {
-    let (k, len) = if along_x { (i, g.nx) } else { (j, g.ny) };
-    let at = |m: usize| if along_x { f[g.cell(m, j)] } else { f[g.cell(i, m)] };
-    let prev = if k > 0 {
-        Some(k - 1)
-    } else if periodic && len > 1 {
-        Some(len - 1)
+fn scalar(sim: &Simulation, spec: &PictureSpec) -> Result<Scalar, Error> {
+    let (q, field) = picked(sim, spec)?;
+    let sample = Sample::of(sim);
+    let n = sim.grid.n_cells();
+    let values = sample.cells(q, field).unwrap_or_else(|| vec![0.0; q.components * n]);
+    let empty = |c: usize| sample.theta[c] <= 1e-6;
+    let (values, second) = if q.components == 3 && values.len() == 3 * n {
+        let part = |k: usize| (0..n).map(|c| if empty(c) { Real::NAN } else { values[3 * c + k] }).collect::<Vec<_>>();
+        (part(0), Some(part(1)))
     } else {
-        None
+        ((0..n).map(|c| if empty(c) { Real::NAN } else { values.get(c).copied().unwrap_or(0.0) }).collect(), None)
     };
-    let next = if k + 1 < len {
-        Some(k + 1)
-    } else if periodic && len > 1 {
-        Some(0)
-    } else {
-        None
+    let magnitude: Vec<Real> = match &second {
+        Some(v) => values.iter().zip(v).map(|(u, v)| u.hypot(*v)).collect(),
+        None => values.clone(),
     };
-    let c = at(k);
-    let p = prev.map(at).filter(|x| x.is_finite());
-    let n = next.map(at).filter(|x| x.is_finite());
-    match (p, n) {
-        (Some(p), Some(n)) => (n - p) / (2.0 * g.h),
-        (Some(p), None) => (c - p) / g.h,
-        (None, Some(n)) => (n - c) / g.h,
-        (None, None) => 0.0,
-    }
+    let finite = || magnitude.iter().copied().filter(|x| x.is_finite());
+    let (lo, hi) = match q.colours {
+        Colours::Diverging => {
+            let abs: Vec<Real> = magnitude.iter().map(|x| x.abs()).collect();
+            let m = range_end(quantile(&abs, VORTICITY_PERCENTILE));
+            (-m, m)
+        }
+        Colours::FromZero => (0.0, range_end(finite().fold(0.0, Real::max))),
+        Colours::Fraction => (0.0, 1.0),
+        Colours::Range => {
+            let (lo, hi) = finite().fold((Real::INFINITY, Real::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+            if lo.is_finite() && hi > lo {
+                (lo, hi)
+            } else if lo.is_finite() {
+                (lo - 0.5, lo + 0.5)
+            } else {
+                (0.0, 1.0)
+            }
+        }
+    };
+    let label = match field {
+        Some(k) if spec.field.is_some() || !q.has_mixture() => format!("{} of {}", q.name, sim.fields[k].name),
+        _ => q.name.to_string(),
+    };
+    let label = if second.is_some() { format!("|{label}|") } else { label };
+    Ok(Scalar { values, second, lo, hi, diverging: q.colours == Colours::Diverging, label })
 }
 
 /// Colour of a value of `s`.
@@ -422,19 +329,19 @@ fn blend(rgb: &mut [u8], lay: &Layout, x: i64, y: i64, c: [u8; 3], alpha: f64) {
 
 /// Material points as one-pixel dots, a deterministic sample of at most [`MAX_POINTS`].
 fn paint_points(rgb: &mut [u8], lay: &Layout, sim: &Simulation) {
-    let total: usize =
-        sim.fields.iter().filter_map(|f| f.frame.as_any().downcast_ref::<Lagrangian>()).map(|l| l.points.len()).sum();
+    // material points only: a mass point is drawn as its body
+    let sets: Vec<PointSet> = sim.fields.iter().filter_map(|f| f.frame.points()).filter(|p| p.continuum).collect();
+    let total: usize = sets.iter().map(PointSet::len).sum();
     if total == 0 {
         return;
     }
     let size = sim.grid.size();
     let (origin, size) = ([sim.grid.origin.x, sim.grid.origin.y], [size.x, size.y]);
-    // keep point k when a hash of k falls under the kept fraction (no lattice aliasing)
     let keep = (MAX_POINTS as f64 / total as f64).min(1.0);
     let threshold = (keep * u32::MAX as f64) as u64;
     let mut k_all: u64 = 0;
-    for l in sim.fields.iter().filter_map(|f| f.frame.as_any().downcast_ref::<Lagrangian>()) {
-        for x in &l.points.x {
+    for p in &sets {
+        for x in &p.position {
             k_all += 1;
             let h = (k_all.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) & 0xFFFF_FFFF;
             if keep < 1.0 && h > threshold {
@@ -446,7 +353,6 @@ fn paint_points(rgb: &mut [u8], lay: &Layout, sim: &Simulation) {
     }
 }
 
-/// Body outlines: anti-aliased black circles of the body's radius at its centroid.
 fn paint_bodies(rgb: &mut [u8], lay: &Layout, sim: &Simulation) {
     let size = sim.grid.size();
     let scale = lay.width as Real / size.x;
@@ -501,7 +407,7 @@ pub fn format_number(x: Real) -> String {
 
 /// Draws one picture of `sim` into `path` (PNG, through `tmp` and a rename).
 fn write_picture(sim: &Simulation, spec: &PictureSpec, lay: &Layout, path: &Path, tmp: &Path) -> Result<(), Error> {
-    let s = scalar(sim, spec.quantity);
+    let s = scalar(sim, spec)?;
     let mut rgb = vec![255u8; lay.width as usize * lay.height as usize * 3];
     paint_field(&mut rgb, lay, &sim.grid, &s);
     paint_points(&mut rgb, lay, sim);
@@ -587,6 +493,7 @@ impl Pictures {
                 format!("{}: must be a positive time", spec.interval),
             ));
         }
+        picked(sim, &spec)?;
         let size = sim.grid.size();
         let layout = Layout::new([size.x, size.y], spec.width);
         if layout.width as u64 * layout.height as u64 > MAX_PIXELS || spec.width < 16 {
@@ -622,7 +529,8 @@ impl Pictures {
         let next = keep;
         // a continued run's state at T is that of a step drawn (or not due) before
         let resumed = sim.steps > 0;
-        Ok(Self { dir: frames, spec, layout, due: Due::new(0.0, spec.interval), next, last_step: None, resumed })
+        let due = Due::new(0.0, spec.interval);
+        Ok(Self { dir: frames, spec, layout, due, next, last_step: None, resumed })
     }
 
     /// The layout of this run's pictures.

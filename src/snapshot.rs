@@ -18,16 +18,34 @@
 //!
 //! Open the time series with `paraview out/<case>/snapshots/<case>.xdmf` (pick "XDMF
 //! Reader") or in VisIt. Each time is a spatial collection of `grid`, the mesh one cell
-//! thick in z with the cell arrays `pressure`, `velocity`, `vorticity` and, per field,
-//! `<f>_theta`, `<f>_velocity`, `<f>_vorticity`, `<f>_density`, and of `<f> points` for each
-//! Lagrangian field: its points as vertices with `velocity`, `volume`, `stress` (σxx, σyy,
-//! σxy as a 3-vector) and `body`.
+//! thick in z with the mixture's cell arrays (`pressure`, `velocity`, `vorticity` by
+//! default) and each field's as `<f>_<quantity>` (`theta`, `velocity`, `vorticity`,
+//! `density` by default), and of `<f> points` for each field with points: its points as
+//! vertices with their arrays (`velocity`, `volume`, `stress` as σxx, σyy, σxy by default)
+//! and `body`.
+//!
+//! # Which quantities
+//!
+//! The arrays are quantities of the registry ([`crate::core::quantity`]; `multifield
+//! quantities` lists them with their units and formulas, and plugins add more), chosen in
+//! the case:
+//!
+//! ```text
+//! snapshots: Some((interval: 0.1,
+//!     mixture: ["pressure", "velocity", "vorticity", "divergence"],   // /<name>
+//!     fields: ["theta", "velocity", "vorticity", "density"],          // /fields/<f>/<name>
+//!     points: ["position", "velocity", "volume", "stress"])),          // /fields/<f>/points/<name>
+//! ```
+//!
+//! Each list defaults to what is shown, the set earlier versions wrote. The points' `body`
+//! is always written; leave `position` out and ParaView cannot draw the points.
 //!
 //! # Layout of a snapshot
 //!
 //! Grid arrays are row-major `(NY, NX)`, y slow and x fast (cell `(i, j)` at `j·NX + i`,
 //! the order of `Simulation::pressure`); vectors are `(NY, NX, 3)` with z = 0 (ParaView reads
-//! 2-component vectors wrongly). Every value is a cell-centre value, f64.
+//! 2-component vectors wrongly). Every value is a cell-centre value, f64. With the default
+//! quantities:
 //!
 //! | path | shape | units | what |
 //! | --- | --- | --- | --- |
@@ -38,7 +56,7 @@
 //! | `/fields/<f>/velocity` | (NY, NX, 3) | length/time | the field's velocity, mean of the two faces |
 //! | `/fields/<f>/vorticity` | (NY, NX) | 1/time | vorticity of the field's velocity |
 //! | `/fields/<f>/density` | (NY, NX) | mass/volume | bulk density θ ρ⁰ |
-//! | `/fields/<f>/points/position` | (N, 3) | length | material points (Lagrangian fields), z = 0 |
+//! | `/fields/<f>/points/position` | (N, 3) | length | points (material points, or one per body of a mass-point field), z = 0 |
 //! | `/fields/<f>/points/velocity` | (N, 3) | length/time | z = 0 |
 //! | `/fields/<f>/points/volume` | (N) | volume | current volume det F · V⁰ (area × unit depth) |
 //! | `/fields/<f>/points/stress` | (N, 3) | force/area | Cauchy stress σxx, σyy, σxy |
@@ -56,30 +74,28 @@
 //!
 //! # What the values are
 //!
-//! After a step, θ and the face velocities are the field's grid state as the step left it
-//! ([`FieldState`](crate::core::field::FieldState): the corrected velocity; θ of a
-//! Lagrangian field and of the field of region `Rest` from the step's particles-to-grid,
-//! θ of an advected Eulerian field after its advection). Before the first step no step has
-//! built that state, so the t = 0 snapshot reconstructs it as the run starts from it: θ
-//! from the regions (the field of region `Rest` takes what the others leave), an Eulerian
-//! field's velocity from its initial velocity on the faces, a Lagrangian field's by a
+//! Those of [`crate::core::quantity::Sample`]: after a step, θ and the face velocities are
+//! the field's grid state as the step left it (the corrected velocity; θ of a Lagrangian
+//! field and of the field of region `Rest` from the step's particles-to-grid, θ of an
+//! advected Eulerian field after its advection). Before the first step no step has built
+//! that state, so the t = 0 snapshot reconstructs it as the run starts from it: θ from the
+//! regions (the field of region `Rest` takes what the others leave), an Eulerian field's
+//! velocity from its initial velocity on the faces, a field of material points' by a
 //! mass-weighted linear (cloud-in-cell) average of its points onto the faces; the
-//! pressure is 0 until the first projection.
-//!
-//! Vorticity is computed at cell centres from the cell-centred velocity by central
-//! differences, `(v[i+1] − v[i−1]) / 2h − (u[j+1] − u[j−1]) / 2h`; at a domain edge the
-//! difference is one-sided (first order, into the domain), across a periodic side it wraps.
+//! pressure is 0 until the first projection. The formulas of the quantities are in the
+//! registry (vorticity: central differences of the cell-centred velocity, one-sided at a
+//! domain edge, wrapped across a periodic side).
 
-use crate::core::case::{Region, Schedule};
+use crate::core::case::SnapshotSpec;
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
-use crate::core::grid::{FaceVelocity, Grid, Lattice};
+use crate::core::grid::Grid;
 use crate::core::math::Real;
-use crate::core::simulation::{region_fraction, Simulation};
-use crate::frames::lagrangian::{Lagrangian, Points};
-use crate::frames::mass_point::MassPoint;
+use crate::core::quantity::{self, Compute, Place, Quantity, Sample};
+use crate::core::simulation::Simulation;
 use crate::output::{write_atomically, Due};
 use hdf5_pure::{AttrValue, FileBuilder, GroupBuilder, LibVer};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Name of the folder of snapshots in a run's output directory.
@@ -100,17 +116,15 @@ pub fn xdmf_name(case_name: &str) -> String {
     format!("{}.xdmf", crate::run::directory_name(case_name))
 }
 
-/// The material points of a Lagrangian field in a snapshot (flattened row-major arrays).
+/// Arrays by quantity name: over the cells, (NY, NX) or (NY, NX, 3); over points, (N) or
+/// (N, 3). Vectors have z = 0.
+pub type Arrays = BTreeMap<String, Vec<Real>>;
+
+/// The points of a field in a snapshot.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PointData {
-    /// Positions, (N, 3) with z = 0.
-    pub position: Vec<Real>,
-    /// Velocities, (N, 3) with z = 0.
-    pub velocity: Vec<Real>,
-    /// Current volumes, (N).
-    pub volume: Vec<Real>,
-    /// Cauchy stress σxx, σyy, σxy, (N, 3).
-    pub stress: Vec<Real>,
+    /// The point quantities written (`output.snapshots.points`).
+    pub values: Arrays,
     /// Index of the point's body in [`PointData::bodies`], −1 for none, (N).
     pub body: Vec<i64>,
     /// Names of the field's bodies (empty when it has none).
@@ -120,15 +134,19 @@ pub struct PointData {
 impl PointData {
     /// Number of points.
     pub fn len(&self) -> usize {
-        self.volume.len()
+        self.body.len()
     }
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
-        self.volume.is_empty()
+        self.body.is_empty()
+    }
+    /// The array of quantity `name`, if written.
+    pub fn get(&self, name: &str) -> Option<&[Real]> {
+        self.values.get(name).map(Vec::as_slice)
     }
 }
 
-/// One field in a snapshot: grid arrays are (NY, NX) row-major, vectors (NY, NX, 3).
+/// One field in a snapshot.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldData {
     /// The field's name in the case.
@@ -139,16 +157,17 @@ pub struct FieldData {
     pub frame: String,
     /// Material density ρ⁰.
     pub material_density: Real,
-    /// Volume fraction θ.
-    pub theta: Vec<Real>,
-    /// Cell-centred velocity, (NY, NX, 3).
-    pub velocity: Vec<Real>,
-    /// Vorticity of [`FieldData::velocity`].
-    pub vorticity: Vec<Real>,
-    /// Bulk density θ ρ⁰.
-    pub density: Vec<Real>,
-    /// Material points (Lagrangian fields).
+    /// The field's cell quantities written (`output.snapshots.fields`).
+    pub cells: Arrays,
+    /// Its points, for a field that has points.
     pub points: Option<PointData>,
+}
+
+impl FieldData {
+    /// The cell array of quantity `name`, if written.
+    pub fn get(&self, name: &str) -> Option<&[Real]> {
+        self.cells.get(name).map(Vec::as_slice)
+    }
 }
 
 /// Everything one snapshot file holds, as [`Snapshot::of`] computes it and
@@ -171,12 +190,8 @@ pub struct Snapshot {
     pub origin: [Real; 2],
     /// Cell side.
     pub spacing: Real,
-    /// Pressure.
-    pub pressure: Vec<Real>,
-    /// Mixture velocity Σθₖuₖ / Σθₖ, (NY, NX, 3).
-    pub velocity: Vec<Real>,
-    /// Vorticity of the mixture velocity.
-    pub vorticity: Vec<Real>,
+    /// The mixture's cell quantities written (`output.snapshots.mixture`).
+    pub cells: Arrays,
     /// The fields, in the case's order.
     pub fields: Vec<FieldData>,
 }
@@ -203,211 +218,65 @@ fn group_names(names: &[&str]) -> Vec<String> {
     out
 }
 
-/// Linear (cloud-in-cell) mass-weighted average of the points' velocity onto the faces.
-fn deposit_velocity(grid: &Grid, points: &Points) -> FaceVelocity {
-    let mut vel = FaceVelocity::zeros(grid);
-    for (lattice, comp) in [(Lattice::XFace, 0), (Lattice::YFace, 1)] {
-        let (cols, rows) = grid.lattice_shape(lattice);
-        let (ox, oy) = grid.lattice_offset(lattice);
-        let mut num = vec![0.0; cols * rows];
-        let mut den = vec![0.0; cols * rows];
-        for p in 0..points.len() {
-            let fx = (points.x[p].x - grid.origin.x) / grid.h - ox;
-            let fy = (points.x[p].y - grid.origin.y) / grid.h - oy;
-            let (i0, j0) = (fx.floor(), fy.floor());
-            let (a, b) = (fx - i0, fy - j0);
-            for (di, wx) in [(0, 1.0 - a), (1, a)] {
-                for (dj, wy) in [(0, 1.0 - b), (1, b)] {
-                    let (i, j) = (i0 as i64 + di, j0 as i64 + dj);
-                    if i < 0 || j < 0 || i >= cols as i64 || j >= rows as i64 {
-                        continue;
-                    }
-                    let k = i as usize + j as usize * cols;
-                    let w = wx * wy * points.m[p];
-                    num[k] += w * points.v[p][comp];
-                    den[k] += w;
-                }
-            }
-        }
-        let out = if comp == 0 { &mut vel.u } else { &mut vel.v };
-        for (o, (n, d)) in out.iter_mut().zip(num.iter().zip(&den)) {
-            *o = if *d > 0.0 { n / d } else { 0.0 };
-        }
-    }
-    vel
+/// The registered quantity `name` at `place` (validated with the case).
+fn quantity(name: &str, place: Place) -> Result<&'static Quantity, Error> {
+    quantity::find(name, place).map_err(|m| Error::invalid("output.snapshots", m))
 }
 
-/// The fields' θ and face velocities: the grid state after a step, reconstructed from the
-/// initial condition before the first one (module doc).
-fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
-    if sim.steps > 0 {
-        return sim.fields.iter().map(|f| (f.state.theta.clone(), f.state.velocity.clone())).collect();
-    }
-    let g = &sim.grid;
-    let origin = [g.origin.x, g.origin.y];
-    let mut occupied = vec![0.0; g.n_cells()];
-    let mut out: Vec<(Vec<Real>, FaceVelocity)> = Vec::new();
-    for (f, spec) in sim.fields.iter().zip(&sim.case.fields) {
-        let theta: Vec<Real> = if f.fills_rest {
-            Vec::new()
-        } else {
-            region_fraction(&spec.region, g).into_iter().map(|t| t * spec.volume_fraction).collect()
-        };
-        for (o, t) in occupied.iter_mut().zip(&theta) {
-            *o += t;
-        }
-        let mut vel = match f.frame.as_any().downcast_ref::<Lagrangian>() {
-            Some(l) => deposit_velocity(g, &l.points),
-            None => {
-                let mut vel = FaceVelocity::zeros(g);
-                for j in 0..g.ny {
-                    for i in 0..=g.nx {
-                        let p = g.node_position(Lattice::XFace, i, j);
-                        vel.u[g.xface(i, j)] = spec.velocity.at(p.x, p.y, origin)[0];
-                    }
-                }
-                for j in 0..=g.ny {
-                    for i in 0..g.nx {
-                        let p = g.node_position(Lattice::YFace, i, j);
-                        vel.v[g.yface(i, j)] = spec.velocity.at(p.x, p.y, origin)[1];
-                    }
-                }
-                vel
-            }
-        };
-        sim.boundaries.enforce(g, &mut vel);
-        out.push((theta, vel));
-    }
-    for ((theta, _), f) in out.iter_mut().zip(&sim.fields) {
-        if f.fills_rest {
-            *theta = occupied.iter().map(|o| (1.0 - o).max(0.0)).collect();
-        }
-    }
-    out
-}
-
-/// Cell-centred velocity (NY, NX, 3), z = 0: the mean of the two faces of each component.
-fn cell_velocity(grid: &Grid, vel: &FaceVelocity) -> Vec<Real> {
-    let mut out = vec![0.0; 3 * grid.n_cells()];
-    for j in 0..grid.ny {
-        for i in 0..grid.nx {
-            let c = grid.cell(i, j);
-            out[3 * c] = 0.5 * (vel.u[grid.xface(i, j)] + vel.u[grid.xface(i + 1, j)]);
-            out[3 * c + 1] = 0.5 * (vel.v[grid.yface(i, j)] + vel.v[grid.yface(i, j + 1)]);
-        }
-    }
-    out
-}
-
-/// Neighbours `(lo, hi)` of index `k` in `0..n` and the spacing between them in cells:
-/// central inside, one-sided at an edge, wrapped when periodic.
-fn stencil(k: usize, n: usize, periodic: bool) -> (usize, usize, Real) {
-    if n < 2 {
-        (k, k, 1.0)
-    } else if periodic {
-        ((k + n - 1) % n, (k + 1) % n, 2.0)
-    } else if k == 0 {
-        (0, 1, 1.0)
-    } else if k == n - 1 {
-        (n - 2, n - 1, 1.0)
-    } else {
-        (k - 1, k + 1, 2.0)
-    }
-}
-
-/// Vorticity ∂v/∂x − ∂u/∂y at cell centres of a cell-centred velocity (NY, NX, 3) by central
-/// differences, one-sided (first order) at a domain edge and wrapped across a periodic side.
-pub fn vorticity(grid: &Grid, velocity: &[Real], periodic_x: bool, periodic_y: bool) -> Vec<Real> {
-    let (nx, ny, h) = (grid.nx, grid.ny, grid.h);
-    let mut out = vec![0.0; grid.n_cells()];
-    for j in 0..ny {
-        let (jl, jh, dj) = stencil(j, ny, periodic_y);
-        for i in 0..nx {
-            let (il, ih, di) = stencil(i, nx, periodic_x);
-            let dvdx = (velocity[3 * grid.cell(ih, j) + 1] - velocity[3 * grid.cell(il, j) + 1]) / (di * h);
-            let dudy = (velocity[3 * grid.cell(i, jh)] - velocity[3 * grid.cell(i, jl)]) / (dj * h);
-            out[grid.cell(i, j)] = if il == ih { 0.0 } else { dvdx } - if jl == jh { 0.0 } else { dudy };
-        }
-    }
-    out
-}
-
-fn point_data(sim: &Simulation, k: usize, l: &Lagrangian) -> PointData {
-    let p = &l.points;
-    let mut d = PointData {
-        bodies: match &sim.case.fields[k].region {
-            Region::Bodies(specs) => specs.iter().map(|b| b.name.clone()).collect(),
-            _ => Vec::new(),
-        },
-        ..PointData::default()
-    };
-    for q in 0..p.len() {
-        d.position.extend([p.x[q].x, p.x[q].y, 0.0]);
-        d.velocity.extend([p.v[q].x, p.v[q].y, 0.0]);
-        d.volume.push(p.volume(q));
-        let s = &p.stress[q];
-        d.stress.extend([s[(0, 0)], s[(1, 1)], s[(0, 1)]]);
-        d.body.push(p.body[q] as i64 - 1);
-    }
-    d
-}
-
-/// The points of a mass-point field: one per body, no stress.
-fn mass_point_data(m: &MassPoint) -> PointData {
-    let mut d = PointData { bodies: m.points.iter().map(|p| p.state.name.clone()).collect(), ..PointData::default() };
-    for (k, p) in m.points.iter().enumerate() {
-        let s = &p.state;
-        d.position.extend([s.position.x, s.position.y, 0.0]);
-        d.velocity.extend([s.velocity.x, s.velocity.y, 0.0]);
-        d.volume.push(s.volume);
-        d.stress.extend([0.0; 3]);
-        d.body.push(k as i64);
-    }
-    d
+/// Units and description of a written array (from the registry; empty for a name it
+/// does not know, which only a hand-made [`Snapshot`] has).
+fn describe(name: &str, place: Place) -> (&'static str, &'static str) {
+    quantity::find(name, place).map_or(("", ""), |q| (q.units, q.description))
 }
 
 impl Snapshot {
-    /// The snapshot of the simulation's current state (module doc).
-    pub fn of(sim: &Simulation) -> Snapshot {
+    /// The snapshot of the simulation's current state with the quantities of the case's
+    /// `output.snapshots` (the defaults when it has none).
+    pub fn of(sim: &Simulation) -> Result<Snapshot, Error> {
+        let spec = sim.case.output.snapshots.clone().unwrap_or_else(|| SnapshotSpec::every(1.0));
+        Snapshot::with(sim, &spec)
+    }
+
+    /// The snapshot of the simulation's current state with the quantities of `spec`; an
+    /// unknown name is an error.
+    pub fn with(sim: &Simulation, spec: &SnapshotSpec) -> Result<Snapshot, Error> {
         let g = &sim.grid;
-        let (px, py) = (sim.boundaries.periodic_x(), sim.boundaries.periodic_y());
-        let states = grid_states(sim);
+        let sample = Sample::of(sim);
         let names: Vec<&str> = sim.fields.iter().map(|f| f.name.as_str()).collect();
         let groups = group_names(&names);
-        let n = g.n_cells();
-        let (mut sum_theta, mut sum_flux) = (vec![0.0; n], vec![0.0; 3 * n]);
         let mut fields = Vec::new();
-        for (k, ((f, (theta, faces)), group)) in sim.fields.iter().zip(&states).zip(groups).enumerate() {
-            let velocity = cell_velocity(g, faces);
-            for c in 0..n {
-                sum_theta[c] += theta[c];
-                sum_flux[3 * c] += theta[c] * velocity[3 * c];
-                sum_flux[3 * c + 1] += theta[c] * velocity[3 * c + 1];
+        for (k, (f, group)) in sim.fields.iter().zip(groups).enumerate() {
+            let mut cells = Arrays::new();
+            for q in &spec.fields {
+                let values = sample.cells(quantity(q.as_str(), Place::Field)?, Some(k)).unwrap_or_default();
+                cells.insert(q.to_string(), values);
             }
-            let lagrangian = f.frame.as_any().downcast_ref::<Lagrangian>();
+            let points = match f.frame.points() {
+                Some(p) => {
+                    let mut values = Arrays::new();
+                    for q in &spec.points {
+                        if let Compute::Points(eval) = quantity(q.as_str(), Place::Points)?.compute {
+                            values.insert(q.to_string(), eval(&p));
+                        }
+                    }
+                    Some(PointData { values, body: p.body, bodies: p.bodies })
+                }
+                None => None,
+            };
             fields.push(FieldData {
                 name: f.name.clone(),
                 group,
                 frame: if f.frame.is_lagrangian() { "lagrangian" } else { "eulerian" }.into(),
                 material_density: f.density,
-                vorticity: vorticity(g, &velocity, px, py),
-                density: theta.iter().map(|t| t * f.density).collect(),
-                theta: theta.clone(),
-                velocity,
-                points: match lagrangian {
-                    Some(l) => Some(point_data(sim, k, l)),
-                    None => f.frame.as_any().downcast_ref::<MassPoint>().map(mass_point_data),
-                },
+                cells,
+                points,
             });
         }
-        let mut velocity = vec![0.0; 3 * n];
-        for c in 0..n {
-            if sum_theta[c] > 0.0 {
-                velocity[3 * c] = sum_flux[3 * c] / sum_theta[c];
-                velocity[3 * c + 1] = sum_flux[3 * c + 1] / sum_theta[c];
-            }
+        let mut cells = Arrays::new();
+        for q in &spec.mixture {
+            cells.insert(q.to_string(), sample.cells(quantity(q.as_str(), Place::Mixture)?, None).unwrap_or_default());
         }
-        Snapshot {
+        Ok(Snapshot {
             case: sim.case.name.clone(),
             program: program(),
             time: sim.time,
@@ -416,18 +285,26 @@ impl Snapshot {
             ny: g.ny,
             origin: [g.origin.x, g.origin.y],
             spacing: g.h,
-            pressure: sim.pressure.clone(),
-            vorticity: vorticity(g, &velocity, px, py),
-            velocity,
+            cells,
             fields,
-        }
+        })
+    }
+
+    /// The mixture's cell array of quantity `name`, if written.
+    pub fn get(&self, name: &str) -> Option<&[Real]> {
+        self.cells.get(name).map(Vec::as_slice)
+    }
+
+    /// The field named `name` (as in the case).
+    pub fn field(&self, name: &str) -> Option<&FieldData> {
+        self.fields.iter().find(|f| f.name == name)
     }
 
     /// The HDF5 file's bytes.
     pub fn to_hdf5(&self) -> Result<Vec<u8>, Error> {
+        let n_cells = self.nx * self.ny;
         let (nx, ny) = (self.nx as u64, self.ny as u64);
-        let scalar = [ny, nx];
-        let vector = [ny, nx, 3];
+        let cell_shape = |len: usize| if len == 3 * n_cells { vec![ny, nx, 3] } else { vec![ny, nx] };
         let mut b = FileBuilder::new();
         // the HDF5 1.8 format (version 2 superblock, contiguous datasets, no filters):
         // readable by every HDF5 library since 1.8, VisIt's and MATLAB's included
@@ -441,36 +318,32 @@ impl Snapshot {
         b.set_attr("origin", AttrValue::F64Array(self.origin.to_vec()));
         b.set_attr("spacing", AttrValue::F64(self.spacing));
         b.set_attr("fields", AttrValue::StringArray(self.fields.iter().map(|f| f.group.clone()).collect()));
-        let attrs = |units: &str, what: &str| {
+        let attrs = |(units, what): (&str, &str)| {
             [("units", AttrValue::String(units.into())), ("description", AttrValue::String(what.into()))]
         };
-        let mut put = |name: &str, data: &[Real], shape: &[u64], units: &str, what: &str| {
+        for (name, data) in &self.cells {
             let d = b.create_dataset(name);
+            d.with_f64_data(data).with_shape(&cell_shape(data.len()));
+            for (k, v) in attrs(describe(name, Place::Mixture)) {
+                d.set_attr(k, v);
+            }
+        }
+        let put = |g: &mut GroupBuilder, name: &str, data: &[Real], shape: &[u64], place: Place| {
+            let d = g.create_dataset(name);
             d.with_f64_data(data).with_shape(shape);
-            for (k, v) in attrs(units, what) {
+            for (k, v) in attrs(describe(name, place)) {
                 d.set_attr(k, v);
             }
         };
-        put("pressure", &self.pressure, &scalar, "force/area", "pressure at cell centres");
-        put("velocity", &self.velocity, &vector, "length/time", "mixture velocity sum(theta u)/sum(theta), z = 0");
-        put("vorticity", &self.vorticity, &scalar, "1/time", "dv/dx - du/dy of the mixture velocity");
         let mut fields = b.create_group("fields");
         for f in &self.fields {
             let mut g = fields.create_group(&f.group);
             g.set_attr("name", AttrValue::String(f.name.clone()));
             g.set_attr("frame", AttrValue::String(f.frame.clone()));
             g.set_attr("material_density", AttrValue::F64(f.material_density));
-            let put = |g: &mut GroupBuilder, name: &str, data: &[Real], shape: &[u64], units: &str, what: &str| {
-                let d = g.create_dataset(name);
-                d.with_f64_data(data).with_shape(shape);
-                for (k, v) in attrs(units, what) {
-                    d.set_attr(k, v);
-                }
-            };
-            put(&mut g, "theta", &f.theta, &scalar, "-", "volume fraction");
-            put(&mut g, "velocity", &f.velocity, &vector, "length/time", "velocity at cell centres, z = 0");
-            put(&mut g, "vorticity", &f.vorticity, &scalar, "1/time", "dv/dx - du/dy of the field's velocity");
-            put(&mut g, "density", &f.density, &scalar, "mass/volume", "bulk density theta rho0");
+            for (name, data) in &f.cells {
+                put(&mut g, name, data, &cell_shape(data.len()), Place::Field);
+            }
             if let Some(p) = &f.points {
                 let n = p.len() as u64;
                 let mut pg = g.create_group("points");
@@ -478,13 +351,13 @@ impl Snapshot {
                 if !p.bodies.is_empty() {
                     pg.set_attr("bodies", AttrValue::StringArray(p.bodies.clone()));
                 }
-                put(&mut pg, "position", &p.position, &[n, 3], "length", "material point positions, z = 0");
-                put(&mut pg, "velocity", &p.velocity, &[n, 3], "length/time", "material point velocities, z = 0");
-                put(&mut pg, "volume", &p.volume, &[n], "volume", "current volume (area x unit depth)");
-                put(&mut pg, "stress", &p.stress, &[n, 3], "force/area", "Cauchy stress xx, yy, xy");
+                for (name, data) in &p.values {
+                    let shape = if data.len() == 3 * p.len() && n > 0 { vec![n, 3] } else { vec![n] };
+                    put(&mut pg, name, data, &shape, Place::Points);
+                }
                 let d = pg.create_dataset("body");
                 d.with_i64_data(&p.body).with_shape(&[n]);
-                for (k, v) in attrs("-", "index of the point's body in the attribute `bodies`, -1 for none") {
+                for (k, v) in attrs(("-", "index of the point's body in the attribute `bodies`, -1 for none")) {
                     d.set_attr(k, v);
                 }
                 g.add_group(pg.finish());
@@ -500,7 +373,8 @@ impl Snapshot {
         write_atomically(path, &self.to_hdf5()?)
     }
 
-    /// Reads a snapshot file back.
+    /// Reads a snapshot file back: every dataset of the root, of each field's group and
+    /// of its points.
     pub fn read(path: &Path) -> Result<Snapshot, Error> {
         let err = |e: hdf5_pure::Error| model_error(path, e);
         let file = hdf5_pure::File::open(path).map_err(err)?;
@@ -518,19 +392,25 @@ impl Snapshot {
             return Err(missing("cells"));
         }
         let f64s = |name: &str| file.dataset(name).and_then(|d| d.read_f64()).map_err(err);
+        let arrays = |base: &str, names: Vec<String>, skip: &[&str]| -> Result<Arrays, Error> {
+            let mut out = Arrays::new();
+            for n in names.into_iter().filter(|n| !skip.contains(&n.as_str())) {
+                let values = f64s(&format!("{base}{n}"))?;
+                out.insert(n, values);
+            }
+            Ok(out)
+        };
         let groups = root.get("fields").and_then(AttrValue::as_strings).ok_or_else(|| missing("fields"))?;
         let mut fields = Vec::new();
         for group in groups {
             let base = format!("fields/{group}");
-            let a = file.group(&base).and_then(|g| g.attrs()).map_err(err)?;
+            let fg = file.group(&base).map_err(err)?;
+            let a = fg.attrs().map_err(err)?;
             let points = match file.group(&format!("{base}/points")) {
                 Ok(pg) => {
                     let pa = pg.attrs().map_err(err)?;
                     Some(PointData {
-                        position: f64s(&format!("{base}/points/position"))?,
-                        velocity: f64s(&format!("{base}/points/velocity"))?,
-                        volume: f64s(&format!("{base}/points/volume"))?,
-                        stress: f64s(&format!("{base}/points/stress"))?,
+                        values: arrays(&format!("{base}/points/"), pg.datasets().map_err(err)?, &["body"])?,
                         body: file.dataset(&format!("{base}/points/body")).and_then(|d| d.read_i64()).map_err(err)?,
                         bodies: pa
                             .get("bodies")
@@ -546,10 +426,7 @@ impl Snapshot {
                 group: group.clone(),
                 frame: string(&a, "frame")?,
                 material_density: real(&a, "material_density")?,
-                theta: f64s(&format!("{base}/theta"))?,
-                velocity: f64s(&format!("{base}/velocity"))?,
-                vorticity: f64s(&format!("{base}/vorticity"))?,
-                density: f64s(&format!("{base}/density"))?,
+                cells: arrays(&format!("{base}/"), fg.datasets().map_err(err)?, &[])?,
                 points,
             });
         }
@@ -562,12 +439,22 @@ impl Snapshot {
             ny: cells[1] as usize,
             origin: [origin[0], origin[1]],
             spacing: real(&root, "spacing")?,
-            pressure: f64s("pressure")?,
-            velocity: f64s("velocity")?,
-            vorticity: f64s("vorticity")?,
+            cells: arrays("", file.root().datasets().map_err(err)?, &[])?,
             fields,
         })
     }
+}
+
+/// An array of a snapshot as the XDMF lists it: its name and whether it is a vector.
+type Listed = Vec<(String, bool)>;
+
+/// What the XDMF needs to know of one field of a written snapshot.
+#[derive(Clone, Debug, PartialEq)]
+struct FieldEntry {
+    group: String,
+    cells: Listed,
+    /// The point count and the point arrays (`None` for a field without points).
+    points: Option<(usize, Listed)>,
 }
 
 /// What the XDMF needs to know of one written snapshot.
@@ -576,14 +463,37 @@ struct Entry {
     file: String,
     time: Real,
     step: u64,
-    /// Field groups with their point counts (`None` for a field without points).
-    fields: Vec<(String, Option<usize>)>,
+    cells: Listed,
+    fields: Vec<FieldEntry>,
 }
 
 impl Entry {
     /// The output index in the file name.
     fn index(&self) -> Option<usize> {
         self.file.strip_prefix("snapshot_")?.strip_suffix(".h5")?.parse().ok()
+    }
+
+    /// What the XDMF lists of `snap`, written as `file`.
+    fn of(snap: &Snapshot, file: String) -> Entry {
+        let n = snap.nx * snap.ny;
+        let listed = |a: &Arrays, count: usize| -> Listed {
+            a.iter().map(|(k, v)| (k.clone(), count > 0 && v.len() == 3 * count)).collect()
+        };
+        Entry {
+            file,
+            time: snap.time,
+            step: snap.step,
+            cells: listed(&snap.cells, n),
+            fields: snap
+                .fields
+                .iter()
+                .map(|f| FieldEntry {
+                    group: f.group.clone(),
+                    cells: listed(&f.cells, n),
+                    points: f.points.as_ref().map(|p| (p.len(), listed(&p.values, p.len()))),
+                })
+                .collect(),
+        }
     }
 
     /// What the XDMF needs of the snapshot file `path`, read from it.
@@ -595,19 +505,37 @@ impl Entry {
         let time = root.get("time").and_then(AttrValue::as_f64).ok_or_else(|| missing("time"))?;
         let step = root.get("step").and_then(AttrValue::as_i64).ok_or_else(|| missing("step"))?;
         let groups = root.get("fields").and_then(AttrValue::as_strings).ok_or_else(|| missing("fields"))?;
+        // a vector has one more dimension than a scalar of its place
+        let listed = |base: &str, names: Vec<String>, scalar_rank: usize| -> Result<Listed, Error> {
+            let mut out = Listed::new();
+            for n in names {
+                let rank = file.dataset(&format!("{base}{n}")).and_then(|d| d.shape()).map_err(err)?.len();
+                out.push((n, rank > scalar_rank));
+            }
+            Ok(out)
+        };
         let mut fields = Vec::new();
         for g in groups {
-            let count = match file.group(&format!("fields/{g}/points")) {
-                Ok(pg) => Some(
-                    pg.attrs().map_err(err)?.get("count").and_then(AttrValue::as_i64).ok_or_else(|| missing("count"))?
-                        as usize,
-                ),
+            let base = format!("fields/{g}");
+            let names = file.group(&base).and_then(|fg| fg.datasets()).map_err(err)?;
+            let points = match file.group(&format!("{base}/points")) {
+                Ok(pg) => {
+                    let count = pg
+                        .attrs()
+                        .map_err(err)?
+                        .get("count")
+                        .and_then(AttrValue::as_i64)
+                        .ok_or_else(|| missing("count"))? as usize;
+                    let names = pg.datasets().map_err(err)?.into_iter().filter(|n| n != "body").collect();
+                    Some((count, listed(&format!("{base}/points/"), names, 1)?))
+                }
                 Err(_) => None,
             };
-            fields.push((g.clone(), count));
+            fields.push(FieldEntry { group: g.clone(), cells: listed(&format!("{base}/"), names, 2)?, points });
         }
+        let cells = listed("", file.root().datasets().map_err(err)?, 2)?;
         let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        Ok(Entry { file, time, step: step as u64, fields })
+        Ok(Entry { file, time, step: step as u64, cells, fields })
     }
 }
 
@@ -620,14 +548,15 @@ pub struct Snapshots {
     grid: Grid,
     written: Vec<Entry>,
     next_index: usize,
+    spec: SnapshotSpec,
 }
 
 impl Snapshots {
     /// Prepares `dir/snapshots/`. The snapshots of an earlier run there are removed, except,
     /// when the simulation continues from a checkpoint (`sim.steps > 0`), those of the steps
     /// before it, which stay in the XDMF and keep their numbers.
-    pub fn create(sim: &Simulation, dir: &Path, schedule: Schedule) -> Result<Self, Error> {
-        let interval = schedule.interval;
+    pub fn create(sim: &Simulation, dir: &Path, spec: SnapshotSpec) -> Result<Self, Error> {
+        let interval = spec.interval;
         if !(interval.is_finite() && interval > 0.0) {
             return Err(Error::invalid(
                 "output.snapshots.interval",
@@ -671,6 +600,7 @@ impl Snapshots {
             grid: sim.grid.clone(),
             written: kept,
             next_index,
+            spec,
         })
     }
 
@@ -686,16 +616,11 @@ impl Snapshots {
 
     /// Writes the snapshot of the current state and rewrites the XDMF.
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
-        let snap = Snapshot::of(sim);
+        let snap = Snapshot::with(sim, &self.spec)?;
         let file = file_name(self.next_index);
         snap.write(&self.dir.join(&file))?;
         self.next_index += 1;
-        self.written.push(Entry {
-            file,
-            time: snap.time,
-            step: snap.step,
-            fields: snap.fields.iter().map(|f| (f.group.clone(), f.points.as_ref().map(PointData::len))).collect(),
-        });
+        self.written.push(Entry::of(&snap, file));
         write_atomically(&self.xdmf, xdmf(&self.case, &self.grid, &self.written).as_bytes())
     }
 }
@@ -789,12 +714,11 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
                 .replace("<DataItem", "<DataItem Name=\"Origin\""),
             item("3", "Float", "XML", &format!("{h} {h} {h}")).replace("<DataItem", "<DataItem Name=\"Spacing\""),
         );
-        let mut cells = vec![("pressure".to_string(), false, "/pressure".to_string())];
-        cells.push(("velocity".into(), true, "/velocity".into()));
-        cells.push(("vorticity".into(), false, "/vorticity".into()));
-        for (g, _) in &e.fields {
-            for (q, v) in [("theta", false), ("velocity", true), ("vorticity", false), ("density", false)] {
-                cells.push((format!("{g}_{q}"), v, format!("/fields/{g}/{q}")));
+        let mut cells: Vec<(String, bool, String)> =
+            e.cells.iter().map(|(q, v)| (q.clone(), *v, format!("/{q}"))).collect();
+        for f in &e.fields {
+            for (q, v) in &f.cells {
+                cells.push((format!("{}_{q}", f.group), *v, format!("/fields/{}/{q}", f.group)));
             }
         }
         for (name, v, path) in cells {
@@ -802,8 +726,11 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
             s.push_str(&attribute(&name, kind, "Cell", hdf(dims, "Float", &path)));
         }
         s.push_str("        </Grid>\n");
-        for (g, n) in &e.fields {
-            let Some(n) = n.filter(|n| *n > 0) else { continue };
+        for f in &e.fields {
+            // the points' grid needs their positions
+            let drawn = |(n, l): &&(usize, Listed)| *n > 0 && l.iter().any(|(q, _)| q == "position");
+            let Some((n, listed)) = f.points.as_ref().filter(drawn) else { continue };
+            let g = &f.group;
             let base = format!("/fields/{g}/points");
             let _ = writeln!(
                 s,
@@ -813,12 +740,13 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
                 xml_escape(g),
                 hdf(&format!("{n} 3"), "Float", &format!("{base}/position"))
             );
-            for (q, kind, dims, number) in [
-                ("velocity", "Vector", format!("{n} 3"), "Float"),
-                ("volume", "Scalar", format!("{n}"), "Float"),
-                ("stress", "Vector", format!("{n} 3"), "Float"),
-                ("body", "Scalar", format!("{n}"), "Int"),
-            ] {
+            let arrays = listed
+                .iter()
+                .filter(|(q, _)| q != "position")
+                .map(|(q, v)| (q.as_str(), *v, "Float"))
+                .chain([("body", false, "Int")]);
+            for (q, v, number) in arrays {
+                let (kind, dims) = if v { ("Vector", format!("{n} 3")) } else { ("Scalar", format!("{n}")) };
                 s.push_str(&attribute(q, kind, "Node", hdf(&dims, number, &format!("{base}/{q}"))));
             }
             s.push_str("        </Grid>\n");
@@ -838,17 +766,21 @@ mod tests {
     fn vorticity_of_a_rigid_rotation_is_twice_the_angular_velocity() {
         let g = Grid::new(6, 5, 0.5, Vector::new(-1.0, 2.0));
         let w = 0.7;
-        let mut vel = vec![0.0; 3 * g.n_cells()];
+        let mut vel = [vec![0.0; g.n_cells()], vec![0.0; g.n_cells()]];
         for j in 0..g.ny {
             for i in 0..g.nx {
                 let p = g.cell_center(i, j);
-                vel[3 * g.cell(i, j)] = -w * p.y;
-                vel[3 * g.cell(i, j) + 1] = w * p.x;
+                vel[0][g.cell(i, j)] = -w * p.y;
+                vel[1][g.cell(i, j)] = w * p.x;
             }
         }
-        for o in vorticity(&g, &vel, false, false) {
+        for o in quantity::vorticity(&g, [false, false], &vel) {
             assert!((o - 2.0 * w).abs() < 1e-12, "{o}");
         }
+    }
+
+    fn arrays(v: &[(&str, Vec<Real>)]) -> Arrays {
+        v.iter().map(|(k, x)| (k.to_string(), x.clone())).collect()
     }
 
     #[test]
@@ -858,10 +790,12 @@ mod tests {
             group: "sand_grains".into(),
             frame: "lagrangian".into(),
             material_density: 2.5,
-            theta: vec![0.0, 0.5],
-            velocity: vec![0.0, 1.0, 0.0, 2.0, 3.0, 0.0],
-            vorticity: vec![0.1, -0.1],
-            density: vec![0.0, 1.25],
+            cells: arrays(&[
+                ("theta", vec![0.0, 0.5]),
+                ("velocity", vec![0.0, 1.0, 0.0, 2.0, 3.0, 0.0]),
+                ("vorticity", vec![0.1, -0.1]),
+                ("density", vec![0.0, 1.25]),
+            ]),
             points: Some(PointData::default()),
         };
         let snap = Snapshot {
@@ -873,9 +807,11 @@ mod tests {
             ny: 1,
             origin: [-1.0, 0.5],
             spacing: 0.1,
-            pressure: vec![1.0, f64::MIN_POSITIVE],
-            velocity: vec![0.5, 1.5, 0.0, 2.0, 3.0, 0.0],
-            vorticity: vec![0.0, 1e300],
+            cells: arrays(&[
+                ("pressure", vec![1.0, f64::MIN_POSITIVE]),
+                ("velocity", vec![0.5, 1.5, 0.0, 2.0, 3.0, 0.0]),
+                ("vorticity", vec![0.0, 1e300]),
+            ]),
             fields: vec![field],
         };
         let path = std::env::temp_dir().join(format!("multifield-snapshot-{}.h5", std::process::id()));
@@ -883,13 +819,15 @@ mod tests {
         assert_eq!(std::fs::read(&path).unwrap()[8], 2, "a version 2 superblock (HDF5 1.8)");
         assert_eq!(Snapshot::read(&path).unwrap(), snap);
         let entry = Entry::read(&path).unwrap();
-        assert_eq!((entry.step, entry.time, entry.fields), (7, 0.25, vec![("sand_grains".to_string(), Some(0))]));
+        assert_eq!(entry.fields, Entry::of(&snap, file_name(0)).fields, "the vectors found from the datasets' shapes");
+        assert_eq!((entry.step, entry.time, &entry.fields[0].points), (7, 0.25, &Some((0, Vec::new()))));
+        assert!(entry.cells.contains(&("velocity".into(), true)) && entry.cells.contains(&("pressure".into(), false)));
         std::fs::remove_file(&path).unwrap();
         // no grid of zero points in the XDMF
-        let e = Entry { file: file_name(0), time: 0.0, step: 0, fields: vec![("sand_grains".into(), Some(0))] };
-        let text = xdmf("tiny", &Grid::new(2, 1, 0.1, Vector::new(-1.0, 0.5)), &[e]);
+        let text = xdmf("tiny", &Grid::new(2, 1, 0.1, Vector::new(-1.0, 0.5)), &[entry]);
         assert!(!text.contains("Polyvertex") && text.contains("Dimensions=\"2 2 3\""), "{text}");
         assert!(text.contains(">0 0.5 -1</DataItem>"), "origin in z, y, x order: {text}");
+        assert!(text.contains("Name=\"sand_grains_velocity\" AttributeType=\"Vector\""), "{text}");
     }
 
     #[test]

@@ -17,6 +17,11 @@ fn link() {
 /// Runs the channel to `time.end` with `overrides`; returns the x-velocity averaged along x
 /// in each row of cells (bottom to top).
 fn profile(overrides: &[&str]) -> Vec<f64> {
+    row_means(&run(overrides))
+}
+
+/// The channel run to `time.end` with `overrides`.
+fn run(overrides: &[&str]) -> Simulation {
     link();
     let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     let case = Case::load(Path::new(CASE), &overrides).expect("valid case");
@@ -25,6 +30,10 @@ fn profile(overrides: &[&str]) -> Vec<f64> {
         let d = sim.step().expect("steps");
         assert!(d.kinetic_energy.is_finite(), "blew up at step {}", d.step);
     }
+    sim
+}
+
+fn row_means(sim: &Simulation) -> Vec<f64> {
     let g = &sim.grid;
     let u = &sim.fields[0].state.velocity.u;
     (0..g.ny).map(|j| (0..g.nx).map(|i| u[g.xface(i, j)]).sum::<f64>() / g.nx as f64).collect()
@@ -69,7 +78,8 @@ fn shear_thinning_flattens_the_channel_profile() {
     // Row means at cell centres: the discrete mean/max on 16 rows differs from the
     // continuous one by O(h²).
     let newtonian = profile(&["time.end=5.0", "fields.fluid.stress.0.params.index=1.0"]);
-    let thinning = profile(&[]);
+    let sim = run(&[]);
+    let thinning = row_means(&sim);
     let (rn, rt) = (mean_over_max(&newtonian), mean_over_max(&thinning));
     let (un, ut) = (newtonian.iter().cloned().fold(0.0, f64::max), thinning.iter().cloned().fold(0.0, f64::max));
     println!("newtonian: u_max {un:.4}, mean/max {rn:.4}; power law n = 0.5: u_max {ut:.4}, mean/max {rt:.4}");
@@ -81,4 +91,40 @@ fn shear_thinning_flattens_the_channel_profile() {
     for (a, b) in thinning.iter().zip(thinning.iter().rev()) {
         assert!((a - b).abs() < 1e-6 * ut, "asymmetric profile: {a} vs {b}");
     }
+}
+
+/// The plugin's output quantity, computed through the registry as a snapshot computes it,
+/// against the steady power-law flow's shear rate γ̇ = |du/dy| = (ρg/k)^(1/n) |y − H/2|^(1/n)
+/// = 25 (y − 1/2)² (n = 0.5, k = 0.2, ρg = 1), away from the walls, where the
+/// differences are one-sided.
+#[test]
+fn the_plugin_quantity_is_listed_and_gives_the_shear_rate() {
+    use multifield::core::quantity::{find, quantities, Place, Sample};
+    link();
+    assert!(quantities().iter().any(|q| q.name == "shear_rate"), "listed by `multifield quantities`");
+    let q = find("shear_rate", Place::Field).expect("a field quantity");
+    assert!(find("shear_rate", Place::Mixture).is_err(), "no mixture form");
+    let sim = run(&[]);
+    let g = &sim.grid;
+    let rate = Sample::of(&sim).cells(q, Some(0)).unwrap();
+    let mut worst: f64 = 0.0;
+    for j in 2..g.ny - 2 {
+        let y = g.origin.y + (j as f64 + 0.5) * g.h;
+        let exact = 25.0 * (y - 0.5) * (y - 0.5);
+        for i in 0..g.nx {
+            worst = worst.max((rate[g.cell(i, j)] - exact).abs());
+        }
+    }
+    // the peak is 25 (1/2 − 2.5 h)² = 15.3; a central difference over 2h of the cubic
+    // u(y) errs by h² u‴/6 = 50 h²/6 = 0.033, and the discrete profile by about as much
+    println!("shear rate: worst error {worst:.4} against 25 (y − 1/2)² (peak 15.3)");
+    assert!(worst < 0.1, "shear rate off by {worst}");
+    // and it goes into a snapshot under its name, with its units
+    let spec = multifield::core::case::SnapshotSpec {
+        fields: vec![multifield::core::case::QuantityName("shear_rate".into())],
+        ..multifield::core::case::SnapshotSpec::every(1.0)
+    };
+    let snap = multifield::snapshot::Snapshot::with(&sim, &spec).unwrap();
+    assert_eq!(snap.fields[0].cells.keys().collect::<Vec<_>>(), ["shear_rate"]);
+    assert_eq!(snap.fields[0].get("shear_rate").unwrap(), rate.as_slice());
 }

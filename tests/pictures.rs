@@ -2,7 +2,7 @@
 //! run (PNG and SVG). The PNG files are decoded here (a small inflate below), so the tests
 //! read the pixels the run wrote.
 
-use multifield::core::case::{Case, PictureQuantity, PictureSpec};
+use multifield::core::case::{Case, PictureSpec, QuantityName};
 use multifield::core::simulation::Simulation;
 use multifield::picture::{diverging, sequential, Layout};
 use multifield::run::{run, RunOptions};
@@ -176,9 +176,10 @@ fn taylor_green_frame_shows_the_vorticity_and_its_sign() {
 #[test]
 fn speed_and_volume_fraction_use_the_sequential_map() {
     let dir = fresh_dir("maps");
-    // speed of the Taylor–Green vortex: |u| = 1 at (π/2, π), 0 at (π/2, π/2)
+    // the velocity of the Taylor–Green vortex, drawn as |u| with its components interpolated
+    // apart: |u| = 1 at (π/2, π), 0 at (π/2, π/2)
     let sim = Simulation::new(&load("examples/taylor_green.ron", &[])).unwrap();
-    let spec = PictureSpec { interval: 0.1, quantity: PictureQuantity::Speed, width: 128 };
+    let spec = picture("velocity", 128);
     let lay = multifield::picture::write_frame(&sim, &spec, &dir.join("speed.png")).unwrap();
     let png = decode_png(&std::fs::read(dir.join("speed.png")).unwrap());
     let size = [2.0 * PI, 2.0 * PI];
@@ -191,7 +192,7 @@ fn speed_and_volume_fraction_use_the_sequential_map() {
     assert!(close(at(PI / 2.0, PI / 2.0), sequential(0.0), 16), "{:?}", at(PI / 2.0, PI / 2.0));
     // the water's volume fraction around the seed's disks: 1 in the water, 0 in a disk
     let sim = Simulation::new(&load("examples/dkt_seed.ron", &[])).unwrap();
-    let spec = PictureSpec { interval: 0.1, quantity: PictureQuantity::VolumeFraction, width: 200 };
+    let spec = picture("theta", 200);
     let lay = multifield::picture::write_frame(&sim, &spec, &dir.join("theta.png")).unwrap();
     let png = decode_png(&std::fs::read(dir.join("theta.png")).unwrap());
     let (origin, size) = ([0.0, 0.0], [2.0, 8.0]);
@@ -289,7 +290,7 @@ fn frame_time_at_320_by_1280_cells() {
     );
     let sim = Simulation::new(&case).unwrap();
     let dir = fresh_dir("timing");
-    let spec = PictureSpec { interval: 0.1, quantity: PictureQuantity::Vorticity, width: 640 };
+    let spec = picture("vorticity", 640);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     for k in 0..4 {
         let t = Instant::now();
@@ -520,4 +521,9 @@ fn inflate(data: &[u8]) -> Vec<u8> {
             return out;
         }
     }
+}
+
+/// A picture of `quantity` (the mixture's, or the field that fills the rest) every 0.1.
+fn picture(quantity: &str, width: u32) -> PictureSpec {
+    PictureSpec { interval: 0.1, quantity: QuantityName(quantity.into()), field: None, width }
 }

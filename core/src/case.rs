@@ -8,6 +8,7 @@
 use crate::boundary::Boundaries;
 use crate::error::{Error, Result};
 use crate::math::Real;
+use crate::quantity::Place;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -407,7 +408,7 @@ pub struct OutputSpec {
     pub interval: Real,
     /// HDF5 snapshots of every field (`snapshots/`, with an XDMF sidecar for ParaView).
     #[serde(default)]
-    pub snapshots: Option<Schedule>,
+    pub snapshots: Option<SnapshotSpec>,
     /// PNG pictures of the flow (`frames/`).
     #[serde(default)]
     pub pictures: Option<PictureSpec>,
@@ -439,27 +440,127 @@ pub struct Schedule {
     pub interval: Real,
 }
 
-/// What a picture shows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum PictureQuantity {
-    /// Vorticity ∂v/∂x − ∂u/∂y of the mixture velocity (diverging colour map).
-    #[default]
-    Vorticity,
-    /// Speed |u| of the mixture velocity.
-    Speed,
-    /// Volume fraction of the field that fills the rest (or of the first field).
-    VolumeFraction,
+/// HDF5 snapshots: when, and which quantities ([`crate::quantity`]; `multifield
+/// quantities` lists them).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SnapshotSpec {
+    /// Simulated time between snapshots (time).
+    pub interval: Real,
+    /// Cell quantities of the mixture (`/<name>`). Default: pressure, velocity, vorticity.
+    #[serde(default = "default_mixture_quantities", skip_serializing_if = "is_default_mixture")]
+    pub mixture: Vec<QuantityName>,
+    /// Cell quantities of every field (`/fields/<f>/<name>`). Default: theta, velocity,
+    /// vorticity, density.
+    #[serde(default = "default_field_quantities", skip_serializing_if = "is_default_fields")]
+    pub fields: Vec<QuantityName>,
+    /// Quantities on the points of every field that has points
+    /// (`/fields/<f>/points/<name>`; the points' `body` is always written). Default:
+    /// position, velocity, volume, stress.
+    #[serde(default = "default_point_quantities", skip_serializing_if = "is_default_points")]
+    pub points: Vec<QuantityName>,
+}
+
+fn names(v: &[&str]) -> Vec<QuantityName> {
+    v.iter().map(|s| QuantityName(s.to_string())).collect()
+}
+/// The mixture's quantities a snapshot holds by default.
+pub const DEFAULT_MIXTURE_QUANTITIES: [&str; 3] = ["pressure", "velocity", "vorticity"];
+/// Each field's quantities a snapshot holds by default.
+pub const DEFAULT_FIELD_QUANTITIES: [&str; 4] = ["theta", "velocity", "vorticity", "density"];
+/// The points' quantities a snapshot holds by default.
+pub const DEFAULT_POINT_QUANTITIES: [&str; 4] = ["position", "velocity", "volume", "stress"];
+fn default_mixture_quantities() -> Vec<QuantityName> {
+    names(&DEFAULT_MIXTURE_QUANTITIES)
+}
+fn default_field_quantities() -> Vec<QuantityName> {
+    names(&DEFAULT_FIELD_QUANTITIES)
+}
+fn default_point_quantities() -> Vec<QuantityName> {
+    names(&DEFAULT_POINT_QUANTITIES)
+}
+fn is_default_mixture(v: &[QuantityName]) -> bool {
+    v == default_mixture_quantities()
+}
+fn is_default_fields(v: &[QuantityName]) -> bool {
+    v == default_field_quantities()
+}
+fn is_default_points(v: &[QuantityName]) -> bool {
+    v == default_point_quantities()
+}
+
+impl SnapshotSpec {
+    /// Snapshots every `interval` with the default quantities.
+    pub fn every(interval: Real) -> Self {
+        Self {
+            interval,
+            mixture: default_mixture_quantities(),
+            fields: default_field_quantities(),
+            points: default_point_quantities(),
+        }
+    }
+}
+
+/// The name of an output quantity ([`crate::quantity`]), e.g. `"vorticity"`. The
+/// identifiers of the former closed list are still read: `Vorticity`, `Speed` (as
+/// `"velocity"`, which a picture draws as |u|) and `VolumeFraction` (as `"theta"`).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(transparent)]
+pub struct QuantityName(pub String);
+
+impl QuantityName {
+    /// The name.
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::fmt::Display for QuantityName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl<'de> Deserialize<'de> for QuantityName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        // Untagged, so that RON gives a bare identifier (`Vorticity`) as its name too.
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Name {
+            Name(String),
+        }
+        let Name::Name(s) = Name::deserialize(d).map_err(|_| {
+            serde::de::Error::custom(
+                "a quantity is named by a string, e.g. \"vorticity\" (`multifield quantities` lists them)",
+            )
+        })?;
+        let legacy = match s.as_str() {
+            "Vorticity" => "vorticity",
+            "Speed" => "velocity",
+            "VolumeFraction" => "theta",
+            other => other,
+        };
+        Ok(QuantityName(legacy.to_string()))
+    }
+}
+
+fn default_picture_quantity() -> QuantityName {
+    QuantityName("vorticity".into())
 }
 
 /// PNG pictures of the flow.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PictureSpec {
     /// Simulated time between pictures (time).
     pub interval: Real,
-    /// What the colours show.
-    #[serde(default)]
-    pub quantity: PictureQuantity,
+    /// What the colours show: a cell quantity ([`crate::quantity`]). Default: vorticity.
+    #[serde(default = "default_picture_quantity")]
+    pub quantity: QuantityName,
+    /// The field whose quantity is drawn. Default: the mixture's, or, for a quantity
+    /// that only fields have (`theta`), the field that fills the rest (or the first).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
     /// Width of the picture in pixels (the height follows the domain's aspect).
     #[serde(default = "default_picture_width")]
     pub width: u32,
@@ -835,8 +936,8 @@ impl Case {
             return bad("output.interval", format!("{}: must be zero (every step) or positive", self.output.interval));
         }
         for (path, interval) in [
-            ("output.snapshots.interval", self.output.snapshots.map(|s| s.interval)),
-            ("output.pictures.interval", self.output.pictures.map(|s| s.interval)),
+            ("output.snapshots.interval", self.output.snapshots.as_ref().map(|s| s.interval)),
+            ("output.pictures.interval", self.output.pictures.as_ref().map(|s| s.interval)),
             ("output.checkpoints.interval", self.output.checkpoints.map(|s| s.interval)),
         ] {
             if let Some(interval) = interval {
@@ -845,9 +946,47 @@ impl Case {
                 }
             }
         }
-        if let Some(p) = self.output.pictures {
+        if let Some(p) = &self.output.pictures {
             if !(16..=8192).contains(&p.width) {
                 return bad("output.pictures.width", format!("{}: must lie in 16..=8192 pixels", p.width));
+            }
+            let place = match &p.field {
+                Some(f) => {
+                    if !self.fields.iter().any(|s| &s.name == f) {
+                        let names: Vec<&str> = self.fields.iter().map(|s| s.name.as_str()).collect();
+                        return bad(
+                            "output.pictures.field",
+                            format!("no field `{f}`; the fields are: {}", names.join(", ")),
+                        );
+                    }
+                    Place::Field
+                }
+                None => match crate::quantity::find(p.quantity.as_str(), Place::Mixture) {
+                    Ok(_) => Place::Mixture,
+                    Err(m) if crate::quantity::find(p.quantity.as_str(), Place::Field).is_err() => {
+                        return bad("output.pictures.quantity", m);
+                    }
+                    Err(_) => Place::Field,
+                },
+            };
+            if let Err(m) = crate::quantity::find(p.quantity.as_str(), place) {
+                return bad("output.pictures.quantity", m);
+            }
+        }
+        if let Some(s) = &self.output.snapshots {
+            for (path, list, place) in [
+                ("output.snapshots.mixture", &s.mixture, Place::Mixture),
+                ("output.snapshots.fields", &s.fields, Place::Field),
+                ("output.snapshots.points", &s.points, Place::Points),
+            ] {
+                for (k, q) in list.iter().enumerate() {
+                    if let Err(m) = crate::quantity::find(q.as_str(), place) {
+                        return bad(path, m);
+                    }
+                    if list[..k].contains(q) {
+                        return bad(path, format!("`{q}` is listed twice"));
+                    }
+                }
             }
         }
         Ok(())

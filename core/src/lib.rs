@@ -20,6 +20,7 @@ pub mod immersed;
 pub mod math;
 pub mod plugin;
 pub mod poisson;
+pub mod quantity;
 pub mod registry;
 pub mod ron_value;
 pub mod simulation;

@@ -226,7 +226,12 @@ pub trait Frame: Send + Sync {
     fn warnings(&self, _grid: &Grid) -> Vec<String> {
         Vec::new()
     }
-    /// Downcasting, for output writers and tests.
+    /// The field's points, for output ([`crate::quantity`]): material points, or one per
+    /// body of a mass-point field. Default: None (a frame without points).
+    fn points(&self) -> Option<crate::quantity::PointSet> {
+        None
+    }
+    /// Downcasting, for checkpoints and tests.
     fn as_any(&self) -> &dyn Any;
     /// Mutable downcasting, for checkpoints and tests.
     fn as_any_mut(&mut self) -> &mut dyn Any;

@@ -21,6 +21,7 @@ use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{
     BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StressModel,
 };
+use multifield_core::quantity::PointSet;
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::state;
 use rayon::prelude::*;
@@ -1053,6 +1054,20 @@ impl Frame for Lagrangian {
 
     fn bodies(&self) -> Vec<BodyState> {
         self.bodies.iter().map(|b| b.state.clone()).collect()
+    }
+
+    fn points(&self) -> Option<PointSet> {
+        let p = &self.points;
+        Some(PointSet {
+            position: p.x.clone(),
+            velocity: p.v.clone(),
+            volume: (0..p.len()).map(|k| p.volume(k)).collect(),
+            mass: p.m.clone(),
+            stress: p.stress.clone(),
+            body: p.body.iter().map(|&b| b as i64 - 1).collect(),
+            bodies: self.bodies.iter().map(|b| b.state.name.clone()).collect(),
+            continuum: true,
+        })
     }
 
     fn max_speed(&self) -> Real {

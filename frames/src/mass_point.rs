@@ -27,8 +27,9 @@ use multifield_core::boundary::Boundaries;
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::geometry::disk_cell_fractions;
 use multifield_core::grid::Grid;
-use multifield_core::math::{Real, Vector};
+use multifield_core::math::{Matrix, Real, Vector};
 use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext};
+use multifield_core::quantity::{vorticity_at, PointSet};
 use multifield_core::registry::params_value;
 use multifield_core::state;
 use serde::{Deserialize, Serialize};
@@ -106,26 +107,12 @@ impl MassPoint {
     }
 
     /// Vorticity ∂v/∂x − ∂u/∂y of face velocities `(u, v)` at the centre of cell `c`
-    /// (central differences of cell-centred velocities, one-sided at walls).
+    /// ([`vorticity_at`] of the cell-centred velocities).
     fn vorticity(g: &Grid, bc: &Boundaries, u: &[Real], v: &[Real], c: usize) -> Real {
-        let (nx, ny) = (g.nx, g.ny);
-        let (i, j) = (c % nx, c / nx);
-        let uc = |i: usize, j: usize| 0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]);
-        let vc = |i: usize, j: usize| 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)]);
-        let step = |k: usize, n: usize, periodic: bool| -> (usize, usize, Real) {
-            if periodic {
-                ((k + n - 1) % n, (k + 1) % n, 2.0)
-            } else {
-                let lo = k.saturating_sub(1);
-                let hi = (k + 1).min(n - 1);
-                (lo, hi, (hi - lo) as Real)
-            }
+        let at = |i: usize, j: usize| {
+            [0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]), 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)])]
         };
-        let (il, ir, sx) = step(i, nx, bc.periodic_x());
-        let (jb, jt, sy) = step(j, ny, bc.periodic_y());
-        let dvdx = if sx > 0.0 { (vc(ir, j) - vc(il, j)) / (sx * g.h) } else { 0.0 };
-        let dudy = if sy > 0.0 { (uc(i, jt) - uc(i, jb)) / (sy * g.h) } else { 0.0 };
-        dvdx - dudy
+        vorticity_at(g, [bc.periodic_x(), bc.periodic_y()], at, c % g.nx, c / g.nx)
     }
 }
 
@@ -333,6 +320,20 @@ impl Frame for MassPoint {
 
     fn bodies(&self) -> Vec<BodyState> {
         self.points.iter().map(|p| p.state.clone()).collect()
+    }
+
+    fn points(&self) -> Option<PointSet> {
+        let states = self.points.iter().map(|p| &p.state);
+        Some(PointSet {
+            position: states.clone().map(|s| s.position).collect(),
+            velocity: states.clone().map(|s| s.velocity).collect(),
+            volume: states.clone().map(|s| s.volume).collect(),
+            mass: states.clone().map(|s| s.mass).collect(),
+            stress: vec![Matrix::zeros(); self.points.len()],
+            body: (0..self.points.len() as i64).collect(),
+            bodies: states.map(|s| s.name.clone()).collect(),
+            continuum: false,
+        })
     }
 
     fn warnings(&self, grid: &Grid) -> Vec<String> {
