@@ -11,7 +11,7 @@ use multifield::core::case::Case;
 use multifield::core::math::{Real, Vector};
 use multifield::core::plugin::{PointStressContext, StressKind, StressModel};
 use multifield::core::simulation::Simulation;
-use multifield::frames::collocated::Simd;
+use multifield::frames::lagrangian::collocated::Simd;
 use multifield::frames::lagrangian::Lagrangian;
 use std::path::Path;
 

@@ -11,9 +11,13 @@
 //! The transfer scheme and the shape function are values chosen in the case (`transfer`,
 //! `shape`), not solver types.
 
-use crate::collocated::{Collocated, Simd};
-use crate::scatter::{self, point_weights, PointsIn, Scatter};
-use crate::shape::{Shape, Weights1};
+pub mod collocated;
+pub mod scatter;
+pub mod shape;
+
+use collocated::{Collocated, Simd};
+use scatter::{point_weights, PointsIn, Scatter};
+use shape::{Shape, Weights1};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};

@@ -30,9 +30,9 @@
 //! its ghost nodes in there too; the grid update only reads the parts. Only the chunks of
 //! 8 nodes that the points' stencils reached are updated and cleared (a map per row): a
 //! splash that spans the box touches a few chunks per row away from the bulk.
-use crate::lagrangian::{Points, Transfer};
-use crate::scatter::map_axis;
-use crate::shape::Shape;
+use super::{Points, Transfer};
+use super::scatter::map_axis;
+use super::shape::Shape;
 use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::grid::Grid;
 use multifield_core::math::{Matrix, Real, Vector};
