@@ -16,8 +16,6 @@ pub mod scatter;
 pub mod shape;
 
 use collocated::{Collocated, Simd};
-use scatter::{point_weights, PointsIn, Scatter};
-use shape::{Shape, Weights1};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
@@ -28,7 +26,9 @@ use multifield_core::plugin::{
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::state;
 use rayon::prelude::*;
+use scatter::{point_weights, PointsIn, Scatter};
 use serde::{Deserialize, Serialize};
+use shape::{Shape, Weights1};
 use std::any::Any;
 use std::borrow::Cow;
 
