@@ -9,6 +9,7 @@ Needs a release build and Taichi 1.7 (this script installs nothing):
     python3 benches/taichi/compare.py --repeat 3 --threads 1 2
     python3 benches/taichi/compare.py --set 'fields.fluid.frame.params.grid="staggered"'  # the coupled grid
     MULTIFIELD_BIN=/other/target/release/multifield python3 benches/taichi/compare.py  # another build
+    python3 benches/taichi/compare.py --baseline-bin /tmp/multifield_before --repeat 3  # before/after
 
 Speed: particle-steps per second (8,192 points × steps / seconds) of
 - ours: `multifield run examples/mpm88.ron --threads N --quiet --set output.interval=0`,
@@ -22,7 +23,10 @@ Speed: particle-steps per second (8,192 points × steps / seconds) of
   `-fopenmp` added (more threads; per-thread grids summed node by node; run with
   GOMP_SPINCOUNT=10000 unless it or OMP_WAIT_POLICY is set): what this machine allows
   for the algorithm with no framework around it. `--no-bare` skips it.
-With `--repeat R` each is run R times, interleaved; the tables give the median rate of the
+With `--baseline-bin PATH` a second build of ours (e.g. the commit before a change) runs
+right after ours in every repetition, with the same case and overrides; its rates and its
+ratio to Taichi get their own table, and its ratio against ours. With `--repeat R` each
+is run R times, interleaved; the tables give the median rate of the
 R runs (the machine is shared) and, in parentheses, the best; the ratios are of medians.
 The load average before each run is printed. The bare kernel's checksum (kinetic
 energy and mean height every 500 steps) is compared with Taichi's one-thread history.
@@ -159,6 +163,7 @@ def physics(ours_csv, taichi_csv, every=50):
 def main():
     ap = argparse.ArgumentParser(description="mpm88: multifield against Taichi (speed and physics)")
     ap.add_argument("--bin", default=os.environ.get("MULTIFIELD_BIN", ROOT / "target/release/multifield"))
+    ap.add_argument("--baseline-bin", default=None, help="a second build of ours, run interleaved with --bin")
     ap.add_argument("--case", default=ROOT / "examples/mpm88.ron")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeat", type=int, default=1, help="runs per configuration; medians and bests are reported")
@@ -178,6 +183,9 @@ def main():
     binary = Path(args.bin)
     if not binary.exists():
         sys.exit(f"{binary} not found: run `cargo build --release` first")
+    baseline = Path(args.baseline_bin) if args.baseline_bin else None
+    if baseline and not baseline.exists():
+        sys.exit(f"{baseline} not found")
     try:
         import taichi  # noqa: F401
     except ImportError:
@@ -189,10 +197,18 @@ def main():
 
     bins = None if args.no_bare else build_bare(args.cc, out)
     results = {}
+    base_results = {}
     for threads in args.threads:
-        runs_o, runs_t, runs_b = [], [], []
+        runs_o, runs_t, runs_b, runs_base = [], [], [], []
         for k in range(args.repeat):
             o = run_ours(binary, args.case, out / f"ours_t{threads}_{k}", threads, args.set)
+            if baseline:
+                r = run_ours(baseline, args.case, out / f"baseline_t{threads}_{k}", threads, args.set)
+                print(
+                    f"  threads {threads} run {k + 1}: baseline {r['rate']:.3e} p-steps/s ({r['steps']} steps, "
+                    f"{r['seconds']:.2f} s, load {r['load']})"
+                )
+                runs_base.append(r)
             t = run_taichi(script, threads, history=out / f"taichi_t{threads}_{k}.csv")
             line = (
                 f"  threads {threads} run {k + 1}: ours {o['rate']:.3e} p-steps/s ({o['steps']} steps, "
@@ -207,6 +223,8 @@ def main():
             runs_o.append(o)
             runs_t.append(t)
         results[threads] = (summary(runs_o), summary(runs_t), summary(runs_b) if runs_b else None)
+        if runs_base:
+            base_results[threads] = summary(runs_base)
 
     print()
     if bins:
@@ -252,6 +270,21 @@ def main():
         for threads, (o, t, _) in results.items():
             print(f"| {threads} | {o['rate']:.3e} ({o['best']:.3e}) | {t['rate']:.3e} ({t['best']:.3e}) | {o['rate'] / t['rate']:.2f} |")
     print()
+    if base_results:
+        print(f"ours ({binary}) against the baseline ({baseline}), same runs:")
+        print("| threads | baseline (particle-steps/s) | ours | baseline / Taichi | ours / Taichi | ours / baseline |")
+        print("|---:|---:|---:|---:|---:|---:|")
+        for threads, r in base_results.items():
+            o, t = results[threads][0], results[threads][1]
+            print(
+                f"| {threads} | {r['rate']:.3e} ({r['best']:.3e}) | {o['rate']:.3e} ({o['best']:.3e}) "
+                f"| {r['rate'] / t['rate']:.2f} | {o['rate'] / t['rate']:.2f} | {o['rate'] / r['rate']:.3f} |"
+            )
+        for threads in base_results:
+            a = read_csv(out / f"ours_t{threads}_0" / "diagnostics.csv")
+            b = read_csv(out / f"baseline_t{threads}_0" / "diagnostics.csv")
+            print(f"{threads} thread(s): diagnostics.csv of ours and the baseline {'identical' if a == b else 'DIFFER'}")
+        print()
 
     # physics: ours at 1 thread (any thread count gives the same bits) against the walls-matched mpm88
     threads = min(results)

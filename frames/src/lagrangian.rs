@@ -11,9 +11,11 @@
 //! The transfer scheme and the shape function are values chosen in the case (`transfer`,
 //! `shape`), not solver types.
 
-use crate::collocated::{Collocated, Simd};
-use crate::scatter::{self, point_weights, PointsIn, Scatter};
-use crate::shape::{Shape, Weights1};
+pub mod collocated;
+pub mod scatter;
+pub mod shape;
+
+use collocated::{Collocated, Simd};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
@@ -25,7 +27,9 @@ use multifield_core::quantity::PointSet;
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::state;
 use rayon::prelude::*;
+use scatter::{point_weights, PointsIn, Scatter};
 use serde::{Deserialize, Serialize};
+use shape::{Shape, Weights1};
 use std::any::Any;
 use std::borrow::Cow;
 

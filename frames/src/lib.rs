@@ -7,12 +7,9 @@
 //! with the core; call [`link`] once from a binary or test so the linker keeps this crate.
 #![warn(missing_docs)]
 
-pub mod collocated;
 pub mod eulerian;
 pub mod lagrangian;
 pub mod mass_point;
-pub mod scatter;
-pub mod shape;
 pub mod viscous;
 
 /// The frame names this crate registers.

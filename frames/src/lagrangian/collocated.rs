@@ -18,8 +18,11 @@
 //! rule) in both transfers.
 //!
 //! Parallel and deterministic: the points are split by index into `PARTS` fixed parts,
-//! each scattered into its own grid on its own thread; the grid update adds the parts node
-//! by node in part order, and the gather's per-block sums of the diagnostics are added in
+//! each scattered into its own grid on its own thread (with more threads than parts, each
+//! part's grid is cut into strips of rows, one task each, every strip adding the points
+//! whose stencils reach it in point order: each node sums the same numbers in the same
+//! order for any number of strips); the grid update adds the parts node by node in part
+//! order, and the gather's per-block sums of the diagnostics are added in
 //! block order (each block's in four lanes, point k in lane k mod 4). The same bits on any
 //! number of threads. With AVX and FMA (x86-64, detected at run time) the scatter adds a
 //! node's four sums in one register and the gather takes four points at a time, by the
@@ -30,16 +33,16 @@
 //! its ghost nodes in there too; the grid update only reads the parts. Only the chunks of
 //! 8 nodes that the points' stencils reached are updated and cleared (a map per row): a
 //! splash that spans the box touches a few chunks per row away from the bulk.
-use crate::lagrangian::{Points, Transfer};
-use crate::scatter::map_axis;
-use crate::shape::Shape;
+use super::scatter::map_axis;
+use super::shape::{quadratic, Shape};
+use super::{Points, Transfer};
 use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::grid::Grid;
 use multifield_core::math::{Matrix, Real, Vector};
 use multifield_core::plugin::{FrameFigures, PointStressContext, StressModel};
 use rayon::prelude::*;
 
-/// `bspline` in the four lanes of an AVX register of lattice coordinates: (base as f64,
+/// `shape::quadratic` in the four lanes of an AVX register of lattice coordinates: (base as f64,
 /// fraction, weights, derivatives), by the same operations. A macro, so that it is inlined
 /// into the AVX functions that use it (the two transfers).
 #[cfg(target_arch = "x86_64")]
@@ -315,8 +318,11 @@ impl Collocated {
     }
 
     /// Particles to grid: mass, momentum (APIC) and Δt × internal force into `acc`, the
-    /// points of each part into its own grid, in parallel; each part first clears what it
-    /// held (the grid update only reads the parts) and then folds its ghost nodes in.
+    /// points of each part into its own grid, the parts in parallel; each part first clears
+    /// what it held (the grid update only reads the parts) and then folds its ghost nodes
+    /// in. With more threads than parts each part's grid is cut into strips of rows, one
+    /// task each (`scatter_strips`): every node still adds its part's points in point
+    /// order, so the sums are the same bits for any number of threads or strips.
     fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix], periodic: [bool; 2]) {
         let n = input.pts.len();
         let (nx, ny) = (self.nx, self.ny);
@@ -327,6 +333,8 @@ impl Collocated {
         let parts: Vec<&mut [Matrix]> = vec![s0, s1];
         let words = self.words;
         let (nxi, nyi) = (nx as isize, ny as isize);
+        let strips = rayon::current_num_threads().div_ceil(PARTS);
+        let simd = self.simd;
         let rows: Vec<(usize, usize)> = self
             .acc
             .par_chunks_mut(width * height)
@@ -349,6 +357,12 @@ impl Collocated {
                     });
                 }
                 let sigma = &*sigma;
+                if strips > 1 {
+                    scatter_strips(grid, touched, width, [nx, ny], input, pts, sigma, strips, simd);
+                    let rows = touched_rows(touched, words);
+                    fold_part(grid, width, [nx, ny], periodic, rows);
+                    return rows;
+                }
                 let first = pts.start;
                 let mut note = |(bx, by): (isize, isize)| {
                     mark(touched, words, bx, by);
@@ -586,8 +600,8 @@ impl Collocated {
     fn gather_point(&self, grid: &Grid, x: Vector) -> [Real; 10] {
         let h = grid.h;
         let xi = lattice(grid, x);
-        let (bx, fx, wx, dwx) = bspline(xi.x);
-        let (by, fy, wy, dwy) = bspline(xi.y);
+        let (bx, fx, wx, dwx) = quadratic(xi.x);
+        let (by, fy, wy, dwy) = quadratic(xi.y);
         let wxd: [Real; 3] = std::array::from_fn(|a| (a as Real - fx) * h * wx[a]);
         let (mut u, mut gx, mut gy, mut ax, mut ay) = ([0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2]);
         let k0 = self.index(bx, by);
@@ -1077,17 +1091,6 @@ fn det2(f: &Matrix) -> Real {
     f.m11 * f.m22 - f.m21 * f.m12
 }
 
-/// Quadratic B-spline weights along one axis at lattice coordinate `xi` ≥ −½: base node,
-/// fraction from it in [½, 3/2), weights and derivatives dw/dξ. ⌊xi − ½⌋ is `(xi + ½) as
-/// isize − 1` (truncation is ⌊·⌋ for the non-negative xi + ½): no libm call, no branch.
-#[inline(always)]
-fn bspline(xi: Real) -> (isize, Real, [Real; 3], [Real; 3]) {
-    let base = (xi + 0.5) as isize - 1;
-    let f = xi - base as Real;
-    let (a, b, c) = (1.5 - f, f - 1.0, f - 0.5);
-    (base, f, [0.5 * a * a, 0.75 - b * b, 0.5 * c * c], [-a, -2.0 * b, c])
-}
-
 /// Scatters point `p` into `chunk` (padded rows of `width` nodes, lattice row `row0` at
 /// its row 0): for each of its 9 nodes, [S m, S m (v + C (x_i − x_p)) − Δt V σ ∇S, 0].
 /// With S = wx_a wy_b and ∇S = (wx_a' wy_b, wx_a wy_b')/h this is wy_b P_a + wx_a Q_b:
@@ -1105,8 +1108,8 @@ fn scatter_point(
     let (g, pts, dt) = (input.grid, input.pts, input.dt);
     let h = g.h;
     let xi = lattice(g, pts.x[p]);
-    let (bx, fx, wx, dwx) = bspline(xi.x);
-    let (by, fy, wy, dwy) = bspline(xi.y);
+    let (bx, fx, wx, dwx) = quadratic(xi.x);
+    let (by, fy, wy, dwy) = quadratic(xi.y);
     let (m, v) = (pts.m[p], pts.v[p]);
     let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
     let k = dt * pts.vol0[p] * det2(&pts.f[p]) * (1.0 / h);
@@ -1122,10 +1125,15 @@ fn scatter_point(
         qb[a] = [0.0, mwd * cu.y - dwy[a] * s01, mwd * cv.y - dwy[a] * s11, 0.0];
     }
     let col = (bx + PAD as isize) as usize;
-    let r0 = (by - row0) as usize * width + col;
-    let rows = &mut chunk[r0..r0 + 2 * width + 3];
+    // the stencil's rows in `chunk`, which holds the padded rows from lattice row `row0` on
+    let first = by - row0;
     for b in 0..3 {
-        let row = &mut rows[b * width..b * width + 3];
+        let r = first + b as isize;
+        if r < 0 || r as usize * width >= chunk.len() {
+            continue;
+        }
+        let at = r as usize * width + col;
+        let row = &mut chunk[at..at + 3];
         for a in 0..3 {
             for c in 0..4 {
                 row[a][c] += wy[b].mul_add(pa[a][c], wx[a] * qb[b][c]);
@@ -1133,6 +1141,88 @@ fn scatter_point(
         }
     }
     (bx, by)
+}
+
+/// The scatter of one part's points `pts` (stresses `sigma`) into its grid `grid` by strips
+/// of rows, `strips` tasks in parallel: a strip adds the points whose stencils reach its
+/// rows, in point order, and leaves out the rows of the stencils that are not its own. The
+/// part's map `touched` is filled first (`words` a row, the lattice `n` cells).
+#[allow(clippy::too_many_arguments)]
+fn scatter_strips(
+    grid: &mut [Node],
+    touched: &mut [u64],
+    width: usize,
+    n: [usize; 2],
+    input: &ScatterIn,
+    pts: std::ops::Range<usize>,
+    sigma: &[Matrix],
+    strips: usize,
+    simd: Simd,
+) {
+    let height = grid.len() / width;
+    let words = touched.len() / height;
+    let (nx, ny) = (n[0] as isize, n[1] as isize);
+    // each point's first stencil row (padded), and the map of the part's stencils
+    let firsts: Vec<usize> = pts
+        .clone()
+        .map(|p| {
+            let xi = lattice(input.grid, input.pts.x[p]);
+            let (bx, by) = (quadratic(xi.x).0, quadratic(xi.y).0);
+            mark(touched, words, bx, by);
+            // a point clamped to the lattice's far edge (see the scatter's `note`)
+            if bx >= nx || by >= ny {
+                mark(touched, words, bx.min(nx - 2).max(-1), by.min(ny - 2).max(-1));
+            }
+            (by + PAD as isize) as usize
+        })
+        .collect();
+    // strips of about as many first rows each
+    let mut count = vec![0usize; height];
+    for &r in &firsts {
+        count[r] += 1;
+    }
+    let mut cuts = vec![0];
+    let mut seen = 0;
+    for (r, c) in count.iter().enumerate() {
+        seen += c;
+        while cuts.len() < strips && seen * strips >= cuts.len() * firsts.len().max(1) {
+            cuts.push(r + 1);
+        }
+    }
+    cuts.resize(strips, height);
+    cuts.push(height);
+    let mut chunks = Vec::with_capacity(strips);
+    let mut rest = grid;
+    for w in cuts.windows(2) {
+        let (strip, tail) = rest.split_at_mut((w[1] - w[0]) * width);
+        chunks.push((strip, w[0]));
+        rest = tail;
+    }
+    chunks.into_par_iter().for_each(|(strip, lo)| {
+        let hi = lo + strip.len() / width;
+        let run = |strip: &mut [Node]| {
+            for (k, p) in pts.clone().enumerate() {
+                if firsts[k] + 3 > lo && firsts[k] < hi {
+                    scatter_point(strip, width, lo as isize - PAD as isize, input, p, &sigma[k]);
+                }
+            }
+        };
+        #[cfg(target_arch = "x86_64")]
+        if simd >= Simd::Avx {
+            // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
+            return unsafe { with_fma(strip, run) };
+        }
+        run(strip);
+    });
+}
+
+/// `run(strip)` compiled with FMA, so that `scatter_point`'s `mul_add`s are instructions
+/// (the x86-64 baseline calls libm's `fma`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,fma")]
+#[inline]
+fn with_fma(strip: &mut [Node], run: impl Fn(&mut [Node])) {
+    run(strip)
 }
 
 /// `scatter_point` for the four points `p .. p + 4` (stresses `sg`): their weights, stress

@@ -68,6 +68,20 @@ impl Shape {
     }
 }
 
+/// The quadratic B-spline along one axis at lattice coordinate `xi` ≥ −½, as the collocated
+/// grid's transfers take it: first node, fraction from it in [½, 3/2), weights and
+/// derivatives dw/dξ. ⌊xi − ½⌋ is `(xi + ½) as isize − 1` (truncation is ⌊·⌋ for the
+/// non-negative xi + ½): no libm call, no branch. [`Shape::weights`] takes ⌊xi − ½⌋ for any
+/// `xi`; the two can differ in the last bit (xi + ½ and xi − ½ round differently), and each
+/// path keeps its own so that its results keep their bits.
+#[inline(always)]
+pub fn quadratic(xi: Real) -> (isize, Real, [Real; 3], [Real; 3]) {
+    let base = (xi + 0.5) as isize - 1;
+    let f = xi - base as Real;
+    let (a, b, c) = (1.5 - f, f - 1.0, f - 0.5);
+    (base, f, [0.5 * a * a, 0.75 - b * b, 0.5 * c * c], [-a, -2.0 * b, c])
+}
+
 /// ⌊x⌋ for |x| < 2⁶³, inlined: without SSE4.1 (the x86-64 baseline) `f64::floor` is a call
 /// into libm, 4 % of a particle step.
 #[inline(always)]

@@ -6,7 +6,7 @@
 //! bits for any number of threads. Lattices are padded by two ghost nodes on each side;
 //! ghost contributions are folded back (wrapped on periodic sides, mirrored at walls).
 
-use crate::shape::{Shape, Weights1};
+use super::shape::{Shape, Weights1};
 use multifield_core::boundary::Boundaries;
 use multifield_core::grid::Grid;
 use multifield_core::math::{Matrix, Real, Vector};
