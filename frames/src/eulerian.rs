@@ -20,7 +20,7 @@
 //! **Time** (second order, after Bell, Colella & Glaz, J. Comput. Phys. 85, 1989): a
 //! midpoint predictor with the pressure acceleration `a_p = −w∇p` of the last corrector,
 //! P = a_p + g, and the viscosity ν∇²u of a Newtonian stress by Crank–Nicolson
-//! (`diffusion: "crank_nicolson"`, the default; L the Laplacian of `viscous.rs`):
+//! (`diffusion: "crank_nicolson"`, the default; L the Laplacian of `eulerian/viscous.rs`):
 //!
 //! ```text
 //!   (I − Δt/2 νL) u½ = uⁿ + Δt/2 (−A(uⁿ) + P)                        (backward Euler)
@@ -58,7 +58,8 @@
 //! Every loop writes disjoint rows, so the parallel results are the same bits for any
 //! number of threads; the reductions (energy, momentum, mass) are serial.
 
-use crate::viscous::FaceDiffusion;
+pub mod viscous;
+
 use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::case::Region;
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
@@ -71,6 +72,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
 use std::borrow::Cow;
+use viscous::FaceDiffusion;
 
 /// Slope limiter of the MUSCL reconstruction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -10,7 +10,6 @@
 pub mod eulerian;
 pub mod lagrangian;
 pub mod mass_point;
-pub mod viscous;
 
 /// The frame names this crate registers.
 pub const SHIPPED: &[&str] = &["eulerian", "lagrangian", "mass_point"];
