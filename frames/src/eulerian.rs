@@ -39,7 +39,7 @@
 //! explicitly, split: on uⁿ in the midpoint, u½ = uⁿ + Δt/2 (V(uⁿ) − A(uⁿ) + P), then
 //! u* = uⁿ − Δt A(u½) and V once more on u*. Cheaper by the solves, but bound by
 //! Δt ≤ h²/(4ν), and its steady state holds a Δt ν∇²A(u) (on the 16² cavity its steady
-//! profiles at CFL 0.1 and 0.4 differ by 1e-2, `tests/eulerian_verification.rs`). Explicit and
+//! profiles at CFL 0.1 and 0.4 differ by 1e-2, `tests/verification/eulerian.rs`). Explicit and
 //! unsplit (V at u½) would not do either: the midpoint's real stability interval
 //! [−2, 0] must then hold the upwind advection's and the viscosity's eigenvalues together,
 //! 4C + 8νΔt/h² ≤ 2 in 2D at Courant number C per axis.

@@ -164,7 +164,7 @@ fn no_shipped_file_names_a_path_outside_the_repository() {
     }
     assert!(
         failures.is_empty(),
-        "{} place(s) name a path outside the repository (tests/self_contained.rs has the rule):\n{}",
+        "{} place(s) name a path outside the repository (tests/input/self_contained.rs has the rule):\n{}",
         failures.len(),
         failures.join("\n")
     );

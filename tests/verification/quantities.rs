@@ -1,6 +1,6 @@
 //! The output quantities' registry (`core::quantity`): the shipped quantities against
 //! analytic values, the names a case may give and the errors for the others. The plugin
-//! quantity is tested with its plugin (tests/external_plugin.rs).
+//! quantity is tested with its plugin (tests/input/external_plugin.rs).
 
 use multifield::core::case::{Case, PictureSpec, QuantityName};
 use multifield::core::quantity::{find, quantities, Place, Sample};

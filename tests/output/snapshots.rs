@@ -2,7 +2,7 @@
 //! the simulation's state, it reads back equal to what was written, the XDMF lists every
 //! snapshot with the paths and shapes in the files, a killed run leaves only complete
 //! snapshots, and the reference C library's `h5dump` and `h5py` open the files
-//! (`tests/check_snapshot.py`; skipped with a note where they are not installed).
+//! (`tests/output/check_snapshot.py`; skipped with a note where they are not installed).
 
 use hdf5_pure::{AttrValue, File};
 use multifield::core::case::{Case, SnapshotSpec};
@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// Water (Eulerian) and a settling rigid disk (Lagrangian) in a 2 × 2 closed box, 16 × 16
-/// cells, Δt fixed at 1e-3 (`disk_in_box` of tests/multifield_coupling.rs, smaller).
+/// cells, Δt fixed at 1e-3 (`disk_in_box` of tests/verification/multifield_coupling.rs, smaller).
 fn case_text(end: Real, interval: Real) -> String {
     format!(
         r#"(
@@ -374,7 +374,7 @@ fn available(cmd: &str, args: &[&str]) -> bool {
     Command::new(cmd).args(args).output().is_ok_and(|o| o.status.success())
 }
 
-/// The reference C library's `h5dump` reads a snapshot whole, and `tests/check_snapshot.py`
+/// The reference C library's `h5dump` reads a snapshot whole, and `tests/output/check_snapshot.py`
 /// (h5py) checks values, attributes and the XDMF's paths and shapes. Skipped, with a
 /// note, where `h5dump` or h5py is missing (CI installs both).
 #[test]
@@ -407,7 +407,7 @@ fn h5dump_and_h5py_open_the_snapshots() {
             }
         }
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("check_snapshot.py");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/output/check_snapshot.py");
     let out = Command::new("python3").arg(&script).arg(&dir).output().unwrap();
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     println!("{stdout}");

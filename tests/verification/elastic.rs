@@ -14,7 +14,7 @@
 //! waves (the bar loses 23 % of its energy in two periods with PIC), which is what these
 //! tests measure; APIC with linear shape functions is unstable here (see the report).
 //!
-//! Measured (cargo test --test elastic_verification -- --nocapture), h = 0.25 for the bar,
+//! Measured (cargo test --test verification elastic:: -- --nocapture), h = 0.25 for the bar,
 //! 20 × 20 cells for the disks, 2 × 2 points per cell, linear shape functions:
 //!   bar, linear_elastic:   period 10.040 (0.40 %), max energy drift 1.9 %
 //!   bar, neo_hookean:      period 10.005 (0.05 %), max energy drift 2.8 %

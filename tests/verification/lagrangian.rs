@@ -74,7 +74,7 @@ fn taylor_green_lagrangian_convergence() {
         let orders: Vec<Real> = errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
         let overall = (errors[0] / errors[2]).log2() / 2.0;
         println!("{shape}/{transfer}: errors {errors:?} orders {orders:?} overall {overall:.3}");
-        // Measured (cargo test --test lagrangian_verification -- --nocapture):
+        // Measured (cargo test --test verification lagrangian:: -- --nocapture):
         //   linear/flip     errors 3.41e-2, 1.46e-2, 9.57e-3: orders 1.22, 0.61 (overall 0.92)
         //   quadratic/apic  errors 1.17e-2, 5.36e-3, 3.15e-3: orders 1.12, 0.77 (overall 0.95)
         // First order, not second: points move by forward Euler (O(Δt) = O(h) at a fixed

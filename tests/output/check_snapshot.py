@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Checks the HDF5 snapshots of a multifield run with h5py, independently of the crate.
 
-Usage: python3 tests/check_snapshot.py RUN_DIR   (RUN_DIR holds snapshots/, or is it)
+Usage: python3 tests/output/check_snapshot.py RUN_DIR   (RUN_DIR holds snapshots/, or is it)
 
 Opens the newest snapshot and checks its attributes (time, step, case, program, grid),
 the shapes of every grid and point array, that no value is NaN, that θ lies in [0, 1]

@@ -2,7 +2,7 @@
 //! form computed here independently, a deliberately unstable run, resuming, the charts),
 //! and bad study files rejected up front with exit code 2.
 //!
-//! The scene is the exchange box of tests/multifield_coupling.rs: two interpenetrating
+//! The scene is the exchange box of tests/verification/multifield_coupling.rs: two interpenetrating
 //! fields (θ = ½ each, ρa = 1, ρb = 2) in a periodic box with a constant K = 4/3, so that the
 //! slip relaxes with τ = 1: the kinetic energy is E(t) = E_cm + (E₀ − E_cm) e^(−2t/τ). A step
 //! multiplies the slip by 1/(1 + Δt/τ) (implicit) or 1 − Δt/τ (explicit), which blows up

@@ -1,0 +1,12 @@
+//! Output: what a run writes (the CSV files, summaries, snapshots, pictures, checkpoints and
+//! restarts, studies), read back and compared with the state that wrote it.
+//!
+//! One test binary: `cargo test --release --test output [module::]`.
+
+mod driver;
+mod examples;
+mod output_contract;
+mod pictures;
+mod restart;
+mod snapshots;
+mod study;

@@ -1,0 +1,16 @@
+//! Verification: each method against analytic solutions, conserved quantities and observed
+//! orders of convergence (the numbers in docs/validation.md and the module docs).
+//!
+//! One test binary: `cargo test --release --test verification [module::]`.
+
+mod collocated;
+mod drag;
+mod elastic;
+mod eulerian;
+mod immersed_boundaries;
+mod inflow_outflow;
+mod lagrangian;
+mod mpm88;
+mod multifield_coupling;
+mod point_particles;
+mod quantities;
