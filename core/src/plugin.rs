@@ -4,7 +4,7 @@
 //! plugin may need, so that adding an input later breaks no plugin.
 
 use crate::boundary::Boundaries;
-use crate::case::{InitialVelocity, Region};
+use crate::case::{InitialVelocity, Region, Representation};
 use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{Matrix, Real, Vector};
@@ -165,6 +165,15 @@ pub trait Frame: Send + Sync {
     fn params(&self) -> serde_json::Value;
     /// Whether the state lives on material points.
     fn is_lagrangian(&self) -> bool;
+    /// How this frame represents a field of bodies: [`Representation::Resolved`] (the
+    /// default: many points or cells per body) or [`Representation::MassPoint`] (one point
+    /// per disk). The core builds the frame registered as
+    /// [`crate::simulation::MASS_POINT_FRAME`] for a field with `representation:
+    /// MassPoint`, checks that it says so, and refuses a frame that says so in a field
+    /// that does not.
+    fn representation(&self) -> Representation {
+        Representation::Resolved
+    }
     /// Seeds the initial state.
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String>;
     /// Step 1–2: mass, velocity, volume fraction (and internal forces of point stresses)
@@ -420,6 +429,14 @@ pub trait ExchangeModel: Send + Sync {
     /// K = ∞: the two fields move as one (exact mass-weighted average).
     fn no_slip(&self) -> bool {
         false
+    }
+    /// Whether this model, as it stands, can couple a fluid with a field of mass points
+    /// (`representation: MassPoint`), which need a coefficient K from the slip: true by
+    /// default; false for a coupling of resolved bodies ([`ExchangeModel::no_slip`], a
+    /// [`ExchangeModel::immersed_boundary`]), for which the exchange entry must name the
+    /// points' drag law in its `mass_point` model.
+    fn couples_mass_points(&self) -> bool {
+        !self.no_slip() && self.immersed_boundary().is_none()
     }
     /// A sharp coupling of a fluid (the first field) with the rigid bodies of a Lagrangian
     /// field (the second) by direct forcing on their surfaces, in place of a coefficient K:
