@@ -312,6 +312,12 @@ pub struct PointStressContext<'a> {
     pub velocity_gradient: &'a [Matrix],
     /// Cauchy stress of each point, to be written (the model adds to it).
     pub stress: &'a mut [Matrix],
+    /// This model's state at every point ([`StressModel::point_state`]): k values per
+    /// point, point p's at `state[k p .. k (p + 1)]` (empty when k = 0), zero at the start,
+    /// kept by the frame with the points (in checkpoints too). The model updates it for a
+    /// step of `dt`, and must leave it as it is when `dt` is 0: a frame may evaluate the
+    /// stress again with Δt = 0 (for output).
+    pub state: &'a mut [Real],
 }
 
 /// What a stress model is, in one value ([`StressModel::kind`]): the frames and the core
@@ -391,6 +397,14 @@ pub trait StressModel: Send + Sync {
     /// Adds this model's Cauchy stress at every point (a [`StressKind::Points`] model).
     /// Default: nothing.
     fn point_stress(&self, _ctx: &mut PointStressContext) {}
+    /// The names of this model's state components at each point (a [`StressKind::Points`]
+    /// model: plastic strain, damage, …), one value each per point, which the frame keeps
+    /// with the points and hands to [`StressModel::point_stress`] as
+    /// [`PointStressContext::state`]. The names label the values in snapshots. Default:
+    /// none.
+    fn point_state(&self) -> &'static [&'static str] {
+        &[]
+    }
     /// Largest stable time step of this model, or `None` if it sets none.
     fn stable_dt(&self, _ctx: &TimeStepContext) -> Option<Real> {
         None
