@@ -321,7 +321,7 @@ pub struct Drag<C> {
 
 impl<C> Clone for Drag<C> {
     fn clone(&self) -> Self {
-        Drag { law: PhantomData, ..*self }
+        *self
     }
 }
 
