@@ -54,8 +54,9 @@ use std::path::{Path, PathBuf};
 pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
 /// Version of the format; a checkpoint of another version is refused. Version 2 was the
 /// hand-written encoding with a 64-bit checksum; version 3 is derived structs encoded
-/// with postcard, with a CRC-32.
-pub const VERSION: u32 = 3;
+/// with postcard, with a CRC-32; version 4 adds the stress models' per-point state to the
+/// Lagrangian frame's points (`StressModel::point_state`).
+pub const VERSION: u32 = 4;
 /// Length of the [`Header`]: signature, version, payload length, CRC-32.
 const HEADER: usize = 8 + 4 + 8 + 4;
 /// Folder of the checkpoints in a run directory.

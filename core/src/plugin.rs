@@ -4,7 +4,7 @@
 //! plugin may need, so that adding an input later breaks no plugin.
 
 use crate::boundary::Boundaries;
-use crate::case::{InitialVelocity, Region};
+use crate::case::{InitialVelocity, Region, Representation};
 use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{Matrix, Real, Vector};
@@ -165,6 +165,15 @@ pub trait Frame: Send + Sync {
     fn params(&self) -> serde_json::Value;
     /// Whether the state lives on material points.
     fn is_lagrangian(&self) -> bool;
+    /// How this frame represents a field of bodies: [`Representation::Resolved`] (the
+    /// default: many points or cells per body) or [`Representation::MassPoint`] (one point
+    /// per disk). The core builds the frame registered as
+    /// [`crate::simulation::MASS_POINT_FRAME`] for a field with `representation:
+    /// MassPoint`, checks that it says so, and refuses a frame that says so in a field
+    /// that does not.
+    fn representation(&self) -> Representation {
+        Representation::Resolved
+    }
     /// Seeds the initial state.
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String>;
     /// Step 1–2: mass, velocity, volume fraction (and internal forces of point stresses)
@@ -308,6 +317,12 @@ pub struct PointStressContext<'a> {
     pub velocity_gradient: &'a [Matrix],
     /// Cauchy stress of each point, to be written (the model adds to it).
     pub stress: &'a mut [Matrix],
+    /// This model's state at every point ([`StressModel::point_state`]): k values per
+    /// point, point p's at `state[k p .. k (p + 1)]` (empty when k = 0), zero at the start,
+    /// kept by the frame with the points (in checkpoints too). The model updates it for a
+    /// step of `dt`, and must leave it as it is when `dt` is 0: a frame may evaluate the
+    /// stress again with Δt = 0 (for output).
+    pub state: &'a mut [Real],
 }
 
 /// What a stress model is, in one value ([`StressModel::kind`]): the frames and the core
@@ -387,6 +402,14 @@ pub trait StressModel: Send + Sync {
     /// Adds this model's Cauchy stress at every point (a [`StressKind::Points`] model).
     /// Default: nothing.
     fn point_stress(&self, _ctx: &mut PointStressContext) {}
+    /// The names of this model's state components at each point (a [`StressKind::Points`]
+    /// model: plastic strain, damage, …), one value each per point, which the frame keeps
+    /// with the points and hands to [`StressModel::point_stress`] as
+    /// [`PointStressContext::state`]. The names label the values in snapshots. Default:
+    /// none.
+    fn point_state(&self) -> &'static [&'static str] {
+        &[]
+    }
     /// Largest stable time step of this model, or `None` if it sets none.
     fn stable_dt(&self, _ctx: &TimeStepContext) -> Option<Real> {
         None
@@ -425,6 +448,14 @@ pub trait ExchangeModel: Send + Sync {
     /// K = ∞: the two fields move as one (exact mass-weighted average).
     fn no_slip(&self) -> bool {
         false
+    }
+    /// Whether this model, as it stands, can couple a fluid with a field of mass points
+    /// (`representation: MassPoint`), which need a coefficient K from the slip: true by
+    /// default; false for a coupling of resolved bodies ([`ExchangeModel::no_slip`], a
+    /// [`ExchangeModel::immersed_boundary`]), for which the exchange entry must name the
+    /// points' drag law in its `mass_point` model.
+    fn couples_mass_points(&self) -> bool {
+        !self.no_slip() && self.immersed_boundary().is_none()
     }
     /// A sharp coupling of a fluid (the first field) with the rigid bodies of a Lagrangian
     /// field (the second) by direct forcing on their surfaces, in place of a coefficient K:

@@ -226,11 +226,14 @@ impl Simulation {
             let path = format!("fields.{}", spec.name);
             let mut frame = registry::build_frame(&spec.frame.model, &spec.frame.params, &format!("{path}.frame"))?;
             spec.frame.params = frame.params();
-            if spec.frame.model == MASS_POINT_FRAME && spec.representation != Representation::MassPoint {
+            if frame.representation() == Representation::MassPoint && spec.representation != Representation::MassPoint {
                 return Err(Error::invalid(
                     format!("{path}.frame.model"),
-                    "`mass_point` is the frame of `representation: MassPoint`: set that entry instead \
-                     (and keep the resolved frame, e.g. `(model: \"lagrangian\")`, for switching back)",
+                    format!(
+                        "`{}` is the frame of `representation: MassPoint`: set that entry instead \
+                         (and keep the resolved frame, e.g. `(model: \"lagrangian\")`, for switching back)",
+                        spec.frame.model
+                    ),
                 ));
             }
             if spec.representation == Representation::MassPoint {
@@ -241,6 +244,16 @@ impl Simulation {
                     &serde_json::Value::Object(Default::default()),
                     &format!("{path}.representation"),
                 )?;
+                if frame.representation() != Representation::MassPoint {
+                    return Err(Error::invalid(
+                        format!("{path}.representation"),
+                        format!(
+                            "the frame registered as `{MASS_POINT_FRAME}` is not a mass-point frame (its \
+                             Frame::representation is {:?}): another crate registered that name",
+                            frame.representation()
+                        ),
+                    ));
+                }
             }
             let mut stress = Vec::new();
             for (s, st) in spec.stress.iter_mut().enumerate() {
@@ -276,24 +289,21 @@ impl Simulation {
             let spec_b = &case.fields[fb];
             let model = if spec_b.representation == Representation::MassPoint {
                 let path = format!("exchange.{k}.mass_point");
-                let alt = match &e.mass_point {
-                    Some(alt) => alt.clone(),
-                    None if e.model == "no_slip" || e.model == "direct_forcing" => {
-                        return Err(Error::invalid(
-                            path,
-                            format!(
-                                "field `{}` is represented by mass points, which need a drag law, but this \
-                                 exchange is `{}` and names no `mass_point` model; add e.g. \
-                                 `mass_point: Some((model: \"cylinder\", params: (added_mass: 1.0)))` to \
-                                 the exchange (or set `representation: Resolved`)",
-                                spec_b.name, e.model
-                            ),
-                        ))
-                    }
-                    None => PluginSpec::with(&e.model, e.params.clone()),
-                };
+                let alt = e.mass_point.clone().unwrap_or_else(|| PluginSpec::with(&e.model, e.params.clone()));
                 let params = point_drag_params(&alt, &case.fields[fa], spec_b, &path)?;
                 let model = registry::build_exchange(&alt.model, &params, &path)?;
+                if e.mass_point.is_none() && !model.couples_mass_points() {
+                    return Err(Error::invalid(
+                        path,
+                        format!(
+                            "field `{}` is represented by mass points, which need a drag law, but this \
+                             exchange is `{}` and names no `mass_point` model; add e.g. \
+                             `mass_point: Some((model: \"cylinder\", params: (added_mass: 1.0)))` to \
+                             the exchange (or set `representation: Resolved`)",
+                            spec_b.name, e.model
+                        ),
+                    ));
+                }
                 let law = model.drag_law();
                 if let Some(law) = &law {
                     check_point_diameters(law, spec_b, &path)?;

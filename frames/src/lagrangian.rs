@@ -82,6 +82,11 @@ pub struct Points {
     pub c_v: Vec<Vector>,
     /// Body each point belongs to (0 when the field has no bodies).
     pub body: Vec<u32>,
+    /// The per-point state of each of the field's stress models, by its index in the
+    /// field's `stress` list (`StressModel::point_state`): k values per point, point p's at
+    /// `[k p .. k (p + 1)]`; empty for a model without state. Sized (zeros) at the first
+    /// stress evaluation.
+    pub model_state: Vec<Vec<Real>>,
 }
 
 impl Points {
@@ -96,6 +101,38 @@ impl Points {
     /// Current volume of point `p`.
     pub fn volume(&self, p: usize) -> Real {
         self.vol0[p] * self.f[p].determinant()
+    }
+    /// Sizes [`Points::model_state`] for `models` (zeros where it is new); an error when a
+    /// restored state does not fit them.
+    pub fn size_model_state(&mut self, models: &[Box<dyn StressModel>]) -> Result<(), String> {
+        let n = self.len();
+        if self.model_state.is_empty() && models.iter().any(|m| !m.point_state().is_empty()) {
+            self.model_state = vec![Vec::new(); models.len()];
+        }
+        if self.model_state.is_empty() {
+            return Ok(());
+        }
+        if self.model_state.len() != models.len() {
+            return Err(format!(
+                "the points hold the state of {} stress models, the field has {}",
+                self.model_state.len(),
+                models.len()
+            ));
+        }
+        for (s, m) in self.model_state.iter_mut().zip(models) {
+            let want = n * m.point_state().len();
+            if s.is_empty() {
+                s.resize(want, 0.0);
+            } else if s.len() != want {
+                return Err(format!(
+                    "stress `{}`: {} values of point state for {n} points of {} values each",
+                    m.model(),
+                    s.len(),
+                    m.point_state().len()
+                ));
+            }
+        }
+        Ok(())
     }
     fn push(&mut self, x: Vector, v: Vector, m: Real, vol: Real) {
         self.x.push(x);
@@ -245,30 +282,38 @@ impl Lagrangian {
         self.simd
     }
 
-    /// Whether the field has point-stress models, and whether all are `volumetric_only`.
-    fn classify_stress(&mut self, ctx: &FrameContext) {
+    /// Whether the field has point-stress models, and whether all are `volumetric_only`;
+    /// sizes the models' point state.
+    fn classify_stress(&mut self, ctx: &FrameContext) -> Result<(), String> {
         self.has_point_stress = ctx.stress.iter().any(|s| s.kind().acts_on_points());
         self.volumetric_only = self.has_point_stress
             && ctx.stress.iter().filter(|s| s.kind().acts_on_points()).all(|s| s.kind().volumetric_only());
+        self.points.size_model_state(ctx.stress)
     }
 
     /// The stress of every point from the field's point-stress models (zero without one);
     /// records whether there is one and whether all are `volumetric_only`.
-    fn evaluate_stress(&mut self, ctx: &FrameContext) {
-        self.classify_stress(ctx);
+    fn evaluate_stress(&mut self, ctx: &FrameContext) -> Result<(), String> {
+        self.classify_stress(ctx)?;
         let pts = &mut self.points;
         if self.has_point_stress {
             pts.stress.par_iter_mut().for_each(|s| *s = Matrix::zeros());
-            for model in ctx.stress.iter().filter(|s| s.kind().acts_on_points()) {
+            for (k, model) in ctx.stress.iter().enumerate().filter(|(_, s)| s.kind().acts_on_points()) {
+                let state = match pts.model_state.get_mut(k) {
+                    Some(s) => &mut s[..],
+                    None => &mut [],
+                };
                 model.point_stress(&mut PointStressContext {
                     dt: ctx.dt,
                     density: ctx.density,
                     deformation_gradient: &pts.f,
                     velocity_gradient: &pts.grad_v,
                     stress: &mut pts.stress,
+                    state,
                 });
             }
         }
+        Ok(())
     }
 
     /// Mass, centroid, momentum and volume of each body (index 0 = points of no body).
@@ -853,7 +898,7 @@ impl Frame for Lagrangian {
     }
 
     fn step_alone(&mut self, ctx: &mut FrameContext) -> Result<FrameFigures, String> {
-        self.classify_stress(ctx);
+        self.classify_stress(ctx)?;
         let simd = self.simd;
         let grid = self.collocated.get_or_insert_with(|| {
             let mut c = Collocated::new(ctx.grid);
@@ -886,7 +931,7 @@ impl Frame for Lagrangian {
 
     fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
         let g = ctx.grid;
-        self.evaluate_stress(ctx);
+        self.evaluate_stress(ctx)?;
         let pts = &mut self.points;
         let n = pts.len();
         self.vol.resize(n, 0.0);
@@ -1108,7 +1153,7 @@ impl Frame for Lagrangian {
     }
 
     /// Every point array (positions, velocities, masses, initial volumes, F, ∇v, stress,
-    /// the APIC matrices, body indices) and each body's state (its velocities before the
+    /// the APIC matrices, body indices, the stress models' point state) and each body's state (its velocities before the
     /// next rigid projection give the hydrodynamic force). The scatter buffers, current
     /// volumes and start positions are scratch, rebuilt every step.
     fn save_state(&self) -> Result<Vec<u8>, String> {
@@ -1124,6 +1169,7 @@ impl Frame for Lagrangian {
         let n = p.len();
         let lengths = [p.v.len(), p.m.len(), p.vol0.len(), p.f.len(), p.grad_v.len()];
         let more = [p.stress.len(), p.c_u.len(), p.c_v.len(), p.body.len()];
+        // the models' point state is checked against the models at the first step
         if lengths.iter().chain(&more).any(|&l| l != n) {
             return Err(format!("the point arrays have different lengths ({n} positions)"));
         }

@@ -134,6 +134,9 @@ impl Frame for MassPoint {
     fn is_lagrangian(&self) -> bool {
         true
     }
+    fn representation(&self) -> multifield_core::case::Representation {
+        multifield_core::case::Representation::MassPoint
+    }
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
         let Region::Bodies(specs) = ctx.region else {

@@ -411,7 +411,12 @@ fn a_foreign_corrupt_or_older_checkpoint_is_refused() {
     let mut older = bytes.clone();
     older[8..12].copy_from_slice(&2u32.to_le_bytes());
     let e = refused("older.bin", &older);
-    assert!(e.contains("format version 2 (written by an older multifield), this multifield reads version 3"), "{e}");
+    let message = format!(
+        "format version 2 (written by an older multifield), this multifield reads version {}",
+        checkpoint::VERSION
+    );
+    assert!(e.contains(&message), "{e}");
+    assert_eq!(checkpoint::VERSION, 4, "version 4: the points carry the stress models' state");
     assert!(e.contains("run the case from t = 0 without --restart, or continue it with the multifield that"), "{e}");
     assert!(!e.contains("restart from another checkpoint"), "{e}");
 }

@@ -13,4 +13,5 @@ mod lagrangian;
 mod mpm88;
 mod multifield_coupling;
 mod point_particles;
+mod point_state;
 mod quantities;

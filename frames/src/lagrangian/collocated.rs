@@ -304,9 +304,11 @@ impl Collocated {
         gravity: Vector,
     ) -> FrameFigures {
         let mut stress = std::mem::take(&mut pts.stress);
+        let mut state = std::mem::take(&mut pts.model_state);
         let input = ScatterIn { pts, apic: transfer == Transfer::Apic, dt, grid, models, density };
-        self.scatter(&input, &mut stress, [bc.periodic_x(), bc.periodic_y()]);
+        self.scatter(&input, &mut stress, &mut state, [bc.periodic_x(), bc.periodic_y()]);
         pts.stress = stress;
+        pts.model_state = state;
         // the points' masses never change
         let tiny = *self.tiny.get_or_insert_with(|| 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max));
         self.update(bc, dt, gravity, tiny);
@@ -323,8 +325,16 @@ impl Collocated {
     /// in. With more threads than parts each part's grid is cut into strips of rows, one
     /// task each (`scatter_strips`): every node still adds its part's points in point
     /// order, so the sums are the same bits for any number of threads or strips.
-    fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix], periodic: [bool; 2]) {
+    fn scatter(&mut self, input: &ScatterIn, stress: &mut [Matrix], state: &mut [Vec<Real>], periodic: [bool; 2]) {
         let n = input.pts.len();
+        // each model's point state, split as the points are (k values per point)
+        let (mut state0, mut state1) = (Vec::new(), Vec::new());
+        for (s, m) in state.iter_mut().zip(input.models) {
+            let (a, b) = s.split_at_mut(n / PARTS * m.point_state().len());
+            state0.push(a);
+            state1.push(b);
+        }
+        let states = vec![state0, state1];
         let (nx, ny) = (self.nx, self.ny);
         let (width, avx) = (self.width, self.simd >= Simd::Avx && self.finite);
         let row0 = -(PAD as isize); // lattice row of padded row 0
@@ -339,21 +349,22 @@ impl Collocated {
             .acc
             .par_chunks_mut(width * height)
             .zip(self.touched.par_chunks_mut(height * words))
-            .zip(parts)
+            .zip(parts.into_par_iter().zip(states))
             .enumerate()
-            .map(|(k, ((grid, touched), sigma))| {
+            .map(|(k, ((grid, touched), (sigma, mut state)))| {
                 clear_part(grid, touched, width, words, periodic);
                 debug_assert!(grid.iter().all(|a| *a == Node::ZERO), "a node of part {k} left uncleared");
                 touched.fill(0);
                 let pts = k * n / PARTS..(k + 1) * n / PARTS;
                 sigma.iter_mut().for_each(|s| *s = Matrix::zeros());
-                for model in input.models.iter().filter(|m| m.kind().acts_on_points()) {
+                for (m, model) in input.models.iter().enumerate().filter(|(_, m)| m.kind().acts_on_points()) {
                     model.point_stress(&mut PointStressContext {
                         dt: input.dt,
                         density: input.density,
                         deformation_gradient: &input.pts.f[pts.clone()],
                         velocity_gradient: &input.pts.grad_v[pts.clone()],
                         stress: sigma,
+                        state: state.get_mut(m).map_or(&mut [], |s| &mut s[..]),
                     });
                 }
                 let sigma = &*sigma;

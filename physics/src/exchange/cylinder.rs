@@ -17,7 +17,7 @@
 //!   laws do not cross: Lamb gives C_D = 18.65 at Re = 0.5 and 12.55 at Re = 1 where
 //!   White gives 16.87 and 11.0).
 //!
-//! The particle volume per unit length is πd²/4, so (derivation in [`super::stokes`],
+//! The particle volume per unit length is πd²/4, so (derivation in [`super::drag`],
 //! K = F/(V_p θ_f |Δu|))
 //!
 //! ```text
@@ -32,11 +32,8 @@
 //! (Re_s = θ_f Re) and multiplies by θ_f^(−χ(Re_s)), χ = 3.7 − 0.65 exp(−(1.5 − log₁₀ Re_s)²/2):
 //! K = (2/π) C_D(Re_s) Re_s μ θ_f^(−χ) / d². It equals the plain law at θ_f = 1.
 
-use super::drag::{fill_drag, validate_particle};
+use super::drag::{Drag, DragCorrelation, Shape};
 use multifield_core::math::Real;
-use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
-use multifield_core::registry::params_value;
-use serde::{Deserialize, Serialize};
 
 /// Euler's constant γ.
 pub const EULER_GAMMA: Real = 0.577_215_664_901_532_9;
@@ -68,82 +65,32 @@ pub fn cd_re(re: Real) -> Real {
     }
 }
 
-/// Drag on cylinders.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Cylinder {
-    /// Particle diameter d (length).
-    pub diameter: Real,
-    /// Dynamic viscosity μ of the fluid (the first field of `between`).
-    pub viscosity: Real,
-    /// Di Felice's (1994) dense-suspension correction.
-    #[serde(default)]
-    pub di_felice: bool,
-    /// Added-mass coefficient C_A (implicit; 0 = none).
-    #[serde(default)]
-    pub added_mass: Real,
-    /// Rotational torque on mass points.
-    #[serde(default)]
-    pub rotation: bool,
-}
+/// Drag on circular cylinders: Lamb, blended into White's fit.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Cylinder;
 
-impl Cylinder {
-    /// Diameter and viscosity must be positive.
-    pub fn validate(&mut self) -> Result<(), String> {
-        validate_particle(self.diameter, self.viscosity)?;
-        super::drag::validate_added_mass(self.added_mass)
-    }
-    /// K at a slip speed |Δu|, fluid density ρ_f and fluid fraction θ_f.
-    pub fn coefficient(&self, slip: Real, rho_f: Real, theta_f: Real) -> Real {
-        super::drag::drag_coefficient(
-            2.0 / std::f64::consts::PI,
-            cd_re,
-            self.diameter,
-            self.viscosity,
-            rho_f,
-            theta_f,
-            slip,
-            self.di_felice,
-        )
+impl DragCorrelation for Cylinder {
+    const NAME: &'static str = "cylinder";
+    const SUMMARY: &'static str =
+        "drag on 2D cylinders (fluid = first field): Lamb below Re 0.5, White CD = 1 + 10Re^(-2/3) above 1";
+    const CITATION: &'static str = "Lamb (1911), Phil. Mag. 21, 112; White (1991), Viscous Fluid Flow, 2nd ed., \
+                                    eq. (3-225)";
+    const SHAPE: Shape = Shape::Cylinder;
+    const VALID_RE: (Real, Real) = (0.0, 2e5);
+    fn cd_re(re: Real, _theta_f: Real) -> Real {
+        cd_re(re)
     }
 }
 
-multifield_core::register!(
-    Exchange,
-    "cylinder",
-    Cylinder,
-    "drag on 2D cylinders (fluid = first field): Lamb below Re 0.5, White CD = 1 + 10Re^(-2/3) above 1",
-    &[
-        super::drag::PARTICLE_PARAMS[0],
-        super::drag::PARTICLE_PARAMS[1],
-        super::drag::DI_FELICE_PARAM,
-        super::drag::POINT_PARAMS[0],
-        super::drag::POINT_PARAMS[1],
-    ]
-);
-
-impl ExchangeModel for Cylinder {
-    fn model(&self) -> &'static str {
-        "cylinder"
-    }
-    fn params(&self) -> serde_json::Value {
-        params_value(self)
-    }
-    fn drag_law(&self) -> Option<DragLaw> {
-        Some(super::drag::law("cylinder", self.diameter, self.viscosity, (0.0, 2e5), self.added_mass, self.rotation))
-    }
-    fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
-        fill_drag(ctx, kx, ky, 2.0 / std::f64::consts::PI, cd_re, self.diameter, self.viscosity, self.di_felice);
-    }
-}
+multifield_core::register!(Exchange, "cylinder", Drag<Cylinder>, Cylinder::SUMMARY, Drag::<Cylinder>::PARAMS);
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::f64::consts::PI;
 
-    fn law(di_felice: bool) -> Cylinder {
-        Cylinder { diameter: 0.1, viscosity: 0.01, di_felice, added_mass: 0.0, rotation: false }
+    fn law(di_felice: bool) -> Drag<Cylinder> {
+        Drag { di_felice, ..Drag::new(0.1, 0.01) }
     }
 
     #[test]
@@ -207,11 +154,7 @@ mod tests {
 
     #[test]
     fn validation_rejects_non_positive_inputs() {
-        assert!(Cylinder { diameter: 0.0, viscosity: 1.0, di_felice: false, added_mass: 0.0, rotation: false }
-            .validate()
-            .is_err());
-        assert!(Cylinder { diameter: 1.0, viscosity: -1.0, di_felice: true, added_mass: 0.0, rotation: false }
-            .validate()
-            .is_err());
+        assert!(Drag::<Cylinder>::new(0.0, 1.0).validate().is_err());
+        assert!(Drag::<Cylinder> { di_felice: true, ..Drag::new(1.0, -1.0) }.validate().is_err());
     }
 }

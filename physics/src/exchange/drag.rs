@@ -1,6 +1,27 @@
 //! What the drag laws share (`stokes`, `schiller_naumann`, `cylinder`): a dispersed field
 //! of particles of diameter d in a continuous fluid, and how a drag law becomes K.
 //!
+//! **A drag law is one correlation.** A law implements [`DragCorrelation`]: its drag
+//! coefficient as C_D·Re = G(Re, θ_f), its particle [`Shape`], its range of Re and its
+//! citation; [`Drag<C>`] turns any correlation into an exchange model (parameters,
+//! validation, K on every face, the [`DragLaw`] of mass points). A new law is one file:
+//!
+//! ```ignore
+//! #[derive(Clone, Copy, Debug, Default)]
+//! pub struct MyLaw;
+//! impl DragCorrelation for MyLaw {
+//!     const NAME: &'static str = "my_law";
+//!     const SUMMARY: &'static str = "my drag on spheres: CD = 24/Re (1 + 0.1 Re^0.75)";
+//!     const CITATION: &'static str = "Author (year), Journal vol, page";
+//!     const SHAPE: Shape = Shape::Sphere;
+//!     const VALID_RE: (Real, Real) = (0.0, 800.0);
+//!     fn cd_re(re: Real, _theta_f: Real) -> Real {
+//!         24.0 * (1.0 + 0.1 * re.powf(0.75))
+//!     }
+//! }
+//! multifield_core::register!(Exchange, "my_law", Drag<MyLaw>, MyLaw::SUMMARY, Drag::<MyLaw>::PARAMS);
+//! ```
+//!
 //! **Which field is which.** The FIRST field of `between` is the continuous fluid (its
 //! material density ρ_f is `density[0]`, its volume fraction θ_f), the second the dispersed
 //! particles (θ_s). Nothing else is checked.
@@ -38,8 +59,53 @@
 
 use multifield_core::grid::Grid;
 use multifield_core::math::Real;
-use multifield_core::plugin::{DragLaw, ExchangeContext};
-use multifield_core::registry::ParamDoc;
+use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
+use multifield_core::registry::{params_value, ParamDoc};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::marker::PhantomData;
+
+/// The shape of the particles, which sets the ratio of projected area to volume.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shape {
+    /// Spheres: A = πd²/4, V_p = πd³/6.
+    Sphere,
+    /// Circular cylinders per unit length (2D disks): A = d, V_p = πd²/4.
+    Cylinder,
+}
+
+impl Shape {
+    /// c in K = c G(Re) μ / (d² θ_f): 3/4 for spheres, 2/π for cylinders.
+    pub fn factor(self) -> Real {
+        match self {
+            Shape::Sphere => 0.75,
+            Shape::Cylinder => 2.0 / std::f64::consts::PI,
+        }
+    }
+}
+
+/// A drag law as a correlation: the drag coefficient of one particle, as C_D·Re (finite as
+/// Re → 0), and where it comes from. [`Drag<C>`] makes it an exchange model.
+pub trait DragCorrelation: Send + Sync + 'static {
+    /// Registered name (the name given to [`multifield_core::register!`]).
+    const NAME: &'static str;
+    /// One line for `multifield plugins`: the law and its formula.
+    const SUMMARY: &'static str;
+    /// Where the correlation is published.
+    const CITATION: &'static str;
+    /// The particles' shape.
+    const SHAPE: Shape;
+    /// The Reynolds numbers Re = ρ_f |Δu| d / μ where the law holds (mass points warn
+    /// outside them).
+    const VALID_RE: (Real, Real);
+    /// Whether the law offers Di Felice's dense-suspension option (`di_felice`).
+    const DI_FELICE: bool = true;
+    /// `Some(G)` when C_D·Re is the constant G (Stokes: 24): K is then independent of the
+    /// slip, K = (c G) μ / (d² θ_f), and the slip speeds are not computed.
+    const CONSTANT_CD_RE: Option<Real> = None;
+    /// C_D·Re at the Reynolds number `re` (≥ [`RE_FLOOR`]) and the fluid fraction
+    /// `theta_f` (≥ [`THETA_FLOOR`]; for a law with a voidage function of its own).
+    fn cd_re(re: Real, theta_f: Real) -> Real;
+}
 
 /// Smallest Reynolds number the laws are evaluated at.
 pub const RE_FLOOR: Real = 1e-12;
@@ -134,11 +200,12 @@ pub fn di_felice_factor(theta_f: Real, re: Real) -> Real {
 }
 
 /// K of a slip-dependent law at one location: `c` is 3/4 (sphere) or 2/π (cylinder),
-/// `g` is C_D·Re as a function of Re, `slip` = |Δu|, `rho_f` the fluid's material density.
+/// `g` is C_D·Re as a function of Re and θ_f, `slip` = |Δu|, `rho_f` the fluid's material
+/// density.
 #[allow(clippy::too_many_arguments)]
 pub fn drag_coefficient(
     c: Real,
-    g: impl Fn(Real) -> Real,
+    g: impl Fn(Real, Real) -> Real,
     diameter: Real,
     viscosity: Real,
     rho_f: Real,
@@ -151,9 +218,9 @@ pub fn drag_coefficient(
     let scale = c * viscosity / (diameter * diameter);
     if di_felice {
         let re_s = (theta_f * re).max(RE_FLOOR);
-        scale * g(re_s) * di_felice_factor(theta_f, re_s)
+        scale * g(re_s, theta_f) * di_felice_factor(theta_f, re_s)
     } else {
-        scale * g(re.max(RE_FLOOR)) / theta_f
+        scale * g(re.max(RE_FLOOR), theta_f) / theta_f
     }
 }
 
@@ -198,7 +265,7 @@ pub fn fill_drag(
     kx: &mut [Real],
     ky: &mut [Real],
     c: Real,
-    g: impl Fn(Real) -> Real + Copy,
+    g: impl Fn(Real, Real) -> Real + Copy,
     diameter: Real,
     viscosity: Real,
     di_felice: bool,
@@ -211,6 +278,158 @@ pub fn fill_drag(
     }
     for ((k, s), t) in ky.iter_mut().zip(&sy).zip(&ctx.a.theta_v) {
         *k = drag_coefficient(c, g, diameter, viscosity, rho_f, *t, *s, di_felice);
+    }
+}
+
+/// A drag law's parameters, as the case writes them.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DragParams {
+    diameter: Real,
+    viscosity: Real,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    di_felice: Option<bool>,
+    #[serde(default)]
+    added_mass: Real,
+    #[serde(default)]
+    rotation: bool,
+}
+
+/// The parameters of a law with Di Felice's option.
+const PARAMS_DI_FELICE: [ParamDoc; 5] =
+    [PARTICLE_PARAMS[0], PARTICLE_PARAMS[1], DI_FELICE_PARAM, POINT_PARAMS[0], POINT_PARAMS[1]];
+/// The parameters of a law without it.
+const PARAMS_PLAIN: [ParamDoc; 4] = [PARTICLE_PARAMS[0], PARTICLE_PARAMS[1], POINT_PARAMS[0], POINT_PARAMS[1]];
+
+/// The exchange model of a drag correlation `C`: particles of diameter d in a fluid of
+/// viscosity μ (the first field of `between`), K on every face from the face's slip (see
+/// the module's documentation).
+pub struct Drag<C> {
+    /// Particle diameter d (length).
+    pub diameter: Real,
+    /// Dynamic viscosity μ of the fluid (the first field of `between`).
+    pub viscosity: Real,
+    /// Di Felice's (1994) dense-suspension correction (when `C` offers it).
+    pub di_felice: bool,
+    /// Added-mass coefficient C_A of mass points (implicit; 0 = none).
+    pub added_mass: Real,
+    /// Rotational torque on mass points.
+    pub rotation: bool,
+    /// The correlation (a marker: the laws carry no parameters of their own).
+    pub law: PhantomData<fn() -> C>,
+}
+
+impl<C> Clone for Drag<C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<C> Copy for Drag<C> {}
+
+impl<C: DragCorrelation> std::fmt::Debug for Drag<C> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Drag")
+            .field("law", &C::NAME)
+            .field("diameter", &self.diameter)
+            .field("viscosity", &self.viscosity)
+            .field("di_felice", &self.di_felice)
+            .field("added_mass", &self.added_mass)
+            .field("rotation", &self.rotation)
+            .finish()
+    }
+}
+
+impl<C: DragCorrelation> Drag<C> {
+    /// The parameters for `multifield plugins` (and the registry).
+    pub const PARAMS: &'static [ParamDoc] = if C::DI_FELICE { &PARAMS_DI_FELICE } else { &PARAMS_PLAIN };
+
+    /// The law for particles of diameter `diameter` in a fluid of viscosity `viscosity`,
+    /// without the options.
+    pub fn new(diameter: Real, viscosity: Real) -> Self {
+        Drag { diameter, viscosity, di_felice: false, added_mass: 0.0, rotation: false, law: PhantomData }
+    }
+    /// Diameter and viscosity must be positive, the added mass not negative.
+    pub fn validate(&mut self) -> Result<(), String> {
+        validate_particle(self.diameter, self.viscosity)?;
+        validate_added_mass(self.added_mass)
+    }
+    /// K at a slip speed |Δu|, fluid density ρ_f and fluid fraction θ_f.
+    pub fn coefficient(&self, slip: Real, rho_f: Real, theta_f: Real) -> Real {
+        match C::CONSTANT_CD_RE {
+            Some(g) if !self.di_felice => {
+                C::SHAPE.factor() * g * self.viscosity / (self.diameter * self.diameter * theta_f.max(THETA_FLOOR))
+            }
+            _ => drag_coefficient(
+                C::SHAPE.factor(),
+                C::cd_re,
+                self.diameter,
+                self.viscosity,
+                rho_f,
+                theta_f,
+                slip,
+                self.di_felice,
+            ),
+        }
+    }
+}
+
+impl<C: DragCorrelation> Serialize for Drag<C> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        DragParams {
+            diameter: self.diameter,
+            viscosity: self.viscosity,
+            di_felice: C::DI_FELICE.then_some(self.di_felice),
+            added_mass: self.added_mass,
+            rotation: self.rotation,
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de, C: DragCorrelation> Deserialize<'de> for Drag<C> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let p = DragParams::deserialize(d)?;
+        if p.di_felice.is_some() && !C::DI_FELICE {
+            let names: Vec<String> = Self::PARAMS.iter().map(|p| format!("`{}`", p.name)).collect();
+            return Err(serde::de::Error::custom(format!(
+                "unknown field `di_felice`, expected one of {}",
+                names.join(", ")
+            )));
+        }
+        Ok(Drag {
+            diameter: p.diameter,
+            viscosity: p.viscosity,
+            di_felice: p.di_felice.unwrap_or(false),
+            added_mass: p.added_mass,
+            rotation: p.rotation,
+            law: PhantomData,
+        })
+    }
+}
+
+impl<C: DragCorrelation> ExchangeModel for Drag<C> {
+    fn model(&self) -> &'static str {
+        C::NAME
+    }
+    fn params(&self) -> serde_json::Value {
+        params_value(self)
+    }
+    fn drag_law(&self) -> Option<DragLaw> {
+        Some(law(C::NAME, self.diameter, self.viscosity, C::VALID_RE, self.added_mass, self.rotation))
+    }
+    fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
+        if C::CONSTANT_CD_RE.is_some() && !self.di_felice {
+            // independent of the slip
+            for (k, t) in kx.iter_mut().zip(&ctx.a.theta_u) {
+                *k = self.coefficient(0.0, ctx.density[0], *t);
+            }
+            for (k, t) in ky.iter_mut().zip(&ctx.a.theta_v) {
+                *k = self.coefficient(0.0, ctx.density[0], *t);
+            }
+        } else {
+            fill_drag(ctx, kx, ky, C::SHAPE.factor(), C::cd_re, self.diameter, self.viscosity, self.di_felice);
+        }
     }
 }
 
@@ -228,5 +447,41 @@ mod tests {
         assert!((di_felice_exponent(0.0) - 3.7).abs() < 1e-12);
         assert!((di_felice_exponent(1.0) - (3.7 - 0.65 * (-1.125f64).exp())).abs() < 1e-12);
         assert!((di_felice_factor(0.5, 10f64.powf(1.5)) - 2f64.powf(3.05)).abs() < 1e-12);
+    }
+
+    /// The law of docs/plugins.md: one correlation, nothing else.
+    struct MyLaw;
+    impl DragCorrelation for MyLaw {
+        const NAME: &'static str = "my_law";
+        const SUMMARY: &'static str = "my drag on spheres: CD = 24/Re (1 + 0.1 Re^0.75)";
+        const CITATION: &'static str = "none";
+        const SHAPE: Shape = Shape::Sphere;
+        const VALID_RE: (Real, Real) = (0.0, 800.0);
+        fn cd_re(re: Real, _theta_f: Real) -> Real {
+            24.0 * (1.0 + 0.1 * re.powf(0.75))
+        }
+    }
+
+    #[test]
+    fn a_correlation_is_a_whole_exchange_model() {
+        // d = 0.1, μ = 0.01, ρ_f = 1, |Δu| = 1.6: Re = 16, Re^0.75 = 8, C_D·Re = 24 · 1.8 = 43.2;
+        // K = (3/4) 43.2 μ/(d² θ_f) = 32.4/θ_f
+        let mut m: Drag<MyLaw> =
+            serde_json::from_value(serde_json::json!({"diameter": 0.1, "viscosity": 0.01})).unwrap();
+        m.validate().unwrap();
+        assert!((m.coefficient(1.6, 1.0, 0.8) - 32.4 / 0.8).abs() < 1e-12);
+        let law = m.drag_law().unwrap();
+        assert_eq!((law.model, law.valid_re, law.diameter), ("my_law", (0.0, 800.0), 0.1));
+        // the options every law offers, written back with their defaults
+        let p = m.params();
+        assert_eq!((p["di_felice"].as_bool(), p["added_mass"].as_f64()), (Some(false), Some(0.0)));
+        assert_eq!(Drag::<MyLaw>::PARAMS.len(), 5);
+        // a law without Di Felice's option refuses it as an unknown parameter
+        let e = serde_json::from_value::<Drag<super::super::stokes::Stokes>>(
+            serde_json::json!({"diameter": 0.1, "viscosity": 0.01, "di_felice": true}),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("unknown field `di_felice`, expected one of `diameter`, `viscosity`, `added_mass`"), "{e}");
     }
 }

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! The per-particle drag F = ½ ρ_f C_D (πd²/4) |Δu| Δu over particle volume πd³/6 gives
-//! (see the derivation in [`super::stokes`], K = F/(V_p θ_f |Δu|)):
+//! (see the derivation in [`super::drag`], K = F/(V_p θ_f |Δu|)):
 //!
 //! ```text
 //!     K = (3/4) C_D Re μ / (d² θ_f) = 18 μ/(d² θ_f) · (1 + 0.15 Re^0.687)     (Re ≤ 1000)
@@ -25,11 +25,8 @@
 //! χ = 3.7 − 0.65 exp(−(1.5 − log₁₀ Re_s)²/2):
 //! K = (3/4) C_D(Re_s) Re_s μ θ_f^(−χ) / d². It equals the plain law at θ_f = 1.
 
-use super::drag::{fill_drag, validate_particle};
+use super::drag::{Drag, DragCorrelation, Shape};
 use multifield_core::math::Real;
-use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
-use multifield_core::registry::params_value;
-use serde::{Deserialize, Serialize};
 
 /// Reynolds number above which C_D = 0.44.
 pub const RE_SWITCH: Real = 1000.0;
@@ -43,79 +40,37 @@ pub fn cd_re(re: Real) -> Real {
     }
 }
 
-/// Schiller–Naumann drag on spheres.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SchillerNaumann {
-    /// Particle diameter d (length).
-    pub diameter: Real,
-    /// Dynamic viscosity μ of the fluid (the first field of `between`).
-    pub viscosity: Real,
-    /// Di Felice's (1994) dense-suspension correction.
-    #[serde(default)]
-    pub di_felice: bool,
-    /// Added-mass coefficient C_A (implicit; 0 = none).
-    #[serde(default)]
-    pub added_mass: Real,
-    /// Rotational torque on mass points.
-    #[serde(default)]
-    pub rotation: bool,
-}
+/// The Schiller–Naumann correlation for spheres.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SchillerNaumann;
 
-impl SchillerNaumann {
-    /// Diameter and viscosity must be positive.
-    pub fn validate(&mut self) -> Result<(), String> {
-        validate_particle(self.diameter, self.viscosity)?;
-        super::drag::validate_added_mass(self.added_mass)
-    }
-    /// K at a slip speed |Δu|, fluid density ρ_f and fluid fraction θ_f.
-    pub fn coefficient(&self, slip: Real, rho_f: Real, theta_f: Real) -> Real {
-        super::drag::drag_coefficient(0.75, cd_re, self.diameter, self.viscosity, rho_f, theta_f, slip, self.di_felice)
+impl DragCorrelation for SchillerNaumann {
+    const NAME: &'static str = "schiller_naumann";
+    const SUMMARY: &'static str =
+        "Schiller–Naumann drag on spheres (fluid = first field): CD = 24/Re(1 + 0.15Re^0.687), 0.44 above Re 1000";
+    const CITATION: &'static str = "Schiller & Naumann (1933), Z. Ver. Dtsch. Ing. 77, 318; as given by Clift, \
+                                    Grace & Weber (1978), Bubbles, Drops and Particles";
+    const SHAPE: Shape = Shape::Sphere;
+    const VALID_RE: (Real, Real) = (0.0, 2e5);
+    fn cd_re(re: Real, _theta_f: Real) -> Real {
+        cd_re(re)
     }
 }
 
 multifield_core::register!(
     Exchange,
     "schiller_naumann",
-    SchillerNaumann,
-    "Schiller–Naumann drag on spheres (fluid = first field): CD = 24/Re(1 + 0.15Re^0.687), 0.44 above Re 1000",
-    &[
-        super::drag::PARTICLE_PARAMS[0],
-        super::drag::PARTICLE_PARAMS[1],
-        super::drag::DI_FELICE_PARAM,
-        super::drag::POINT_PARAMS[0],
-        super::drag::POINT_PARAMS[1],
-    ]
+    Drag<SchillerNaumann>,
+    SchillerNaumann::SUMMARY,
+    Drag::<SchillerNaumann>::PARAMS
 );
-
-impl ExchangeModel for SchillerNaumann {
-    fn model(&self) -> &'static str {
-        "schiller_naumann"
-    }
-    fn params(&self) -> serde_json::Value {
-        params_value(self)
-    }
-    fn drag_law(&self) -> Option<DragLaw> {
-        Some(super::drag::law(
-            "schiller_naumann",
-            self.diameter,
-            self.viscosity,
-            (0.0, 2e5),
-            self.added_mass,
-            self.rotation,
-        ))
-    }
-    fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
-        fill_drag(ctx, kx, ky, 0.75, cd_re, self.diameter, self.viscosity, self.di_felice);
-    }
-}
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn law(di_felice: bool) -> SchillerNaumann {
-        SchillerNaumann { diameter: 0.1, viscosity: 0.01, di_felice, added_mass: 0.0, rotation: false }
+    fn law(di_felice: bool) -> Drag<SchillerNaumann> {
+        Drag { di_felice, ..Drag::new(0.1, 0.01) }
     }
 
     #[test]

@@ -173,6 +173,7 @@ mod tests {
             deformation_gradient: &f,
             velocity_gradient: &l,
             stress: &mut s,
+            state: &mut [],
         });
         assert_eq!(s[0], Matrix::identity());
         assert!((s[1] - Matrix::identity() - m.stress(&f[1])).norm() < 1e-12);

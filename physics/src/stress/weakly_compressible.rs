@@ -213,6 +213,7 @@ mod tests {
             deformation_gradient: &f,
             velocity_gradient: &l,
             stress: &mut s,
+            state: &mut [],
         });
         assert_eq!(s[0], Matrix::new(1.0, 2.0, 3.0, 4.0));
         assert!((s[1] - Matrix::new(1.0, 2.0, 3.0, 4.0) - m.stress(&f[1])).norm() < 1e-12);
