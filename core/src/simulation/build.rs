@@ -1,0 +1,228 @@
+//! Building a [`Simulation`] from a case: fields, frames, plugins, the checks of their
+//! combination (`checks.rs`) and the initial state.
+
+use super::*;
+
+impl Simulation {
+    /// Builds every model from the registries and seeds the initial state.
+    pub fn new(case: &Case) -> Result<Simulation> {
+        case.validate()?;
+        let mut case = case.clone();
+        let d = &case.domain;
+        let h = d.size[0] / d.cells[0] as Real;
+        let grid = Grid::new(d.cells[0], d.cells[1], h, vector(d.origin));
+        let boundaries = case.boundaries;
+        let mut fields = Vec::new();
+        for (k, spec) in case.fields.iter_mut().enumerate() {
+            let path = format!("fields.{}", spec.name);
+            let mut frame = registry::build_frame(&spec.frame.model, &spec.frame.params, &format!("{path}.frame"))?;
+            spec.frame.params = frame.params();
+            if frame.representation() == Representation::MassPoint && spec.representation != Representation::MassPoint {
+                return Err(Error::invalid(
+                    format!("{path}.frame.model"),
+                    format!(
+                        "`{}` is the frame of `representation: MassPoint`: set that entry instead \
+                         (and keep the resolved frame, e.g. `(model: \"lagrangian\")`, for switching back)",
+                        spec.frame.model
+                    ),
+                ));
+            }
+            if spec.representation == Representation::MassPoint {
+                // the resolved frame's options stay in the case, so that switching back is
+                // one entry; the points are the `mass_point` frame's
+                frame = registry::build_frame(
+                    MASS_POINT_FRAME,
+                    &serde_json::Value::Object(Default::default()),
+                    &format!("{path}.representation"),
+                )?;
+                if frame.representation() != Representation::MassPoint {
+                    return Err(Error::invalid(
+                        format!("{path}.representation"),
+                        format!(
+                            "the frame registered as `{MASS_POINT_FRAME}` is not a mass-point frame (its \
+                             Frame::representation is {:?}): another crate registered that name",
+                            frame.representation()
+                        ),
+                    ));
+                }
+            }
+            let mut stress = Vec::new();
+            for (s, st) in spec.stress.iter_mut().enumerate() {
+                let m = registry::build_stress(&st.model, &st.params, &format!("{path}.stress.{s}"))?;
+                st.params = m.params();
+                stress.push(m);
+            }
+            let fills_rest = spec.region == Region::Rest;
+            if fills_rest && frame.is_lagrangian() {
+                return Err(Error::invalid(
+                    format!("{path}.region"),
+                    "region `Rest` is only for an Eulerian field (its volume fraction is what the \
+                     others leave); give a Lagrangian field an explicit region",
+                ));
+            }
+            let _ = k;
+            fields.push(Field {
+                name: spec.name.clone(),
+                density: spec.density,
+                fills_rest,
+                frame,
+                stress,
+                state: FieldState::new(&grid),
+            });
+        }
+        let mut exchanges = Vec::new();
+        let mut forcings: Vec<ForcedPair> = Vec::new();
+        let mut forced_entries = Vec::new();
+        let mut partners: Vec<Option<(usize, DragLaw)>> = vec![None; fields.len()];
+        for (k, e) in case.exchange.iter_mut().enumerate() {
+            let idx = |n: &String| case_index(&fields, n);
+            let (fa, fb) = (idx(&e.between[0]), idx(&e.between[1]));
+            let spec_b = &case.fields[fb];
+            let model = if spec_b.representation == Representation::MassPoint {
+                let path = format!("exchange.{k}.mass_point");
+                let alt = e.mass_point.clone().unwrap_or_else(|| PluginSpec::with(&e.model, e.params.clone()));
+                let params = point_drag_params(&alt, &case.fields[fa], spec_b, &path)?;
+                let model = registry::build_exchange(&alt.model, &params, &path)?;
+                if e.mass_point.is_none() && !model.couples_mass_points() {
+                    return Err(Error::invalid(
+                        path,
+                        format!(
+                            "field `{}` is represented by mass points, which need a drag law, but this \
+                             exchange is `{}` and names no `mass_point` model; add e.g. \
+                             `mass_point: Some((model: \"cylinder\", params: (added_mass: 1.0)))` to \
+                             the exchange (or set `representation: Resolved`)",
+                            spec_b.name, e.model
+                        ),
+                    ));
+                }
+                let law = model.drag_law();
+                if let Some(law) = &law {
+                    check_point_diameters(law, spec_b, &path)?;
+                }
+                e.mass_point = Some(PluginSpec::with(&alt.model, model.params()));
+                model
+            } else {
+                let model = registry::build_exchange(&e.model, &e.params, &format!("exchange.{k}"))?;
+                e.params = model.params();
+                model
+            };
+            if let Some(law) = model.drag_law() {
+                partners[fb] = Some((fa, law));
+            }
+            if let Some(forcing) = model.immersed_boundary() {
+                forced_entries.push(k);
+                forcings.push(ForcedPair { fluid: fa, bodies: fb, forcing, lag: Vec::new() });
+                continue;
+            }
+            exchanges.push(Exchange {
+                fields: [idx(&e.between[0]), idx(&e.between[1])],
+                model,
+                integration: e.integration,
+                kx: vec![0.0; grid.n_xfaces()],
+                ky: vec![0.0; grid.n_yfaces()],
+            });
+        }
+        for (k, p) in forced_entries.iter().zip(&forcings) {
+            check_forcing(&case, &fields, *k, p.fluid, p.bodies)?;
+        }
+        let pressure_solver = match &mut case.pressure {
+            Some(p) => {
+                let s = registry::build_pressure(&p.model, &p.params, "pressure")?;
+                p.params = s.params();
+                Some(s)
+            }
+            None => None,
+        };
+        let contact = match &mut case.contact {
+            Some(c) => {
+                let m = registry::build_contact(&c.model, &c.params, "contact")?;
+                c.params = m.params();
+                Some(m)
+            }
+            None => None,
+        };
+        // seed: fields with their own region first, then the one that fills the rest
+        let mut occupied = vec![0.0; grid.n_cells()];
+        for (k, f) in fields.iter_mut().enumerate() {
+            if f.fills_rest {
+                continue;
+            }
+            let forced = forcings.iter().any(|p| p.bodies == k);
+            let spec = &case.fields[k];
+            let theta: Vec<Real> = if spec.representation == Representation::MassPoint {
+                mass_point_fraction(&spec.region, &grid, [boundaries.periodic_x(), boundaries.periodic_y()])
+            } else {
+                region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect()
+            };
+            // bodies under a direct forcing take no volume on the grid: the fluid fills them
+            if !forced {
+                for (o, t) in occupied.iter_mut().zip(&theta) {
+                    *o += t;
+                }
+            }
+            if spec.volume_fraction != 1.0 && f.frame.is_lagrangian() {
+                return Err(Error::invalid(
+                    format!("fields.{}.volume_fraction", f.name),
+                    "a Lagrangian field fills its region (its points carry the volume); \
+                     use an Eulerian field for a partial volume fraction",
+                ));
+            }
+            f.frame
+                .initialize(&InitContext {
+                    grid: &grid,
+                    boundaries: &boundaries,
+                    name: &f.name,
+                    density: f.density,
+                    region: &spec.region,
+                    velocity: &spec.velocity,
+                    theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
+                })
+                .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
+        }
+        let rest: Vec<Real> = occupied.iter().map(|o| (1.0 - o).max(0.0)).collect();
+        for (k, f) in fields.iter_mut().enumerate() {
+            if !f.fills_rest {
+                continue;
+            }
+            let spec = &case.fields[k];
+            f.frame
+                .initialize(&InitContext {
+                    grid: &grid,
+                    boundaries: &boundaries,
+                    name: &f.name,
+                    density: f.density,
+                    region: &spec.region,
+                    velocity: &spec.velocity,
+                    theta: Some(&rest),
+                })
+                .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
+        }
+        let initial_energy = fields.iter().map(|f| f.frame.kinetic_energy()).sum();
+        let n_fields = fields.len();
+        let alone = fields.iter().any(|f| f.frame.steps_alone());
+        if alone {
+            check_alone(&case, &fields, pressure_solver.is_some())?;
+        }
+        Ok(Simulation {
+            gravity: vector(case.gravity),
+            pressure: vec![0.0; grid.n_cells()],
+            case,
+            grid,
+            boundaries,
+            fields,
+            exchanges,
+            pressure_solver,
+            contact,
+            body_forces: vec![Vec::new(); n_fields],
+            partners,
+            forcings,
+            body_steps: vec![Vec::new(); n_fields],
+            time: 0.0,
+            steps: 0,
+            last: StepDiagnostics::default(),
+            initial_energy,
+            alone,
+            grid_state_stale: false,
+        })
+    }
+}

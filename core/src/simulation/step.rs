@@ -1,0 +1,399 @@
+//! One step: the time step's choice and the phases in the order [`Simulation::step_with`]
+//! runs them (the module doc of `simulation` lists them); the heavy phases are in
+//! `momentum_exchange.rs` (4) and `projection.rs` (5–6).
+
+use super::*;
+
+impl Simulation {
+    /// The next time step and what limits it.
+    pub fn choose_dt(&self) -> (Real, String) {
+        let t = &self.case.time;
+        let remaining = t.end - self.time;
+        if let Some(dt) = t.fixed_dt {
+            // the adaptive choice says whether the fixed step exceeds a stable limit
+            let mut adaptive = self.case.time.clone();
+            adaptive.fixed_dt = None;
+            adaptive.max_dt = Real::INFINITY;
+            let (limit, by) = self.adaptive_dt(&adaptive, Real::INFINITY);
+            let dt = dt.min(remaining.max(0.0)).max(0.0);
+            let label = if dt > limit * (1.0 + 1e-9) {
+                format!("fixed (exceeds the {by} limit {limit:.3e})")
+            } else {
+                "fixed".to_string()
+            };
+            return (dt, label);
+        }
+        self.adaptive_dt(t, remaining)
+    }
+
+    /// The adaptive Δt under `t` (CFL, `max_dt`, every model's limit) and what limits it,
+    /// cut to `remaining`.
+    pub(super) fn adaptive_dt(&self, t: &crate::case::TimeControl, remaining: Real) -> (Real, String) {
+        let h = self.grid.h;
+        let umax = self.max_speed();
+        let g = self.gravity.norm();
+        // Δt (|u| + |g| Δt) ≤ C h: the step keeps the CFL bound even as gravity accelerates the flow
+        let mut best = (t.max_dt, "max_dt".to_string());
+        let cfl = if g > 0.0 {
+            (-umax + (umax * umax + 4.0 * g * t.cfl * h).sqrt()) / (2.0 * g)
+        } else if umax > 0.0 {
+            t.cfl * h / umax
+        } else {
+            Real::INFINITY
+        };
+        if cfl < best.0 {
+            best = (cfl, "cfl".into());
+        }
+        for f in &self.fields {
+            let ctx = TimeStepContext {
+                grid: &self.grid,
+                density: f.density,
+                max_speed: f.frame.max_speed(),
+                implicit_viscosity: f.frame.implicit_diffusion_number(&f.stress),
+            };
+            for s in &f.stress {
+                if let Some(dt) = s.stable_dt(&ctx) {
+                    if dt < best.0 {
+                        best = (dt, format!("{}({})", s.model(), f.name));
+                    }
+                }
+            }
+        }
+        if let Some(c) = &self.contact {
+            let bodies: Vec<BodyState> = self.fields.iter().flat_map(|f| f.frame.bodies()).collect();
+            let ctx = ContactContext {
+                grid: &self.grid,
+                boundaries: &self.boundaries,
+                gravity: self.gravity,
+                fluid_density: self.fluid_density(),
+                bodies: &bodies,
+            };
+            if let Some(dt) = c.stable_dt(&ctx) {
+                if dt < best.0 {
+                    best = (dt, format!("contact({})", c.model()));
+                }
+            }
+        }
+        if remaining < best.0 * (1.0 + 1e-9) {
+            best = (remaining, "end".into());
+        }
+        best
+    }
+
+    /// Advances one step.
+    pub fn step(&mut self) -> Result<StepDiagnostics> {
+        let (dt, limit) = self.choose_dt();
+        self.step_with(dt, limit)
+    }
+
+    /// Advances one step of the given Δt.
+    pub fn step_with(&mut self, dt: Real, dt_limit: String) -> Result<StepDiagnostics> {
+        if self.alone {
+            return self.step_alone(dt, dt_limit);
+        }
+        self.particles_to_grid(dt)?;
+        let volume_fraction_error = self.volume_fractions();
+        self.carry_immersed_forces();
+        self.predictor(dt)?;
+        self.exchange(dt);
+        self.contact_forces();
+        self.immersed_boundaries(dt)?;
+        let (iterations, residual) = self.pressure_projection(dt)?;
+        let max_divergence = self.max_divergence(dt);
+        self.grid_to_particles(dt)?;
+        self.advection(dt)?;
+        self.time += dt;
+        self.steps += 1;
+        let momentum = self.fields.iter().map(|f| f.frame.momentum()).fold(Vector::zeros(), |a, b| a + b);
+        self.last = StepDiagnostics {
+            step: self.steps,
+            time: self.time,
+            dt,
+            dt_limit,
+            kinetic_energy: self.kinetic_energy(),
+            momentum,
+            mass: self.fields.iter().map(|f| f.frame.mass()).sum(),
+            max_speed: self.max_speed(),
+            max_divergence,
+            volume_fraction_error,
+            pressure_iterations: iterations,
+            pressure_residual: residual,
+        };
+        Ok(self.last.clone())
+    }
+
+    /// A step of the only field, which steps alone: none of the multifield phases (volume
+    /// fractions, exchange, pressure, contact) has anything to do. Σθ is not computed:
+    /// `volume_fraction_error` is NaN.
+    pub(super) fn step_alone(&mut self, dt: Real, dt_limit: String) -> Result<StepDiagnostics> {
+        let mut figures = FrameFigures::default();
+        self.frame_phase(dt, "step", |fr, ctx| {
+            figures = fr.step_alone(ctx)?;
+            Ok(())
+        })?;
+        self.grid_state_stale = true;
+        self.time += dt;
+        self.steps += 1;
+        self.last = StepDiagnostics {
+            step: self.steps,
+            time: self.time,
+            dt,
+            dt_limit,
+            kinetic_energy: figures.kinetic_energy,
+            momentum: figures.momentum,
+            mass: figures.mass,
+            max_speed: figures.max_speed,
+            max_divergence: 0.0,
+            volume_fraction_error: Real::NAN,
+            pressure_iterations: 0,
+            pressure_residual: 0.0,
+        };
+        Ok(self.last.clone())
+    }
+
+    /// Whether the fields' grid state is older than their frames' state (after a step of a
+    /// field that steps alone, or a restart of one). Whatever reads the grid state (output
+    /// writers, [`Simulation::save_state`]) should [`Simulation::refresh_grid_state`] first;
+    /// the runner does.
+    pub fn grid_state_stale(&self) -> bool {
+        self.grid_state_stale
+    }
+
+    /// Brings the fields' grid state (θ, face masses and velocities) up to their frames'
+    /// state when it is stale ([`Frame::refresh_grid_state`]); output writers read it.
+    /// Changes nothing the next steps depend on.
+    pub fn refresh_grid_state(&mut self) -> Result<()> {
+        if self.grid_state_stale {
+            self.frame_phase(0.0, "grid state for output", |fr, ctx| fr.refresh_grid_state(ctx))?;
+            self.grid_state_stale = false;
+        }
+        Ok(())
+    }
+
+    pub(super) fn frame_phase(
+        &mut self,
+        dt: Real,
+        phase: &str,
+        f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
+    ) -> Result<()> {
+        self.frame_phase_of(dt, phase, |_| true, f)
+    }
+
+    /// [`Simulation::frame_phase`] for the fields `k` with `include(k)`.
+    pub(super) fn frame_phase_of(
+        &mut self,
+        dt: Real,
+        phase: &str,
+        include: impl Fn(usize) -> bool,
+        mut f: impl FnMut(&mut dyn Frame, &mut FrameContext) -> Result<(), String>,
+    ) -> Result<()> {
+        for k in 0..self.fields.len() {
+            if !include(k) {
+                continue;
+            }
+            let forced = self.forcings.iter().any(|p| p.bodies == k);
+            // the field mutably, its drag partner (another field) immutably
+            let (field, partner) = match &self.partners[k] {
+                Some((p, law)) => {
+                    let (field, other) = if *p > k {
+                        let (lo, hi) = self.fields.split_at_mut(*p);
+                        (&mut lo[k], &hi[0])
+                    } else {
+                        let (lo, hi) = self.fields.split_at_mut(k);
+                        (&mut hi[0], &lo[*p])
+                    };
+                    (field, Some(Partner { state: &other.state, density: other.density, law }))
+                }
+                None => (&mut self.fields[k], None),
+            };
+            let mut ctx = FrameContext {
+                grid: &self.grid,
+                boundaries: &self.boundaries,
+                dt,
+                time: self.time,
+                gravity: self.gravity,
+                density: field.density,
+                state: &mut field.state,
+                stress: &field.stress,
+                body_forces: &self.body_forces[k],
+                forced_bodies: forced.then_some(&self.body_steps[k][..]),
+                partner,
+            };
+            f(field.frame.as_mut(), &mut ctx)
+                .map_err(|m| Error::Model(format!("{phase} of field `{}`: {m}", field.name)))?;
+        }
+        Ok(())
+    }
+
+    /// Phase 1: every frame puts its state on the grid (but the bodies of a direct
+    /// forcing, which take no room there).
+    pub(super) fn particles_to_grid(&mut self, dt: Real) -> Result<()> {
+        let forced: Vec<usize> = self.forcings.iter().map(|p| p.bodies).collect();
+        self.frame_phase_of(dt, "particles to grid", |k| !forced.contains(&k), |fr, ctx| fr.to_grid(ctx))
+    }
+
+    /// Phase 4b (after the exchange and the contact forces, before the pressure): every
+    /// direct forcing moves its free bodies and forces its fluid towards the bodies' rigid
+    /// motion on their surfaces ([`crate::immersed::couple`]).
+    pub(super) fn immersed_boundaries(&mut self, dt: Real) -> Result<()> {
+        for k in 0..self.forcings.len() {
+            let bodies = self.forced_bodies(k);
+            let p = &mut self.forcings[k];
+            let rho_f = self.fields[p.fluid].density;
+            let name = self.fields[p.bodies].name.clone();
+            let fluid = &mut self.fields[p.fluid].state;
+            let steps = crate::immersed::couple(
+                &self.grid,
+                &self.boundaries,
+                p.forcing.sweeps,
+                p.forcing.retraction,
+                dt,
+                self.gravity,
+                rho_f,
+                fluid,
+                &bodies,
+                &mut p.lag,
+                self.steps > 0,
+            )
+            .map_err(|m| Error::Model(format!("immersed boundaries of field `{name}`: {m}")))?;
+            self.boundaries.enforce(&self.grid, &mut fluid.velocity);
+            self.body_steps[p.bodies] = steps;
+        }
+        Ok(())
+    }
+
+    /// Phase 2b (before the predictors): every direct forcing's fluid takes the last
+    /// step's marker forces spread from where its bodies' markers stand now
+    /// ([`crate::immersed::spread_lagged`]), the lagged force its predictor sees.
+    pub(super) fn carry_immersed_forces(&mut self) {
+        for k in 0..self.forcings.len() {
+            let bodies = self.forced_bodies(k);
+            let p = &self.forcings[k];
+            let fluid = &mut self.fields[p.fluid].state;
+            let (grid, bc) = (&self.grid, &self.boundaries);
+            crate::immersed::spread_lagged(grid, bc, p.forcing.retraction, &bodies, &p.lag, &mut fluid.body_force);
+        }
+    }
+
+    /// The bodies of direct forcing `k` as they stand now.
+    pub(super) fn forced_bodies(&self, k: usize) -> Vec<crate::immersed::ForcedBody> {
+        let p = &self.forcings[k];
+        let Region::Bodies(specs) = &self.case.fields[p.bodies].region else {
+            return Vec::new();
+        };
+        let states = self.fields[p.bodies].frame.bodies();
+        specs
+            .iter()
+            .zip(&states)
+            .enumerate()
+            .map(|(j, (spec, state))| crate::immersed::ForcedBody {
+                shape: spec.shape.clone(),
+                // a fixed body's centre is its shape's (the points' centroid carries the
+                // round-off of its masses); a moving disk's is its centroid
+                center: match (&spec.shape, spec.motion) {
+                    (BodyShape::Annulus { center, .. } | BodyShape::Disk { center, .. }, Motion::Fixed)
+                    | (BodyShape::Annulus { center, .. }, _) => vector(*center),
+                    _ => state.position,
+                },
+                motion: spec.motion,
+                velocity: state.velocity,
+                angular_velocity: state.angular_velocity,
+                density: self.fields[p.bodies].density,
+                contact: self.body_forces[p.bodies].get(j).copied().unwrap_or((Vector::zeros(), 0.0)),
+            })
+            .collect()
+    }
+
+    /// Phase 2: volume fractions; the field of region `Rest` takes what the others leave.
+    /// Returns max |Σθ − 1|.
+    pub(super) fn volume_fractions(&mut self) -> Real {
+        let n = self.grid.n_cells();
+        let mut others = vec![0.0; n];
+        for f in self.fields.iter().filter(|f| !f.fills_rest) {
+            for (o, t) in others.iter_mut().zip(&f.state.theta) {
+                *o += t;
+            }
+        }
+        let (px, py) = (self.boundaries.periodic_x(), self.boundaries.periodic_y());
+        let area = self.grid.cell_area();
+        for f in &mut self.fields {
+            if f.fills_rest {
+                for (t, o) in f.state.theta.iter_mut().zip(&others) {
+                    *t = (1.0 - o).max(0.0);
+                }
+            }
+            f.state.update_face_fractions(&self.grid, px, py);
+            // An Eulerian field's face mass follows from θ; a Lagrangian field keeps the
+            // mass its points put there, so that momentum is conserved between frames.
+            if !f.frame.is_lagrangian() {
+                let s = &mut f.state;
+                for (m, t) in s.mass_u.iter_mut().zip(&s.theta_u) {
+                    *m = t * f.density * area;
+                }
+                for (m, t) in s.mass_v.iter_mut().zip(&s.theta_v) {
+                    *m = t * f.density * area;
+                }
+            }
+        }
+        let mut err: Real = 0.0;
+        for c in 0..n {
+            let s: Real = self.fields.iter().map(|f| f.state.theta[c]).sum();
+            err = err.max((s - 1.0).abs());
+        }
+        err
+    }
+
+    /// Phase 3: frame predictors (advection and grid stresses, in each frame's own time
+    /// discretisation), then gravity.
+    pub(super) fn predictor(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "predictor", |fr, ctx| fr.predict(ctx))?;
+        let g = self.gravity;
+        for f in &mut self.fields {
+            let s = &mut f.state;
+            // gravity after the stresses: a viscous stencil must not act on the gravity
+            // increment Δt g, which the pressure cancels at rest (hydrostatic box with walls)
+            s.velocity.u.iter_mut().for_each(|u| *u += dt * g.x);
+            s.velocity.v.iter_mut().for_each(|v| *v += dt * g.y);
+            self.boundaries.enforce(&self.grid, &mut s.velocity);
+        }
+        Ok(())
+    }
+
+    /// Phase 8a (bodies, right after the exchange): contact forces from the positions at
+    /// the start of the step; the frames apply them with the rigid projection in
+    /// grid-to-particles (8b).
+    pub(super) fn contact_forces(&mut self) {
+        let Some(c) = &self.contact else {
+            return;
+        };
+        let per_field: Vec<Vec<BodyState>> = self.fields.iter().map(|f| f.frame.bodies()).collect();
+        let all: Vec<BodyState> = per_field.iter().flatten().cloned().collect();
+        if all.is_empty() {
+            return;
+        }
+        let mut out = vec![(Vector::zeros(), 0.0); all.len()];
+        let ctx = ContactContext {
+            grid: &self.grid,
+            boundaries: &self.boundaries,
+            gravity: self.gravity,
+            fluid_density: self.fluid_density(),
+            bodies: &all,
+        };
+        c.forces(&ctx, &mut out);
+        let mut k = 0;
+        for (f, bodies) in per_field.iter().enumerate() {
+            self.body_forces[f] = out[k..k + bodies.len()].to_vec();
+            k += bodies.len();
+        }
+    }
+
+    /// Phase 7: every frame takes the corrected grid velocity back.
+    pub(super) fn grid_to_particles(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "grid to particles", |fr, ctx| fr.from_grid(ctx))
+    }
+
+    /// Phase 9: Eulerian transport of volume fractions.
+    pub(super) fn advection(&mut self, dt: Real) -> Result<()> {
+        self.frame_phase(dt, "advection", |fr, ctx| fr.advect(ctx))
+    }
+}
