@@ -38,7 +38,10 @@
 //! ```
 //!
 //! Each list defaults to what is shown, the set earlier versions wrote. The points' `body`
-//! is always written; leave `position` out and ParaView cannot draw the points.
+//! is always written, and so is the per-point state of the field's stress models
+//! (`StressModel::point_state`), one array per component named `<model>_<component>`
+//! (none of the shipped models keeps any); leave `position` out and ParaView cannot draw
+//! the points.
 //!
 //! # Layout of a snapshot
 //!
@@ -259,6 +262,8 @@ impl Snapshot {
                             values.insert(q.to_string(), eval(&p));
                         }
                     }
+                    // the stress models' per-point state, always
+                    values.extend(p.named_state(&f.stress));
                     Some(PointData { values, body: p.body, bodies: p.bodies })
                 }
                 None => None,

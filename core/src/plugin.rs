@@ -405,7 +405,8 @@ pub trait StressModel: Send + Sync {
     /// The names of this model's state components at each point (a [`StressKind::Points`]
     /// model: plastic strain, damage, …), one value each per point, which the frame keeps
     /// with the points and hands to [`StressModel::point_stress`] as
-    /// [`PointStressContext::state`]. The names label the values in snapshots. Default:
+    /// [`PointStressContext::state`]. Snapshots write each component under
+    /// `<model>_<component>` with the points (`/fields/<f>/points/`). Default:
     /// none.
     fn point_state(&self) -> &'static [&'static str] {
         &[]

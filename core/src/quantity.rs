@@ -165,9 +165,29 @@ pub struct PointSet {
     /// Whether the points sample the field's material (material points), rather than
     /// each standing for a whole body (mass points).
     pub continuum: bool,
+    /// The per-point state of each of the field's stress models, in the order of its
+    /// `stress` list (`StressModel::point_state` names k components: k values per point,
+    /// point p's at `[k p, k (p + 1))`); empty when no model keeps any.
+    pub model_state: Vec<Vec<Real>>,
 }
 
 impl PointSet {
+    /// The per-point state of the field's stress `models`, one array per component, named
+    /// `<model>_<component>`.
+    pub fn named_state(&self, models: &[Box<dyn crate::plugin::StressModel>]) -> Vec<(String, Vec<Real>)> {
+        let mut out = Vec::new();
+        for (m, state) in models.iter().zip(&self.model_state) {
+            let names = m.point_state();
+            let k = names.len();
+            if k == 0 || state.len() != k * self.len() {
+                continue;
+            }
+            for (c, name) in names.iter().enumerate() {
+                out.push((format!("{}_{name}", m.model()), state.iter().skip(c).step_by(k).copied().collect()));
+            }
+        }
+        out
+    }
     /// Number of points.
     pub fn len(&self) -> usize {
         self.position.len()

@@ -1116,6 +1116,7 @@ impl Frame for Lagrangian {
             body: p.body.iter().map(|&b| b as i64 - 1).collect(),
             bodies: self.bodies.iter().map(|b| b.state.name.clone()).collect(),
             continuum: true,
+            model_state: p.model_state.clone(),
         })
     }
 

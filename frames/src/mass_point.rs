@@ -336,6 +336,7 @@ impl Frame for MassPoint {
             body: (0..self.points.len() as i64).collect(),
             bodies: states.map(|s| s.name.clone()).collect(),
             continuum: false,
+            model_state: Vec::new(),
         })
     }
 

@@ -119,6 +119,11 @@ fn the_state_integrates_the_strain_rate_of_a_uniform_shear() {
         assert!(worst < 1e-9, "{grid}: equivalent strain off by {worst:e}");
         let shear = p.grad_v.iter().map(|l| (l - Matrix::new(0.0, rate, 0.0, 0.0)).norm()).fold(0.0, Real::max);
         assert!(shear < 1e-9, "{grid}: ∇v off the shear by {shear:e}");
+        // a snapshot holds the state under `<model>_<component>`, point for point
+        let spec = multifield::core::case::SnapshotSpec::every(1.0);
+        let snap = multifield::snapshot::Snapshot::with(&sim, &spec).unwrap();
+        let points = snap.fields[0].points.as_ref().unwrap();
+        assert_eq!(points.get("strain_meter_equivalent_strain"), Some(p.model_state[0].as_slice()), "{grid}");
     }
 }
 
