@@ -43,7 +43,7 @@
 //! ([`Pictures::create`]). A frame of a domain 320 × 1280 cells, 640 pixels wide, takes
 //! 0.08–0.17 s on two cores (most of it the PNG encoder).
 
-use crate::core::case::PictureSpec;
+use crate::core::case::{PictureSpec, Representation};
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::Grid;
@@ -330,7 +330,12 @@ fn blend(rgb: &mut [u8], lay: &Layout, x: i64, y: i64, c: [u8; 3], alpha: f64) {
 /// Material points as one-pixel dots, a deterministic sample of at most [`MAX_POINTS`].
 fn paint_points(rgb: &mut [u8], lay: &Layout, sim: &Simulation) {
     // material points only: a mass point is drawn as its body
-    let sets: Vec<PointSet> = sim.fields.iter().filter_map(|f| f.frame.points()).filter(|p| p.continuum).collect();
+    let sets: Vec<PointSet> = sim
+        .fields
+        .iter()
+        .filter(|f| f.frame.representation() == Representation::Resolved)
+        .filter_map(|f| f.frame.points())
+        .collect();
     let total: usize = sets.iter().map(PointSet::len).sum();
     if total == 0 {
         return;

@@ -15,6 +15,7 @@
 //! Arrays are row-major over the cells `(NY, NX)` (cell `(i, j)` at `j·NX + i`) or over
 //! the points; a vector is three components per cell or point with z = 0.
 
+use crate::case::Representation;
 use crate::grid::{FaceVelocity, Grid, Lattice};
 use crate::math::{Matrix, Real, Vector};
 use crate::simulation::{region_fraction, Simulation};
@@ -162,9 +163,6 @@ pub struct PointSet {
     pub body: Vec<i64>,
     /// Names of the field's bodies (empty when it has none).
     pub bodies: Vec<String>,
-    /// Whether the points sample the field's material (material points), rather than
-    /// each standing for a whole body (mass points).
-    pub continuum: bool,
     /// The per-point state of each of the field's stress models, in the order of its
     /// `stress` list (`StressModel::point_state` names k components: k values per point,
     /// point p's at `[k p, k (p + 1))`); empty when no model keeps any.
@@ -342,7 +340,8 @@ fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
             *o += t;
         }
         let mut vel = match f.frame.points() {
-            Some(p) if p.continuum => deposit_velocity(g, &p),
+            // material points sample the field; a mass point stands for a whole body
+            Some(p) if f.frame.representation() == Representation::Resolved => deposit_velocity(g, &p),
             _ => {
                 let mut vel = FaceVelocity::zeros(g);
                 for j in 0..g.ny {

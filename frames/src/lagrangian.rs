@@ -1115,7 +1115,6 @@ impl Frame for Lagrangian {
             stress: p.stress.clone(),
             body: p.body.iter().map(|&b| b as i64 - 1).collect(),
             bodies: self.bodies.iter().map(|b| b.state.name.clone()).collect(),
-            continuum: true,
             model_state: p.model_state.clone(),
         })
     }

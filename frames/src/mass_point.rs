@@ -335,7 +335,6 @@ impl Frame for MassPoint {
             stress: vec![Matrix::zeros(); self.points.len()],
             body: (0..self.points.len() as i64).collect(),
             bodies: states.map(|s| s.name.clone()).collect(),
-            continuum: false,
             model_state: Vec::new(),
         })
     }

@@ -99,7 +99,7 @@ fn point_quantities_of_a_resolved_disk_and_of_its_mass_point() {
     );
     assert!((total - body.volume).abs() < 1e-12 * total, "Σ V {total} against the body's {}", body.volume);
     let points = resolved.fields[k].frame.points().unwrap();
-    assert!(points.continuum && points.body.iter().all(|b| *b == 0));
+    assert!(points.body.iter().all(|b| *b == 0));
     assert_eq!(points.bodies, std::slice::from_ref(&body.name));
     // the same disk as one mass point: one point that stands for the whole body
     let sets = [
@@ -109,7 +109,7 @@ fn point_quantities_of_a_resolved_disk_and_of_its_mass_point() {
     let point = Simulation::new(&load("examples/settling_disk.ron", &sets)).unwrap();
     let p = point.fields[k].frame.points().unwrap();
     let b = &point.fields[k].frame.bodies()[0];
-    assert!(!p.continuum && p.len() == 1 && p.body == [0] && p.bodies == std::slice::from_ref(&b.name));
+    assert!(p.len() == 1 && p.body == [0] && p.bodies == std::slice::from_ref(&b.name));
     assert_eq!((p.volume[0], p.mass[0], p.position[0]), (b.volume, b.mass, b.position));
     println!("mass point: volume {:.6e} (πR² {:.6e})", b.volume, PI * b.radius.powi(2));
     assert!((b.volume - PI * b.radius.powi(2)).abs() < 1e-12 * b.volume, "a mass point carries the disk's volume");
