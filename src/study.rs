@@ -670,7 +670,8 @@ pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, 
         }
         wanted.push((a, label.trim().to_string()));
     }
-    let mut runs = Vec::new();
+    let mut runs: Vec<Combination> = Vec::new();
+    let mut dirs: std::collections::HashMap<PathBuf, usize> = std::collections::HashMap::new();
     let counts: Vec<usize> = points.iter().map(Vec::len).collect();
     let total: usize = counts.iter().product();
     for n in 0..total {
@@ -704,6 +705,18 @@ pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, 
             dir,
         };
         let what = combination.describe(&study.axes);
+        // distinct labels can make one directory name (`a b` and `a_b`): two runs would
+        // share their output and the second would count as finished
+        if let Some(other) = dirs.get(&combination.dir).map(|&k| &runs[k]) {
+            return Err(Error::Model(format!(
+                "{}: the combinations {} and {what} would both run in {}: their labels differ only in \
+                 characters a directory name cannot hold (letters, digits, `-`, `_` and `.` are kept, \
+                 others become `_`); give the axis values labels that differ in those",
+                file.display(),
+                other.describe(&study.axes),
+                combination.dir.display()
+            )));
+        }
         let context = |e: Error| {
             Error::Model(format!("{}: the combination {what} (run {} of {total}): {}", file.display(), n + 1, e))
         };
@@ -712,6 +725,7 @@ pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, 
         case.name = format!("{}: {what}", study.name);
         // plugins: unknown models and bad parameters are found now, not mid-study
         Simulation::new(&case).map_err(context)?;
+        dirs.insert(combination.dir.clone(), runs.len());
         runs.push(Combination { case, ..combination });
     }
     Ok(Plan { study, file: file.to_path_buf(), points, runs, out })

@@ -4,5 +4,7 @@
 //! One test binary: `cargo test --release --test regression [module::]`.
 
 mod body_through_a_periodic_side;
+mod colliding_run_directories;
 mod eulerian_field_with_bodies;
 mod instability;
+mod overlap_between_fields;

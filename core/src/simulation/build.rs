@@ -143,6 +143,7 @@ impl Simulation {
         };
         // seed: fields with their own region first, then the one that fills the rest
         let mut occupied = vec![0.0; grid.n_cells()];
+        let seeded: Vec<(String, bool)> = fields.iter().map(|f| (f.name.clone(), f.fills_rest)).collect();
         for (k, f) in fields.iter_mut().enumerate() {
             if f.fills_rest {
                 continue;
@@ -156,7 +157,10 @@ impl Simulation {
             };
             // bodies under a direct forcing take no volume on the grid: the fluid fills them
             if !forced {
-                for (o, t) in occupied.iter_mut().zip(&theta) {
+                for (c, (o, t)) in occupied.iter_mut().zip(&theta).enumerate() {
+                    if *o + t > 1.0 + OVERLAP_TOLERANCE {
+                        return Err(overlap(&grid, c, *o + t, &case, &seeded[..k], &forcings, &f.name));
+                    }
                     *o += t;
                 }
             }
@@ -225,4 +229,42 @@ impl Simulation {
             grid_state_stale: false,
         })
     }
+}
+
+/// How far Σθ may exceed 1 in a cell before the first step: the fields' regions are
+/// sampled on 8 × 8 points a cell, so two regions that only touch can share one sample.
+const OVERLAP_TOLERANCE: Real = 0.02;
+
+/// The refusal of a cell that the fields' regions fill beyond its volume: `name` is the
+/// field that overfilled it, `before` the fields seeded before it (those with a share of
+/// the cell are named).
+fn overlap(
+    grid: &Grid,
+    c: usize,
+    sum: Real,
+    case: &Case,
+    before: &[(String, bool)],
+    forcings: &[ForcedPair],
+    name: &str,
+) -> Error {
+    let (i, j) = (c % grid.nx, c / grid.nx);
+    let x = grid.cell_center(i, j);
+    let others: Vec<String> = before
+        .iter()
+        .enumerate()
+        .filter(|(k, (_, rest))| !rest && !forcings.iter().any(|p| p.bodies == *k))
+        .filter(|(k, _)| case.fields[*k].region.contains(x.x, x.y))
+        .map(|(_, (name, _))| format!("`{name}`"))
+        .collect();
+    let with = if others.is_empty() { "the fields before it".to_string() } else { others.join(", ") };
+    Error::invalid(
+        format!("fields.{name}.region"),
+        format!(
+            "overlaps {with}: the cell at ({:.6}, {:.6}) would hold Σθ = {sum:.4} of its volume before the \
+             first step. The regions of the fields (other than the one with region `Rest`) must not overlap, \
+             and their volume fractions must sum to at most 1; move or shrink one of the regions, or lower \
+             a volume_fraction",
+            x.x, x.y
+        ),
+    )
 }
