@@ -27,6 +27,7 @@ pub mod checkpoint;
 pub mod cli;
 pub mod compare;
 pub mod dkt;
+pub mod fuzzing;
 pub mod output;
 pub mod picture;
 pub mod plot;

@@ -6,5 +6,6 @@
 //! it to the registries the tests here list.
 
 mod bad_input;
+mod fuzzing;
 mod registry;
 mod self_contained;

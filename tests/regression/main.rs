@@ -6,5 +6,6 @@
 mod body_through_a_periodic_side;
 mod colliding_run_directories;
 mod eulerian_field_with_bodies;
+mod full_disk;
 mod instability;
 mod overlap_between_fields;
