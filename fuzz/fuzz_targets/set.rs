@@ -11,7 +11,10 @@ use std::sync::OnceLock;
 fn examples() -> &'static [Vec<u8>] {
     static EXAMPLES: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
     EXAMPLES.get_or_init(|| {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("fuzz/ in the repository").join("examples");
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .expect("fuzz/ in the repository")
+            .join("examples");
         let mut files: Vec<_> = std::fs::read_dir(dir)
             .expect("the repository's examples")
             .map(|e| e.expect("a directory entry").path())
