@@ -480,10 +480,10 @@ impl Collocated {
     /// (2), each for the components (x, y).
     #[inline(always)]
     fn gather4<S: Lanes>(&self, s: S, grid: &Grid, x: [&Vector; 4]) -> [S::V; 10] {
-        let h = s.splat(grid.h);
-        let (px, py) = s.pairs(x.map(pair));
-        let (bx, fx, wx, dwx) = quadratic_lanes(lattice_lanes(s, grid, px, 0));
-        let (by, fy, wy, dwy) = quadratic_lanes(lattice_lanes(s, grid, py, 1));
+        let (h, ih) = (s.splat(grid.h), s.splat(1.0 / grid.h));
+        let (px, py) = s.pairs([pair(x[0]), pair(x[1]), pair(x[2]), pair(x[3])]);
+        let (bx, fx, wx, dwx) = quadratic_lanes(lattice_lanes(s, grid, px, ih, 0));
+        let (by, fy, wy, dwy) = quadratic_lanes(lattice_lanes(s, grid, py, ih, 1));
         let k0 = self.first_nodes(bx.to_array(), by.to_array());
         let z = s.splat(0.0);
         let mut wxd = [z; 3];
@@ -917,10 +917,10 @@ fn lattice(g: &Grid, x: Vector) -> Vector {
     Vector::new(xi.x.clamp(-0.5, g.nx as Real + 0.5), xi.y.clamp(-0.5, g.ny as Real + 0.5))
 }
 
-/// Lattice coordinates along `axis` of the positions `x` in the lanes, `lattice`'s.
+/// Lattice coordinates along `axis` of the positions `x` in the lanes (`ih` = 1/h), `lattice`'s.
 #[inline(always)]
-fn lattice_lanes<S: Lanes>(s: S, g: &Grid, x: S::V, axis: usize) -> S::V {
-    let xi = (x - s.splat(g.origin[axis])) * s.splat(1.0 / g.h);
+fn lattice_lanes<S: Lanes>(s: S, g: &Grid, x: S::V, ih: S::V, axis: usize) -> S::V {
+    let xi = (x - s.splat(g.origin[axis])) * ih;
     let n = if axis == 0 { g.nx } else { g.ny };
     // max(lo, ξ), min(hi, ·): ξ where it is NaN, as `clamp`
     s.splat(n as Real + 0.5).min(s.splat(-0.5).max(xi))
@@ -935,7 +935,6 @@ fn lattice_lanes<S: Lanes>(s: S, g: &Grid, x: S::V, axis: usize) -> S::V {
 /// (one point per lane; the lanes past `n` repeat a point and are not added), then
 /// transposed to one register per node row and added to the nodes, point by point.
 /// Returns each point's first stencil column and row.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn scatter4<S: Lanes>(
     s: S,
@@ -943,28 +942,27 @@ fn scatter4<S: Lanes>(
     width: usize,
     row0: isize,
     input: &ScatterIn,
-    idx: [usize; 4],
+    four: Four,
     n: usize,
-    sg: [&Matrix; 4],
 ) -> [(isize, isize); 4] {
-    let (g, pts, dt) = (input.grid, input.pts, input.dt);
+    let (g, dt) = (input.grid, input.dt);
     let (h, ih, zero) = (s.splat(g.h), s.splat(1.0 / g.h), s.splat(0.0));
-    let (x, y) = s.pairs(idx.map(|p| pair(&pts.x[p])));
-    let (bxv, fx, wx, dwx) = quadratic_lanes(lattice_lanes(s, g, x, 0));
-    let (byv, fy, wy, dwy) = quadratic_lanes(lattice_lanes(s, g, y, 1));
-    let m = s.gather(idx.map(|p| &pts.m[p]));
-    let (vx, vy) = s.pairs(idx.map(|p| pair(&pts.v[p])));
+    let (x, y) = s.pairs(four.x.map(pair));
+    let (bxv, fx, wx, dwx) = quadratic_lanes(lattice_lanes(s, g, x, ih, 0));
+    let (byv, fy, wy, dwy) = quadratic_lanes(lattice_lanes(s, g, y, ih, 1));
+    let m = s.gather(four.m);
+    let (vx, vy) = s.pairs(four.v.map(pair));
     let ((cux, cuy), (cvx, cvy)) = if input.apic {
-        (s.pairs(idx.map(|p| pair(&pts.c_u[p]))), s.pairs(idx.map(|p| pair(&pts.c_v[p]))))
+        (s.pairs(four.cu.map(pair)), s.pairs(four.cv.map(pair)))
     } else {
         ((zero, zero), (zero, zero))
     };
     // k = Δt V⁰ det F (1/h), with det F = F11 F22 − F21 F12
-    let [f11, f21, f12, f22] = matrices(s, idx.map(|p| &pts.f[p]));
+    let [f11, f21, f12, f22] = matrices(s, four.f);
     let det = f11 * f22 - f21 * f12;
-    let vol0 = s.gather(idx.map(|p| &pts.vol0[p]));
+    let vol0 = s.gather(four.vol0);
     let k = s.splat(dt) * vol0 * det * ih;
-    let [g11, g21, g12, g22] = matrices(s, sg);
+    let [g11, g21, g12, g22] = matrices(s, four.sg);
     let (s00, s01, s10, s11) = (k * g11, k * g12, k * g21, k * g22);
     // the rows (channels, one point per lane) transposed to one register per point
     let mut pa = [[zero; 4]; 3];
@@ -1030,47 +1028,93 @@ fn scatter_points<S: Lanes>(
     note: &mut impl FnMut((isize, isize)),
 ) {
     let first = pts.start;
-    let sg = |idx: [usize; 4]| idx.map(|p| &sigma[p - first]);
     let mut idx = [pts.start; 4];
     let mut n = 0;
     let mut p = pts.start;
-    while p < pts.end {
-        match reach {
-            // four in a row
-            None if p + 4 <= pts.end => {
-                idx = [p, p + 1, p + 2, p + 3];
-                p += 4;
+    if reach.is_none() {
+        // four in a row
+        while p + 4 <= pts.end {
+            let four = Four::run(input.pts, sigma, first, p);
+            for f in scatter4(s, chunk, width, row0, input, four, 4) {
+                note(f);
             }
-            None => {
-                idx[n] = p;
-                p += 1;
-                n += 1;
+            p += 4;
+        }
+    }
+    while p < pts.end {
+        let k = p - first;
+        p += 1;
+        if let Some((firsts, lo, hi)) = reach {
+            if firsts[k] + 3 <= lo || firsts[k] >= hi {
                 continue;
             }
-            Some((firsts, lo, hi)) => {
-                let k = p - first;
-                p += 1;
-                if firsts[k] + 3 > lo && firsts[k] < hi {
-                    idx[n] = k + first;
-                    n += 1;
-                }
-                if n < 4 {
-                    continue;
-                }
+        }
+        idx[n] = k + first;
+        n += 1;
+        if n == 4 {
+            for f in scatter4(s, chunk, width, row0, input, Four::of(input.pts, sigma, first, idx), 4) {
+                note(f);
             }
+            n = 0;
         }
-        for f in scatter4(s, chunk, width, row0, input, idx, 4, sg(idx)) {
-            note(f);
-        }
-        n = 0;
     }
     if n > 0 {
         // the last one to three points, the last repeated in the other lanes
         let last = idx[n - 1];
         idx[n..].fill(last);
-        let firsts = scatter4(s, chunk, width, row0, input, idx, n, sg(idx));
+        let firsts = scatter4(s, chunk, width, row0, input, Four::of(input.pts, sigma, first, idx), n);
         for &f in &firsts[..n] {
             note(f);
+        }
+    }
+}
+
+/// What `scatter4` reads of its four points, one per lane.
+struct Four<'a> {
+    x: [&'a Vector; 4],
+    v: [&'a Vector; 4],
+    cu: [&'a Vector; 4],
+    cv: [&'a Vector; 4],
+    f: [&'a Matrix; 4],
+    m: [&'a Real; 4],
+    vol0: [&'a Real; 4],
+    /// The stresses.
+    sg: [&'a Matrix; 4],
+}
+
+impl<'a> Four<'a> {
+    /// The points `idx` of `pts` (stresses `sigma` from point `first` on).
+    #[inline(always)]
+    fn of(pts: &'a Points, sigma: &'a [Matrix], first: usize, idx: [usize; 4]) -> Self {
+        let [a, b, c, d] = idx;
+        Four {
+            x: [&pts.x[a], &pts.x[b], &pts.x[c], &pts.x[d]],
+            v: [&pts.v[a], &pts.v[b], &pts.v[c], &pts.v[d]],
+            cu: [&pts.c_u[a], &pts.c_u[b], &pts.c_u[c], &pts.c_u[d]],
+            cv: [&pts.c_v[a], &pts.c_v[b], &pts.c_v[c], &pts.c_v[d]],
+            f: [&pts.f[a], &pts.f[b], &pts.f[c], &pts.f[d]],
+            m: [&pts.m[a], &pts.m[b], &pts.m[c], &pts.m[d]],
+            vol0: [&pts.vol0[a], &pts.vol0[b], &pts.vol0[c], &pts.vol0[d]],
+            sg: [&sigma[a - first], &sigma[b - first], &sigma[c - first], &sigma[d - first]],
+        }
+    }
+
+    /// The points `p .. p + 4` (one bounds check per array).
+    #[inline(always)]
+    fn run(pts: &'a Points, sigma: &'a [Matrix], first: usize, p: usize) -> Self {
+        fn four<T>(v: &[T], p: usize) -> [&T; 4] {
+            let v: &[T; 4] = v[p..p + 4].try_into().expect("four points");
+            v.each_ref()
+        }
+        Four {
+            x: four(&pts.x, p),
+            v: four(&pts.v, p),
+            cu: four(&pts.c_u, p),
+            cv: four(&pts.c_v, p),
+            f: four(&pts.f, p),
+            m: four(&pts.m, p),
+            vol0: four(&pts.vol0, p),
+            sg: four(sigma, p - first),
         }
     }
 }
