@@ -12,6 +12,7 @@
 //! `shape`), not solver types.
 
 pub mod collocated;
+pub mod lanes;
 pub mod scatter;
 pub mod shape;
 

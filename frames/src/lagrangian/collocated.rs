@@ -24,153 +24,28 @@
 //! order for any number of strips); the grid update adds the parts node by node in part
 //! order, and the gather's per-block sums of the diagnostics are added in
 //! block order (each block's in four lanes, point k in lane k mod 4). The same bits on any
-//! number of threads. With AVX and FMA (x86-64, detected at run time) the scatter adds a
-//! node's four sums in one register and the gather takes four points at a time, by the
-//! same operations in the same order as the portable loops, which use `mul_add` where the
-//! lanes fuse a multiply-add: the same bits with or without AVX.
+//! number of threads. The kernel (scatter of four points, grid update of four nodes,
+//! gather and end of the gather of four points) is written once, generic over four f64
+//! lanes (`lanes::Lanes`), with the B-spline of `shape::quadratic_lanes`; it is compiled
+//! for portable `[f64; 4]` lanes and, with AVX and FMA (x86-64, detected at run time),
+//! for AVX registers inside `#[target_feature]` functions. Each lane operation is the same
+//! IEEE operation in both (`mul_add` fused in both): the same bits with or without AVX.
 //!
 //! Each part clears the grid it filled at its next scatter, on its own thread, and folds
 //! its ghost nodes in there too; the grid update only reads the parts. Only the chunks of
 //! 8 nodes that the points' stencils reached are updated and cleared (a map per row): a
 //! splash that spans the box touches a few chunks per row away from the bulk.
+#[cfg(target_arch = "x86_64")]
+use super::lanes::AvxFma;
+use super::lanes::{Lane, Lanes, Portable};
 use super::scatter::map_axis;
-use super::shape::{quadratic, Shape};
+use super::shape::{quadratic, quadratic_lanes, Shape};
 use super::{Points, Transfer};
 use multifield_core::boundary::{Boundaries, Side};
 use multifield_core::grid::Grid;
 use multifield_core::math::{Matrix, Real, Vector};
 use multifield_core::plugin::{FrameFigures, PointStressContext, StressModel};
 use rayon::prelude::*;
-
-/// `shape::quadratic` in the four lanes of an AVX register of lattice coordinates: (base as f64,
-/// fraction, weights, derivatives), by the same operations. A macro, so that it is inlined
-/// into the AVX functions that use it (the two transfers).
-#[cfg(target_arch = "x86_64")]
-macro_rules! bspline4 {
-    ($xi:expr) => {{
-        let v = $xi;
-        let base = _mm256_sub_pd(
-            _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(0.5)))),
-            _mm256_set1_pd(1.0),
-        );
-        let f = _mm256_sub_pd(v, base);
-        let a = _mm256_sub_pd(_mm256_set1_pd(1.5), f);
-        let b = _mm256_sub_pd(f, _mm256_set1_pd(1.0));
-        let c = _mm256_sub_pd(f, _mm256_set1_pd(0.5));
-        let half = _mm256_set1_pd(0.5);
-        let w = [
-            _mm256_mul_pd(_mm256_mul_pd(half, a), a),
-            _mm256_sub_pd(_mm256_set1_pd(0.75), _mm256_mul_pd(b, b)),
-            _mm256_mul_pd(_mm256_mul_pd(half, c), c),
-        ];
-        let dw = [_mm256_xor_pd(a, _mm256_set1_pd(-0.0)), _mm256_mul_pd(_mm256_set1_pd(-2.0), b), c];
-        (base, f, w, dw)
-    }};
-}
-
-/// Four f64 (an array) into the lanes of an AVX register. The lanes' helpers are macros,
-/// not closures: a closure called from a `target_feature` function is not always inlined,
-/// and then every intrinsic in it is a call.
-#[cfg(target_arch = "x86_64")]
-macro_rules! load4 {
-    ($v:expr) => {{
-        let v: [Real; 4] = $v;
-        // SAFETY: four f64
-        unsafe { _mm256_loadu_pd(v.as_ptr()) }
-    }};
-}
-
-/// The 4 × 4 transpose of four AVX registers: lane l of row k to lane k of row l.
-#[cfg(target_arch = "x86_64")]
-macro_rules! transpose4 {
-    ($r0:expr, $r1:expr, $r2:expr, $r3:expr) => {{
-        let (t0, t1) = (_mm256_unpacklo_pd($r0, $r1), _mm256_unpackhi_pd($r0, $r1));
-        let (t2, t3) = (_mm256_unpacklo_pd($r2, $r3), _mm256_unpackhi_pd($r2, $r3));
-        [
-            _mm256_permute2f128_pd::<0x20>(t0, t2),
-            _mm256_permute2f128_pd::<0x20>(t1, t3),
-            _mm256_permute2f128_pd::<0x31>(t0, t2),
-            _mm256_permute2f128_pd::<0x31>(t1, t3),
-        ]
-    }};
-}
-
-/// The four lanes of an AVX register as an array.
-#[cfg(target_arch = "x86_64")]
-macro_rules! store4 {
-    ($v:expr) => {{
-        let mut out = [0.0; 4];
-        // SAFETY: four f64
-        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), $v) };
-        out
-    }};
-}
-
-/// Four vectors (x, y), contiguous, as the lanes [x0 x1 x2 x3], [y0 y1 y2 y3]: two loads
-/// and four shuffles (`$v` a slice of at least four `Vector`s).
-#[cfg(target_arch = "x86_64")]
-macro_rules! soa2 {
-    ($v:expr) => {{
-        let v: &[Vector] = $v;
-        assert!(v.len() >= 4);
-        let p = v.as_ptr() as *const Real;
-        // SAFETY: four vectors of two f64, contiguous (nalgebra's storage)
-        let (a, b) = unsafe { (_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4))) };
-        let (t0, t1) = (_mm256_permute2f128_pd::<0x20>(a, b), _mm256_permute2f128_pd::<0x31>(a, b));
-        (_mm256_unpacklo_pd(t0, t1), _mm256_unpackhi_pd(t0, t1))
-    }};
-}
-
-/// Four 2 × 2 matrices, contiguous (column-major: m11, m21, m12, m22), as the lanes of
-/// their entries [m11, m21, m12, m22]: four loads and eight shuffles.
-#[cfg(target_arch = "x86_64")]
-macro_rules! soa4 {
-    ($m:expr) => {{
-        let m: &[Matrix] = $m;
-        assert!(m.len() >= 4);
-        let p = m.as_ptr() as *const Real;
-        // SAFETY: four matrices of four f64, contiguous
-        let r = unsafe {
-            [_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4)), _mm256_loadu_pd(p.add(8)), _mm256_loadu_pd(p.add(12))]
-        };
-        transpose4!(r[0], r[1], r[2], r[3])
-    }};
-}
-
-/// The inverse of `soa2!`: the lanes [x0 x1 x2 x3], [y0 y1 y2 y3] stored as four vectors
-/// into `$to` (a slice of at least four `Vector`s).
-#[cfg(target_arch = "x86_64")]
-macro_rules! aos2 {
-    ($a:expr, $b:expr, $to:expr) => {{
-        let to: &mut [Vector] = $to;
-        assert!(to.len() >= 4);
-        let (lo, hi) = (_mm256_unpacklo_pd($a, $b), _mm256_unpackhi_pd($a, $b));
-        let p = to.as_mut_ptr() as *mut Real;
-        // SAFETY: four vectors of two f64, contiguous
-        unsafe {
-            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(lo, hi));
-            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
-        }
-    }};
-}
-
-/// The inverse of `soa4!`: four matrices from the lanes of their entries (m11, m21, m12,
-/// m22) into `$to` (a slice of at least four `Matrix`es).
-#[cfg(target_arch = "x86_64")]
-macro_rules! aos4 {
-    ($m11:expr, $m21:expr, $m12:expr, $m22:expr, $to:expr) => {{
-        let to: &mut [Matrix] = $to;
-        assert!(to.len() >= 4);
-        let m = transpose4!($m11, $m21, $m12, $m22);
-        let p = to.as_mut_ptr() as *mut Real;
-        // SAFETY: four matrices of four f64, contiguous
-        unsafe {
-            for (k, m) in m.into_iter().enumerate() {
-                _mm256_storeu_pd(p.add(4 * k), m);
-            }
-        }
-    }};
-}
 
 /// Partial grids of the scatter: the points are split into this many parts by index, each
 /// scattered into its own grid (in parallel), and the grids are added in part order. A
@@ -237,9 +112,10 @@ pub struct Collocated {
     /// The lanes the transfers use (at most what the CPU has; the same bits with any).
     simd: Simd,
     /// Whether the last step's kinetic energy and largest speed were finite: then every
-    /// point is finite and in the domain (the gather keeps it there), which the AVX loops'
-    /// unchecked indexing needs. After a blown-up step the portable loops run, which keep
-    /// a NaN or infinite point on the padded lattice (`lattice`).
+    /// point is finite and in the domain (the gather keeps it there), which the AVX lanes'
+    /// conversion of the first node needs (a NaN would become −2³¹, and the stencil's
+    /// checked indexing would panic). After a blown-up step the portable lanes run, which
+    /// keep a NaN or infinite point on the padded lattice (`lattice`).
     finite: bool,
 }
 
@@ -336,7 +212,9 @@ impl Collocated {
         }
         let states = vec![state0, state1];
         let (nx, ny) = (self.nx, self.ny);
-        let (width, avx) = (self.width, self.simd >= Simd::Avx && self.finite);
+        let width = self.width;
+        // the lanes only while every point is finite (see `finite`)
+        let simd = if self.finite { self.simd } else { Simd::Portable };
         let row0 = -(PAD as isize); // lattice row of padded row 0
         let height = self.height;
         let (s0, s1) = stress.split_at_mut(n / PARTS);
@@ -344,7 +222,6 @@ impl Collocated {
         let words = self.words;
         let (nxi, nyi) = (nx as isize, ny as isize);
         let strips = rayon::current_num_threads().div_ceil(PARTS);
-        let simd = self.simd;
         let rows: Vec<(usize, usize)> = self
             .acc
             .par_chunks_mut(width * height)
@@ -368,13 +245,6 @@ impl Collocated {
                     });
                 }
                 let sigma = &*sigma;
-                if strips > 1 {
-                    scatter_strips(grid, touched, width, [nx, ny], input, pts, sigma, strips, simd);
-                    let rows = touched_rows(touched, words);
-                    fold_part(grid, width, [nx, ny], periodic, rows);
-                    return rows;
-                }
-                let first = pts.start;
                 let mut note = |(bx, by): (isize, isize)| {
                     mark(touched, words, bx, by);
                     // a point clamped to the lattice's far edge (not finite) starts its stencil
@@ -383,19 +253,10 @@ impl Collocated {
                         mark(touched, words, bx.min(nxi - 2).max(-1), by.min(nyi - 2).max(-1));
                     }
                 };
-                let mut p = pts.start;
-                #[cfg(target_arch = "x86_64")]
-                if avx {
-                    while p + 4 <= pts.end {
-                        let s = &sigma[p - first..p - first + 4];
-                        // SAFETY: `avx` only where the CPU has AVX and FMA (`Collocated::use_simd`)
-                        unsafe { scatter4_avx(grid, width, row0, input, p, s) }.into_iter().for_each(&mut note);
-                        p += 4;
-                    }
-                }
-                // the portable loop, or the last one to three points of the part
-                for p in p..pts.end {
-                    note(scatter_point(grid, width, row0, input, p, &sigma[p - first]));
+                if strips > 1 {
+                    scatter_strips(grid, &mut note, width, input, pts, sigma, strips, simd);
+                } else {
+                    scatter_lanes(simd, grid, width, row0, input, pts, sigma, None, &mut note);
                 }
                 let rows = touched_rows(touched, words);
                 fold_part(grid, width, [nx, ny], periodic, rows);
@@ -461,7 +322,8 @@ impl Collocated {
                 }
             }
         };
-        let avx = self.simd >= Simd::Avx;
+        #[cfg(target_arch = "x86_64")]
+        let avx = self.simd.avx();
         let (first, second) = self.acc.split_at(plane);
         first[lo * width..hi * width]
             .par_chunks(width)
@@ -477,11 +339,11 @@ impl Collocated {
                 runs(mask, PAD, PAD + nxu + 1, |cols| {
                     let (a, b, v) = (&a0[cols.clone()], &a1[cols.clone()], &mut vel[cols]);
                     #[cfg(target_arch = "x86_64")]
-                    if avx {
-                        // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-                        return unsafe { update_nodes_avx(a, b, v, tiny, [gx, gy]) };
+                    if let Some(avx) = avx {
+                        // SAFETY: `avx` exists, so the CPU has AVX and FMA
+                        return unsafe { update_nodes_avx(avx, a, b, v, tiny, [gx, gy]) };
                     }
-                    update_nodes(a, b, v, tiny, [gx, gy]);
+                    update_nodes(Portable, a, b, v, tiny, [gx, gy]);
                 });
                 update_walls(vel, j);
             });
@@ -544,9 +406,6 @@ impl Collocated {
         };
         // the lanes only while every point is finite (see `finite`)
         let simd = if self.finite { self.simd } else { Simd::Portable };
-        // the end of the gather in the lanes too: a `volumetric_only` field with walls on
-        // every side (`finish4`)
-        let lanes_finish = volumetric_only && !px && !py;
         let m = &pts.m;
         let sums: Vec<FrameFigures> = pts
             .x
@@ -558,36 +417,13 @@ impl Collocated {
             .map(|((((x, v), (f, gv)), (cu, cv)), m)| {
                 let mut block = Outs { x, v, f, gv, cu, cv };
                 let mut sums = LaneSums::default();
-                let mut k0 = 0;
-                while k0 < m.len() {
-                    // four points at a time with AVX, then one at a time
-                    let n = if simd == Simd::Avx && m.len() - k0 >= 4 { 4 } else { 1 };
-                    let r = k0..k0 + n;
-                    k0 += n;
-                    #[cfg(target_arch = "x86_64")]
-                    if n > 1 {
-                        let x = &block.x;
-                        let xs = [x[r.start], x[r.start + 1], x[r.start + 2], x[r.start + 3]];
-                        let mut raw = [[0.0; 10]; 4];
-                        let mut sink = if lanes_finish {
-                            Sink::Finish { fin: &fin, out: block.four(r.clone()), m: &m[r.clone()], sums: &mut sums }
-                        } else {
-                            Sink::Raw(&mut raw)
-                        };
-                        // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-                        unsafe { self.gather4_avx(grid, &xs, &mut sink) };
-                        if !lanes_finish {
-                            for (k, r) in r.zip(&raw) {
-                                // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-                                unsafe { finish_point_fma(&fin, r, m[k], block.point(k), k % 4, &mut sums) };
-                            }
-                        }
-                        continue;
-                    }
-                    let k = r.start;
-                    let raw = self.gather_point(grid, block.x[k]);
-                    finish_point(&fin, &raw, m[k], block.point(k), k % 4, &mut sums);
+                #[cfg(target_arch = "x86_64")]
+                if let Some(avx) = simd.avx() {
+                    // SAFETY: `avx` exists, so the CPU has AVX and FMA
+                    unsafe { self.gather_block_avx(avx, grid, &fin, &mut block, m, &mut sums) };
+                    return sums.total();
                 }
+                self.gather_block(Portable, grid, &fin, &mut block, m, &mut sums);
                 sums.total()
             })
             .collect();
@@ -602,144 +438,135 @@ impl Collocated {
         total
     }
 
-    /// The raw sums of one point's gather, 10 of them: Σ S u (2), Σ u ∂S/∂ξ (2),
-    /// Σ u ∂S/∂η (2), Σ S u (x_i − x_p) (2), Σ S u (y_i − y_p) (2), each for the
-    /// components (x, y). `gather4_avx` computes them for four points in the lanes of a
-    /// register, by the same operations in the same order: the
-    /// same bits.
+    /// The gather of a block of points (`out`, masses `m`), four at a time in the lanes of
+    /// `s`; the last one to three through four-point copies, the last point repeated in the
+    /// lanes left over. Point k of the block is in lane k mod 4 of its sums.
     #[inline(always)]
-    fn gather_point(&self, grid: &Grid, x: Vector) -> [Real; 10] {
-        let h = grid.h;
-        let xi = lattice(grid, x);
-        let (bx, fx, wx, dwx) = quadratic(xi.x);
-        let (by, fy, wy, dwy) = quadratic(xi.y);
-        let wxd: [Real; 3] = std::array::from_fn(|a| (a as Real - fx) * h * wx[a]);
-        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2]);
-        let k0 = self.index(bx, by);
-        let rows = &self.vel[k0..k0 + 2 * self.width + 3];
+    fn gather_block<S: Lanes>(&self, s: S, grid: &Grid, fin: &Finish, out: &mut Outs, m: &[Real], sums: &mut LaneSums) {
+        let n = m.len();
+        let mut k0 = 0;
+        while k0 + 4 <= n {
+            let r = self.gather4(s, grid, [&out.x[k0], &out.x[k0 + 1], &out.x[k0 + 2], &out.x[k0 + 3]]);
+            let m = [&m[k0], &m[k0 + 1], &m[k0 + 2], &m[k0 + 3]];
+            finish4(s, fin, &r, &mut out.four(k0..k0 + 4), m, 4, sums);
+            k0 += 4;
+        }
+        if k0 < n {
+            let rest = n - k0;
+            let (mut x, mut v, mut f) = (pad4(&out.x[k0..]), pad4(&out.v[k0..]), pad4(&out.f[k0..]));
+            let (mut gv, mut cu, mut cv) = (pad4(&out.gv[k0..]), pad4(&out.cu[k0..]), pad4(&out.cv[k0..]));
+            let ms = pad4(&m[k0..]);
+            let r = self.gather4(s, grid, [&x[0], &x[1], &x[2], &x[3]]);
+            let mut four = Outs { x: &mut x, v: &mut v, f: &mut f, gv: &mut gv, cu: &mut cu, cv: &mut cv };
+            finish4(s, fin, &r, &mut four, [&ms[0], &ms[1], &ms[2], &ms[3]], rest, sums);
+            out.x[k0..].copy_from_slice(&x[..rest]);
+            out.v[k0..].copy_from_slice(&v[..rest]);
+            out.f[k0..].copy_from_slice(&f[..rest]);
+            out.gv[k0..].copy_from_slice(&gv[..rest]);
+            out.cu[k0..].copy_from_slice(&cu[..rest]);
+            out.cv[k0..].copy_from_slice(&cv[..rest]);
+        }
+    }
+
+    /// `gather_block` in AVX registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,fma")]
+    fn gather_block_avx(&self, s: AvxFma, grid: &Grid, fin: &Finish, out: &mut Outs, m: &[Real], sums: &mut LaneSums) {
+        self.gather_block(s, grid, fin, out, m, sums)
+    }
+
+    /// The raw sums of the gathers of four points at `x`, one per lane, 10 of them:
+    /// Σ S u (2), Σ u ∂S/∂ξ (2), Σ u ∂S/∂η (2), Σ S u (x_i − x_p) (2), Σ S u (y_i − y_p)
+    /// (2), each for the components (x, y).
+    #[inline(always)]
+    fn gather4<S: Lanes>(&self, s: S, grid: &Grid, x: [&Vector; 4]) -> [S::V; 10] {
+        let (h, ih) = (s.splat(grid.h), s.splat(1.0 / grid.h));
+        let (px, py) = s.pairs([pair(x[0]), pair(x[1]), pair(x[2]), pair(x[3])]);
+        let (bx, fx, wx, dwx) = quadratic_lanes(lattice_lanes(s, grid, px, ih, 0));
+        let (by, fy, wy, dwy) = quadratic_lanes(lattice_lanes(s, grid, py, ih, 1));
+        let k0 = self.first_nodes(bx.to_array(), by.to_array());
+        let z = s.splat(0.0);
+        let mut wxd = [z; 3];
+        for a in 0..3 {
+            wxd[a] = (s.splat(a as Real) - fx) * h * wx[a];
+        }
+        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
         for b in 0..3 {
-            let row = &rows[b * self.width..b * self.width + 3];
-            let (mut s, mut t, mut r) = ([0.0; 2], [0.0; 2], [0.0; 2]);
+            let row = |l: usize| -> &[[Real; 2]; 3] {
+                let at = k0[l] + b * self.width;
+                self.vel[at..at + 3].try_into().expect("a stencil row")
+            };
+            let rows = [row(0), row(1), row(2), row(3)];
+            let (mut sw, mut t, mut r) = ([z; 2], [z; 2], [z; 2]);
             for a in 0..3 {
+                let (u, v) = s.pairs([&rows[0][a], &rows[1][a], &rows[2][a], &rows[3][a]]);
+                let uv = [u, v];
                 for c in 0..2 {
-                    s[c] = wx[a].mul_add(row[a][c], s[c]);
-                    t[c] = dwx[a].mul_add(row[a][c], t[c]);
-                    r[c] = wxd[a].mul_add(row[a][c], r[c]);
+                    sw[c] = wx[a].mul_add(uv[c], sw[c]);
+                    t[c] = dwx[a].mul_add(uv[c], t[c]);
+                    r[c] = wxd[a].mul_add(uv[c], r[c]);
                 }
             }
-            let wdy = wy[b] * (b as Real - fy) * h;
+            let wdy = wy[b] * (s.splat(b as Real) - fy) * h;
             for c in 0..2 {
-                u[c] = wy[b].mul_add(s[c], u[c]);
+                u[c] = wy[b].mul_add(sw[c], u[c]);
                 gx[c] = wy[b].mul_add(t[c], gx[c]);
-                gy[c] = dwy[b].mul_add(s[c], gy[c]);
+                gy[c] = dwy[b].mul_add(sw[c], gy[c]);
                 ax[c] = wy[b].mul_add(r[c], ax[c]);
-                ay[c] = wdy.mul_add(s[c], ay[c]);
+                ay[c] = wdy.mul_add(sw[c], ay[c]);
             }
         }
         [u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]]
     }
 
     /// First stencil node of each of the points at lattice bases `bx`, `by`. Every stencil
-    /// lies in the padded lattice: the lanes run only while every point is finite
-    /// (`Collocated::finite`), and a finite point is in the domain, 0 ≤ ξ ≤ n, which puts
-    /// its first node in [−1, n − 1] and its last in [1, n + 1].
-    #[cfg(target_arch = "x86_64")]
+    /// lies in the padded lattice: the lattice coordinates are clamped to [−½, n + ½]
+    /// (`lattice_lanes`), which puts the first node in [−1, n] and the last in [1, n + 2].
+    #[inline(always)]
     fn first_nodes(&self, bx: [Real; 4], by: [Real; 4]) -> [usize; 4] {
-        std::array::from_fn(|l| {
+        let node = |l: usize| {
             assert!(bx[l] >= -1.0 && by[l] >= -1.0 && bx[l] <= self.nx as Real && by[l] <= self.ny as Real);
             self.index(bx[l] as isize, by[l] as isize)
-        })
-    }
-
-    /// `gather_point` for the four points at `x`, one per lane.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,fma")]
-    fn gather4_avx(&self, grid: &Grid, x: &[Vector], sink: &mut Sink) {
-        use std::arch::x86_64::*;
-        let h = grid.h;
-        let ih = 1.0 / h;
-        let xi: [Vector; 4] = std::array::from_fn(|l| (x[l] - grid.origin) * ih);
-        let (bxv, fx, wx, dwx) = bspline4!(load4!(arr4(|l| xi[l].x)));
-        let (byv, fy, wy, dwy) = bspline4!(load4!(arr4(|l| xi[l].y)));
-        let (mut bx, mut by) = ([0.0; 4], [0.0; 4]);
-        // SAFETY: four f64 each
-        unsafe {
-            _mm256_storeu_pd(bx.as_mut_ptr(), bxv);
-            _mm256_storeu_pd(by.as_mut_ptr(), byv);
-        }
-        let k0 = self.first_nodes(bx, by);
-        let hv = _mm256_set1_pd(h);
-        let mut wxd: [__m256d; 3] = [_mm256_setzero_pd(); 3];
-        for a in 0..3 {
-            wxd[a] = _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv), wx[a]);
-        }
-        let z = _mm256_setzero_pd();
-        let (mut u, mut gx, mut gy, mut ax, mut ay) = ([z; 2], [z; 2], [z; 2], [z; 2], [z; 2]);
-        let base = self.vel.as_ptr() as *const Real;
-        for b in 0..3 {
-            let (mut s, mut t, mut r) = ([z; 2], [z; 2], [z; 2]);
-            for a in 0..3 {
-                let o = b * self.width + a;
-                // SAFETY: k0[l] + o < vel.len() (`first_nodes`); a node is two f64
-                let uv = unsafe {
-                    let p: [__m128d; 4] = [
-                        _mm_loadu_pd(base.add(2 * (k0[0] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[1] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[2] + o))),
-                        _mm_loadu_pd(base.add(2 * (k0[3] + o))),
-                    ];
-                    let v02 = _mm256_set_m128d(p[2], p[0]);
-                    let v13 = _mm256_set_m128d(p[3], p[1]);
-                    [_mm256_unpacklo_pd(v02, v13), _mm256_unpackhi_pd(v02, v13)]
-                };
-                for c in 0..2 {
-                    s[c] = _mm256_fmadd_pd(wx[a], uv[c], s[c]);
-                    t[c] = _mm256_fmadd_pd(dwx[a], uv[c], t[c]);
-                    r[c] = _mm256_fmadd_pd(wxd[a], uv[c], r[c]);
-                }
-            }
-            let wdy = _mm256_mul_pd(_mm256_mul_pd(wy[b], _mm256_sub_pd(_mm256_set1_pd(b as Real), fy)), hv);
-            for c in 0..2 {
-                u[c] = _mm256_fmadd_pd(wy[b], s[c], u[c]);
-                gx[c] = _mm256_fmadd_pd(wy[b], t[c], gx[c]);
-                gy[c] = _mm256_fmadd_pd(dwy[b], s[c], gy[c]);
-                ax[c] = _mm256_fmadd_pd(wy[b], r[c], ax[c]);
-                ay[c] = _mm256_fmadd_pd(wdy, s[c], ay[c]);
-            }
-        }
-        sink.put(&[u[0], u[1], gx[0], gx[1], gy[0], gy[1], ax[0], ax[1], ay[0], ay[1]], x);
+        };
+        [node(0), node(1), node(2), node(3)]
     }
 }
 
-/// Where the lanes of a gather put their sums: the raw sums (see `gather_point`), or the
-/// end of the points' gathers (`finish_point` in the lanes; a `volumetric_only` field with
-/// walls on every side).
-#[cfg(target_arch = "x86_64")]
-enum Sink<'a> {
-    Raw(&'a mut [[Real; 10]]),
-    Finish { fin: &'a Finish, out: Outs<'a>, m: &'a [Real], sums: &'a mut LaneSums },
+/// Four copies of the first one to four entries of `v`, the last repeated.
+#[inline(always)]
+fn pad4<T: Copy>(v: &[T]) -> [T; 4] {
+    let last = v.len() - 1;
+    [v[0], v[1.min(last)], v[2.min(last)], v[3.min(last)]]
 }
 
-#[cfg(target_arch = "x86_64")]
-impl Sink<'_> {
-    /// The sums `all` of the four points (start positions `x`), one per lane.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,fma")]
-    fn put(&mut self, all: &[std::arch::x86_64::__m256d; 10], x: &[Vector]) {
-        match self {
-            Sink::Raw(out) => {
-                for (k, v) in all.iter().enumerate() {
-                    let mut lane = [0.0; 4];
-                    // SAFETY: four f64
-                    unsafe { std::arch::x86_64::_mm256_storeu_pd(lane.as_mut_ptr(), *v) };
-                    for l in 0..4 {
-                        out[l][k] = lane[l];
-                    }
-                }
-            }
-            Sink::Finish { fin, out, m, sums } => finish4(fin, all, x, out, m, sums),
-        }
-    }
+/// A vector's two entries.
+#[inline(always)]
+fn pair(v: &Vector) -> &[Real; 2] {
+    &v.data.0[0]
+}
+
+/// Four 2 × 2 matrices as the lanes of their entries [m11, m21, m12, m22].
+#[inline(always)]
+fn matrices<S: Lanes>(s: S, m: [&Matrix; 4]) -> [S::V; 4] {
+    let (m11, m21) = s.pairs([&m[0].data.0[0], &m[1].data.0[0], &m[2].data.0[0], &m[3].data.0[0]]);
+    let (m12, m22) = s.pairs([&m[0].data.0[1], &m[1].data.0[1], &m[2].data.0[1], &m[3].data.0[1]]);
+    [m11, m21, m12, m22]
+}
+
+/// The inverse of `matrices`: four matrices from the lanes of their entries.
+#[inline(always)]
+fn unmatrices<V: Lane>(m11: V, m21: V, m12: V, m22: V, to: &mut [Matrix]) {
+    let [a, b, c, d] = to else { panic!("four matrices") };
+    let ([a0, a1], [b0, b1], [c0, c1], [d0, d1]) = (&mut a.data.0, &mut b.data.0, &mut c.data.0, &mut d.data.0);
+    V::unpairs(m11, m21, [a0, b0, c0, d0]);
+    V::unpairs(m12, m22, [a1, b1, c1, d1]);
+}
+
+/// Four vectors from the lanes of their entries.
+#[inline(always)]
+fn unvectors<V: Lane>(x: V, y: V, to: &mut [Vector]) {
+    let [a, b, c, d] = to else { panic!("four vectors") };
+    V::unpairs(x, y, [&mut a.data.0[0], &mut b.data.0[0], &mut c.data.0[0], &mut d.data.0[0]]);
 }
 
 /// What the end of the gathers of a run of points writes (a block, or four of its points).
@@ -753,20 +580,8 @@ struct Outs<'a> {
 }
 
 impl Outs<'_> {
-    /// Point `k`'s share.
-    fn point(&mut self, k: usize) -> Out<'_> {
-        Out {
-            x: &mut self.x[k],
-            v: &mut self.v[k],
-            f: &mut self.f[k],
-            gv: &mut self.gv[k],
-            cu: &mut self.cu[k],
-            cv: &mut self.cv[k],
-        }
-    }
-
     /// The points `r`'s shares.
-    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
     fn four(&mut self, r: std::ops::Range<usize>) -> Outs<'_> {
         Outs {
             x: &mut self.x[r.clone()],
@@ -778,70 +593,73 @@ impl Outs<'_> {
         }
     }
 }
-/// `finish_point` for four points of a `volumetric_only` field with walls on every side,
-/// one point per lane, from their sums `r` (the registers of `gather_point`'s ten sums) and
-/// start positions `x`: the same operations, the same bits.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma")]
-fn finish4(
-    fin: &Finish,
-    r: &[std::arch::x86_64::__m256d; 10],
-    x: &[Vector],
-    out: &mut Outs,
-    m: &[Real],
-    sums: &mut LaneSums,
-) {
-    use std::arch::x86_64::*;
-    assert!(
-        x.len() == 4 && out.x.len() == 4 && out.v.len() == 4 && out.f.len() == 4 && out.gv.len() == 4 && m.len() == 4
-    );
-    assert!(out.cu.len() == 4 && out.cv.len() == 4);
-    let (dt, one, zero) = (_mm256_set1_pd(fin.dt), _mm256_set1_pd(1.0), _mm256_setzero_pd());
-    let ih = _mm256_set1_pd(fin.ih);
-    let (l11, l12) = (_mm256_mul_pd(r[2], ih), _mm256_mul_pd(r[4], ih));
-    let (l21, l22) = (_mm256_mul_pd(r[3], ih), _mm256_mul_pd(r[5], ih));
+
+/// The end of the gathers of four points, one per lane, from their sums `r` (see
+/// `Collocated::gather4`): velocity, APIC C, ∇v, F (or J), position (wrapped at periodic
+/// sides, stopped at walls), and the shares of the step's figures of the first `n` of
+/// them, point l in lane l of `sums`. `out` holds the four points (start positions and F
+/// read, all written).
+#[inline(always)]
+fn finish4<S: Lanes>(s: S, fin: &Finish, r: &[S::V; 10], out: &mut Outs, m: [&Real; 4], n: usize, sums: &mut LaneSums) {
+    let (dt, one, zero) = (s.splat(fin.dt), s.splat(1.0), s.splat(0.0));
+    let ih = s.splat(fin.ih);
+    // ∇v = L = [[r2, r4], [r3, r5]] / h
+    let (l11, l12, l21, l22) = (r[2] * ih, r[4] * ih, r[3] * ih, r[5] * ih);
     if fin.apic {
-        let d = _mm256_set1_pd(fin.dinv);
-        aos2!(_mm256_mul_pd(r[6], d), _mm256_mul_pd(r[8], d), out.cu);
-        aos2!(_mm256_mul_pd(r[7], d), _mm256_mul_pd(r[9], d), out.cv);
+        let d = s.splat(fin.dinv);
+        unvectors(r[6] * d, r[8] * d, out.cu);
+        unvectors(r[7] * d, r[9] * d, out.cv);
     }
-    let (s11, s12) = (_mm256_fmadd_pd(dt, l11, one), _mm256_fmadd_pd(dt, l12, zero));
-    let (s21, s22) = (_mm256_fmadd_pd(dt, l21, zero), _mm256_fmadd_pd(dt, l22, one));
-    let det_step = _mm256_sub_pd(_mm256_mul_pd(s11, s22), _mm256_mul_pd(s21, s12));
-    let [f11, f21, f12, f22] = soa4!(&*out.f);
-    let det_f = _mm256_sub_pd(_mm256_mul_pd(f11, f22), _mm256_mul_pd(f21, f12));
-    let j = _mm256_mul_pd(det_f, det_step);
     if fin.velocity_gradient {
-        aos4!(l11, l21, l12, l22, out.gv);
+        unmatrices(l11, l21, l12, l22, out.gv);
     }
-    aos4!(j, zero, zero, one, out.f);
+    // I + Δt L
+    let (s11, s12) = (dt.mul_add(l11, one), dt.mul_add(l12, zero));
+    let (s21, s22) = (dt.mul_add(l21, zero), dt.mul_add(l22, one));
+    let [f11, f21, f12, f22] = matrices(s, [&out.f[0], &out.f[1], &out.f[2], &out.f[3]]);
+    if fin.volumetric_only {
+        // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)
+        let det_step = s11 * s22 - s21 * s12;
+        let det_f = f11 * f22 - f21 * f12;
+        unmatrices(det_f * det_step, zero, zero, one, out.f);
+    } else {
+        // (I + Δt L) F, each entry as nalgebra's product takes it
+        let (g11, g12) = (s11 * f11 + s12 * f21, s11 * f12 + s12 * f22);
+        let (g21, g22) = (s21 * f11 + s22 * f21, s21 * f12 + s22 * f22);
+        unmatrices(g11, g21, g12, g22, out.f);
+    }
     let mut vel = [r[0], r[1]];
-    let (x0, y0) = soa2!(x);
-    let mut pos = [_mm256_fmadd_pd(dt, vel[0], x0), _mm256_fmadd_pd(dt, vel[1], y0)];
+    let (x0, y0) = s.pairs([pair(&out.x[0]), pair(&out.x[1]), pair(&out.x[2]), pair(&out.x[3])]);
+    let mut pos = [dt.mul_add(vel[0], x0), dt.mul_add(vel[1], y0)];
     for axis in 0..2 {
-        let lo = _mm256_set1_pd(fin.lo[axis] + fin.eps);
-        let hi = _mm256_set1_pd(fin.hi[axis] - fin.eps);
-        let below = _mm256_cmp_pd::<_CMP_LT_OQ>(pos[axis], lo);
-        let above = _mm256_andnot_pd(below, _mm256_cmp_pd::<_CMP_GT_OQ>(pos[axis], hi));
-        pos[axis] = _mm256_blendv_pd(_mm256_blendv_pd(pos[axis], lo, below), hi, above);
-        let into_low = _mm256_and_pd(below, _mm256_cmp_pd::<_CMP_LT_OQ>(vel[axis], zero));
-        let into_high = _mm256_and_pd(above, _mm256_cmp_pd::<_CMP_GT_OQ>(vel[axis], zero));
-        // the comparisons' lanes are all ones or all zeros: and-not is the blend with 0
-        vel[axis] = _mm256_andnot_pd(_mm256_or_pd(into_low, into_high), vel[axis]);
+        if fin.periodic[axis] {
+            // wrapped lane by lane (a remainder, not in the lanes)
+            let (lo, hi) = (fin.lo[axis], fin.hi[axis]);
+            let mut p = pos[axis].to_array();
+            for x in &mut p {
+                if *x < lo || *x >= hi {
+                    *x = lo + (*x - lo).rem_euclid(hi - lo);
+                }
+            }
+            pos[axis] = s.load(&p);
+            continue;
+        }
+        let lo = s.splat(fin.lo[axis] + fin.eps);
+        let hi = s.splat(fin.hi[axis] - fin.eps);
+        let below = pos[axis].lt(lo);
+        let above = S::V::and_not(pos[axis].gt(hi), below);
+        pos[axis] = S::V::select(below, lo, S::V::select(above, hi, pos[axis]));
+        // stopped at the wall: no velocity into it
+        let into = (below & vel[axis].lt(zero)) | (above & vel[axis].gt(zero));
+        vel[axis] = S::V::select(into, zero, vel[axis]);
     }
-    aos2!(pos[0], pos[1], out.x);
-    aos2!(vel[0], vel[1], out.v);
-    let mv = load4!(m.try_into().expect("four masses"));
-    let s2 = _mm256_add_pd(_mm256_mul_pd(vel[0], vel[0]), _mm256_mul_pd(vel[1], vel[1]));
-    let ke = _mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0.5), mv), s2);
-    let (px, py) = (_mm256_mul_pd(mv, vel[0]), _mm256_mul_pd(mv, vel[1]));
-    // the block's sums, lane by lane (`LaneSums::add`); max(s2, acc) is acc unless s2 > acc
-    for (acc, v) in [(&mut sums.ke, ke), (&mut sums.mass, mv), (&mut sums.px, px), (&mut sums.py, py)] {
-        // SAFETY: four f64
-        unsafe { _mm256_storeu_pd(acc.as_mut_ptr(), _mm256_add_pd(_mm256_loadu_pd(acc.as_ptr()), v)) };
-    }
-    // SAFETY: four f64
-    unsafe { _mm256_storeu_pd(sums.s2.as_mut_ptr(), _mm256_max_pd(s2, _mm256_loadu_pd(sums.s2.as_ptr()))) };
+    unvectors(pos[0], pos[1], out.x);
+    unvectors(vel[0], vel[1], out.v);
+    let mv = s.gather(m);
+    let s2 = vel[0] * vel[0] + vel[1] * vel[1];
+    let ke = s.splat(0.5) * mv * s2;
+    let (px, py) = (mv * vel[0], mv * vel[1]);
+    sums.add(s, n, [ke, mv, px, py], s2);
 }
 
 /// Marks in one part's map `touched` (`words` per padded row) the chunks of the stencil
@@ -977,50 +795,51 @@ fn fold_part(acc: &mut [Node], width: usize, n: [usize; 2], periodic: [bool; 2],
     }
 }
 
-/// The grid update of a run of nodes: the two parts `a` and `b` added, u = Σ m u / Σ m
-/// (0 where Σ m ≤ `tiny`) plus Δt g into `vel`.
+/// The grid update of a run of nodes in the lanes of `s`, four nodes at a time: the two
+/// parts `a` and `b` added, u = Σ m u / Σ m (0 where Σ m ≤ `tiny`) plus Δt g into `vel`.
 #[inline(always)]
-fn update_nodes(a: &[Node], b: &[Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
-    for ((a, b), v) in a.iter().zip(b).zip(vel.iter_mut()) {
-        let (m, mx, my) = (a[0] + b[0], a[1] + b[1], a[2] + b[2]);
-        let (ux, uy) = if m > tiny { (mx / m, my / m) } else { (0.0, 0.0) };
-        *v = [ux + g[0], uy + g[1]];
+fn update_nodes<S: Lanes>(s: S, a: &[Node], b: &[Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
+    let n = a.len().min(b.len()).min(vel.len());
+    let mut k = 0;
+    while k + 4 <= n {
+        let [v0, v1, v2, v3] = &mut vel[k..k + 4] else { unreachable!() };
+        update4(s, &a[k..k + 4], &b[k..k + 4], [v0, v1, v2, v3], tiny, g);
+        k += 4;
+    }
+    if k < n {
+        // the last one to three nodes, empty nodes after them
+        let (mut pa, mut pb, mut v) = ([Node::ZERO; 4], [Node::ZERO; 4], [[0.0; 2]; 4]);
+        pa[..n - k].copy_from_slice(&a[k..n]);
+        pb[..n - k].copy_from_slice(&b[k..n]);
+        let [v0, v1, v2, v3] = &mut v;
+        update4(s, &pa, &pb, [v0, v1, v2, v3], tiny, g);
+        vel[k..n].copy_from_slice(&v[..n - k]);
     }
 }
 
-/// `update_nodes` four nodes at a time in the lanes of AVX registers (the divisions four
-/// at once): the same operations, the same bits.
+/// `update_nodes` of four nodes, one per lane.
+#[inline(always)]
+fn update4<S: Lanes>(s: S, a: &[Node], b: &[Node], vel: [&mut [Real; 2]; 4], tiny: Real, g: [Real; 2]) {
+    // rows [m, mx, my, 0] of the four nodes, the parts added, to lanes of m, mx, my
+    let (a, b) = (&a[..4], &b[..4]);
+    let r = [
+        s.load(&a[0].0) + s.load(&b[0].0),
+        s.load(&a[1].0) + s.load(&b[1].0),
+        s.load(&a[2].0) + s.load(&b[2].0),
+        s.load(&a[3].0) + s.load(&b[3].0),
+    ];
+    let [m, mx, my, _] = S::V::transpose4(r);
+    let (keep, zero) = (m.gt(s.splat(tiny)), s.splat(0.0));
+    let ux = S::V::select(keep, mx / m, zero) + s.splat(g[0]);
+    let uy = S::V::select(keep, my / m, zero) + s.splat(g[1]);
+    S::V::unpairs(ux, uy, vel);
+}
+
+/// `update_nodes` in AVX registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma")]
-fn update_nodes_avx(a: &[Node], b: &[Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
-    use std::arch::x86_64::*;
-    let n = a.len().min(b.len()).min(vel.len());
-    let (least, gx, gy) = (_mm256_set1_pd(tiny), _mm256_set1_pd(g[0]), _mm256_set1_pd(g[1]));
-    let mut k = 0;
-    while k + 4 <= n {
-        // SAFETY: nodes k .. k + 4 of `a`, `b` and `vel` exist (k + 4 ≤ n); a node is four
-        // f64 (32-byte aligned), a velocity two
-        unsafe {
-            let (pa, pb) = (a.as_ptr().add(k) as *const Real, b.as_ptr().add(k) as *const Real);
-            // rows [m, mx, my, 0] of the four nodes, the parts added
-            let s: [__m256d; 4] =
-                std::array::from_fn(|l| _mm256_add_pd(_mm256_load_pd(pa.add(4 * l)), _mm256_load_pd(pb.add(4 * l))));
-            let (t0, t1) = (_mm256_unpacklo_pd(s[0], s[1]), _mm256_unpackhi_pd(s[0], s[1]));
-            let (t2, t3) = (_mm256_unpacklo_pd(s[2], s[3]), _mm256_unpackhi_pd(s[2], s[3]));
-            let m = _mm256_permute2f128_pd::<0x20>(t0, t2);
-            let mx = _mm256_permute2f128_pd::<0x20>(t1, t3);
-            let my = _mm256_permute2f128_pd::<0x31>(t0, t2);
-            let keep = _mm256_cmp_pd::<_CMP_GT_OQ>(m, least);
-            let ux = _mm256_add_pd(_mm256_and_pd(_mm256_div_pd(mx, m), keep), gx);
-            let uy = _mm256_add_pd(_mm256_and_pd(_mm256_div_pd(my, m), keep), gy);
-            let (lo, hi) = (_mm256_unpacklo_pd(ux, uy), _mm256_unpackhi_pd(ux, uy));
-            let pv = vel.as_mut_ptr().add(k) as *mut Real;
-            _mm256_storeu_pd(pv, _mm256_permute2f128_pd::<0x20>(lo, hi));
-            _mm256_storeu_pd(pv.add(4), _mm256_permute2f128_pd::<0x31>(lo, hi));
-        }
-        k += 4;
-    }
-    update_nodes(&a[k..n], &b[k..n], &mut vel[k..n], tiny, g);
+fn update_nodes_avx(s: AvxFma, a: &[Node], b: &[Node], vel: &mut [[Real; 2]], tiny: Real, g: [Real; 2]) {
+    update_nodes(s, a, b, vel, tiny, g)
 }
 
 /// Index of lattice node (i, j) (ghosts from −`PAD`) in a padded lattice of `width`
@@ -1038,19 +857,29 @@ fn ghost_columns(ghost_row: bool, nx: isize) -> impl Iterator<Item = isize> {
     (-pad..left).chain(right..=nx + pad)
 }
 
-/// The lanes of the transfers: the portable loops, or four points per AVX register. Both
-/// give the same bits: the same operations in the same order per point, with a fused
-/// multiply-add (`mul_add`) in the portable loops wherever the lanes fuse one.
+/// The lanes of the transfers: four points in portable `[f64; 4]` lanes, or in an AVX
+/// register. Both run the same kernel and give the same bits: the same operations in the
+/// same order per point, with a fused multiply-add (`mul_add`) in both wherever one fuses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 #[non_exhaustive]
 pub enum Simd {
-    /// One point at a time, in plain Rust (any CPU).
+    /// Four points in plain Rust lanes (any CPU).
     Portable,
     /// Four points in the lanes of an AVX register (with FMA).
     Avx,
 }
 
 impl Simd {
+    /// The token of the AVX lanes, where `self` asks for them and the CPU has them.
+    #[cfg(target_arch = "x86_64")]
+    fn avx(self) -> Option<AvxFma> {
+        if self >= Simd::Avx {
+            AvxFma::detect()
+        } else {
+            None
+        }
+    }
+
     /// The most this CPU has (x86-64: detected at run time).
     pub fn available() -> Simd {
         #[cfg(target_arch = "x86_64")]
@@ -1088,82 +917,257 @@ fn lattice(g: &Grid, x: Vector) -> Vector {
     Vector::new(xi.x.clamp(-0.5, g.nx as Real + 0.5), xi.y.clamp(-0.5, g.ny as Real + 0.5))
 }
 
-/// `[f(0), f(1), f(2), f(3)]`: the four lanes of a register, one per point.
-#[cfg(target_arch = "x86_64")]
+/// Lattice coordinates along `axis` of the positions `x` in the lanes (`ih` = 1/h), `lattice`'s.
 #[inline(always)]
-fn arr4(f: impl Fn(usize) -> Real) -> [Real; 4] {
-    [f(0), f(1), f(2), f(3)]
+fn lattice_lanes<S: Lanes>(s: S, g: &Grid, x: S::V, ih: S::V, axis: usize) -> S::V {
+    let xi = (x - s.splat(g.origin[axis])) * ih;
+    let n = if axis == 0 { g.nx } else { g.ny };
+    // max(lo, ξ), min(hi, ·): ξ where it is NaN, as `clamp`
+    s.splat(n as Real + 0.5).min(s.splat(-0.5).max(xi))
 }
 
-/// det F of a 2 × 2 matrix, written out so that the scalar and the AVX scatter compute
-/// it by the same operations.
-#[inline(always)]
-fn det2(f: &Matrix) -> Real {
-    f.m11 * f.m22 - f.m21 * f.m12
-}
-
-/// Scatters point `p` into `chunk` (padded rows of `width` nodes, lattice row `row0` at
-/// its row 0): for each of its 9 nodes, [S m, S m (v + C (x_i − x_p)) − Δt V σ ∇S, 0].
-/// With S = wx_a wy_b and ∇S = (wx_a' wy_b, wx_a wy_b')/h this is wy_b P_a + wx_a Q_b:
+/// Scatters the points `idx[..n]` (stresses `sg`) into `chunk` (padded rows of `width`
+/// nodes, lattice row `row0` at its row 0, rows outside it left out): for each of a
+/// point's 9 nodes, [S m, S m (v + C (x_i − x_p)) − Δt V σ ∇S, 0]. With S = wx_a wy_b and
+/// ∇S = (wx_a' wy_b, wx_a wy_b')/h this is wy_b P_a + wx_a Q_b:
 /// P_a = [m wx_a, m wx_a (v + C·0 dx_a) − k σ·0 wx_a'], Q_b = [0, m wy_b C·1 dy_b − k σ·1 wy_b'],
-/// k = Δt V/h.
+/// k = Δt V/h. The four points' weights, factors and rows are computed in the lanes of `s`
+/// (one point per lane; the lanes past `n` repeat a point and are not added), then
+/// transposed to one register per node row and added to the nodes, point by point.
+/// Returns each point's first stencil column and row.
 #[inline(always)]
-fn scatter_point(
+fn scatter4<S: Lanes>(
+    s: S,
     chunk: &mut [Node],
     width: usize,
     row0: isize,
     input: &ScatterIn,
-    p: usize,
-    sg: &Matrix,
-) -> (isize, isize) {
-    let (g, pts, dt) = (input.grid, input.pts, input.dt);
-    let h = g.h;
-    let xi = lattice(g, pts.x[p]);
-    let (bx, fx, wx, dwx) = quadratic(xi.x);
-    let (by, fy, wy, dwy) = quadratic(xi.y);
-    let (m, v) = (pts.m[p], pts.v[p]);
-    let (cu, cv) = if input.apic { (pts.c_u[p], pts.c_v[p]) } else { (Vector::zeros(), Vector::zeros()) };
-    let k = dt * pts.vol0[p] * det2(&pts.f[p]) * (1.0 / h);
-    let (s00, s01, s10, s11) = (k * sg.m11, k * sg.m12, k * sg.m21, k * sg.m22);
-    let mut pa = [[0.0; 4]; 3];
-    let mut qb = [[0.0; 4]; 3];
+    four: Four,
+    n: usize,
+) -> [(isize, isize); 4] {
+    let (g, dt) = (input.grid, input.dt);
+    let (h, ih, zero) = (s.splat(g.h), s.splat(1.0 / g.h), s.splat(0.0));
+    let (x, y) = s.pairs(four.x.map(pair));
+    let (bxv, fx, wx, dwx) = quadratic_lanes(lattice_lanes(s, g, x, ih, 0));
+    let (byv, fy, wy, dwy) = quadratic_lanes(lattice_lanes(s, g, y, ih, 1));
+    let m = s.gather(four.m);
+    let (vx, vy) = s.pairs(four.v.map(pair));
+    let ((cux, cuy), (cvx, cvy)) = if input.apic {
+        (s.pairs(four.cu.map(pair)), s.pairs(four.cv.map(pair)))
+    } else {
+        ((zero, zero), (zero, zero))
+    };
+    // k = Δt V⁰ det F (1/h), with det F = F11 F22 − F21 F12
+    let [f11, f21, f12, f22] = matrices(s, four.f);
+    let det = f11 * f22 - f21 * f12;
+    let vol0 = s.gather(four.vol0);
+    let k = s.splat(dt) * vol0 * det * ih;
+    let [g11, g21, g12, g22] = matrices(s, four.sg);
+    let (s00, s01, s10, s11) = (k * g11, k * g12, k * g21, k * g22);
+    // the rows (channels, one point per lane) transposed to one register per point
+    let mut pa = [[zero; 4]; 3];
+    let mut qb = [[zero; 4]; 3];
     for a in 0..3 {
-        let dx = (a as Real - fx) * h;
+        // P_a = [m wx_a, m wx_a (vx + dx_a cux) − wx_a' s00, m wx_a (vy + dx_a cvx) − wx_a' s10, 0]
+        let dx = (s.splat(a as Real) - fx) * h;
         let mw = m * wx[a];
-        pa[a] = [mw, mw * (v.x + dx * cu.x) - dwx[a] * s00, mw * (v.y + dx * cv.x) - dwx[a] * s10, 0.0];
-        let dy = (a as Real - fy) * h;
+        let px = mw * (vx + dx * cux) - dwx[a] * s00;
+        let py = mw * (vy + dx * cvx) - dwx[a] * s10;
+        pa[a] = S::V::transpose4([mw, px, py, zero]);
+        // Q_b = [0, m wy_b dy_b cuy − wy_b' s01, m wy_b dy_b cvy − wy_b' s11, 0]
+        let dy = (s.splat(a as Real) - fy) * h;
         let mwd = m * wy[a] * dy;
-        qb[a] = [0.0, mwd * cu.y - dwy[a] * s01, mwd * cv.y - dwy[a] * s11, 0.0];
+        let qx = mwd * cuy - dwy[a] * s01;
+        let qy = mwd * cvy - dwy[a] * s11;
+        qb[a] = S::V::transpose4([zero, qx, qy, zero]);
     }
-    let col = (bx + PAD as isize) as usize;
-    // the stencil's rows in `chunk`, which holds the padded rows from lattice row `row0` on
-    let first = by - row0;
-    for b in 0..3 {
-        let r = first + b as isize;
-        if r < 0 || r as usize * width >= chunk.len() {
-            continue;
-        }
-        let at = r as usize * width + col;
-        let row = &mut chunk[at..at + 3];
-        for a in 0..3 {
-            for c in 0..4 {
-                row[a][c] += wy[b].mul_add(pa[a][c], wx[a] * qb[b][c]);
+    let (bx, by) = (bxv.to_array(), byv.to_array());
+    let (wx, wy) = (
+        [wx[0].to_array(), wx[1].to_array(), wx[2].to_array()],
+        [wy[0].to_array(), wy[1].to_array(), wy[2].to_array()],
+    );
+    let rows = (chunk.len() / width) as isize;
+    let mut firsts = [(0, 0); 4];
+    for l in 0..n {
+        let (bx, by) = (bx[l] as isize, by[l] as isize);
+        firsts[l] = (bx, by);
+        let col = (bx + PAD as isize) as usize;
+        for b in 0..3 {
+            let r = by - row0 + b as isize;
+            if r < 0 || r >= rows {
+                continue;
+            }
+            let at = r as usize * width + col;
+            let row: &mut [Node; 3] = (&mut chunk[at..at + 3]).try_into().expect("a stencil row");
+            let wyb = s.splat(wy[b][l]);
+            for a in 0..3 {
+                let add = wyb.mul_add(pa[a][l], s.splat(wx[a][l]) * qb[b][l]);
+                (s.load(&row[a].0) + add).store(&mut row[a].0);
             }
         }
     }
-    (bx, by)
+    firsts
+}
+
+/// The scatter of one part's points `pts` (stresses `sigma`, from `pts.start`) into its grid
+/// `chunk` (as in `scatter4`), four at a time in the lanes of `s`; with `reach` = (each
+/// point's first stencil row, padded, and the rows [lo, hi) of `chunk`) only the points
+/// whose stencils reach those rows, still in point order. `note` gets each point's first
+/// stencil node.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn scatter_points<S: Lanes>(
+    s: S,
+    chunk: &mut [Node],
+    width: usize,
+    row0: isize,
+    input: &ScatterIn,
+    pts: std::ops::Range<usize>,
+    sigma: &[Matrix],
+    reach: Option<(&[usize], usize, usize)>,
+    note: &mut impl FnMut((isize, isize)),
+) {
+    let first = pts.start;
+    let mut idx = [pts.start; 4];
+    let mut n = 0;
+    let mut p = pts.start;
+    if reach.is_none() {
+        // four in a row
+        while p + 4 <= pts.end {
+            let four = Four::run(input.pts, sigma, first, p);
+            for f in scatter4(s, chunk, width, row0, input, four, 4) {
+                note(f);
+            }
+            p += 4;
+        }
+    }
+    while p < pts.end {
+        let k = p - first;
+        p += 1;
+        if let Some((firsts, lo, hi)) = reach {
+            if firsts[k] + 3 <= lo || firsts[k] >= hi {
+                continue;
+            }
+        }
+        idx[n] = k + first;
+        n += 1;
+        if n == 4 {
+            for f in scatter4(s, chunk, width, row0, input, Four::of(input.pts, sigma, first, idx), 4) {
+                note(f);
+            }
+            n = 0;
+        }
+    }
+    if n > 0 {
+        // the last one to three points, the last repeated in the other lanes
+        let last = idx[n - 1];
+        idx[n..].fill(last);
+        let firsts = scatter4(s, chunk, width, row0, input, Four::of(input.pts, sigma, first, idx), n);
+        for &f in &firsts[..n] {
+            note(f);
+        }
+    }
+}
+
+/// What `scatter4` reads of its four points, one per lane.
+struct Four<'a> {
+    x: [&'a Vector; 4],
+    v: [&'a Vector; 4],
+    cu: [&'a Vector; 4],
+    cv: [&'a Vector; 4],
+    f: [&'a Matrix; 4],
+    m: [&'a Real; 4],
+    vol0: [&'a Real; 4],
+    /// The stresses.
+    sg: [&'a Matrix; 4],
+}
+
+impl<'a> Four<'a> {
+    /// The points `idx` of `pts` (stresses `sigma` from point `first` on).
+    #[inline(always)]
+    fn of(pts: &'a Points, sigma: &'a [Matrix], first: usize, idx: [usize; 4]) -> Self {
+        let [a, b, c, d] = idx;
+        Four {
+            x: [&pts.x[a], &pts.x[b], &pts.x[c], &pts.x[d]],
+            v: [&pts.v[a], &pts.v[b], &pts.v[c], &pts.v[d]],
+            cu: [&pts.c_u[a], &pts.c_u[b], &pts.c_u[c], &pts.c_u[d]],
+            cv: [&pts.c_v[a], &pts.c_v[b], &pts.c_v[c], &pts.c_v[d]],
+            f: [&pts.f[a], &pts.f[b], &pts.f[c], &pts.f[d]],
+            m: [&pts.m[a], &pts.m[b], &pts.m[c], &pts.m[d]],
+            vol0: [&pts.vol0[a], &pts.vol0[b], &pts.vol0[c], &pts.vol0[d]],
+            sg: [&sigma[a - first], &sigma[b - first], &sigma[c - first], &sigma[d - first]],
+        }
+    }
+
+    /// The points `p .. p + 4` (one bounds check per array).
+    #[inline(always)]
+    fn run(pts: &'a Points, sigma: &'a [Matrix], first: usize, p: usize) -> Self {
+        fn four<T>(v: &[T], p: usize) -> [&T; 4] {
+            let v: &[T; 4] = v[p..p + 4].try_into().expect("four points");
+            v.each_ref()
+        }
+        Four {
+            x: four(&pts.x, p),
+            v: four(&pts.v, p),
+            cu: four(&pts.c_u, p),
+            cv: four(&pts.c_v, p),
+            f: four(&pts.f, p),
+            m: four(&pts.m, p),
+            vol0: four(&pts.vol0, p),
+            sg: four(sigma, p - first),
+        }
+    }
+}
+
+/// `scatter_points` in AVX registers.
+#[allow(clippy::too_many_arguments)]
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,fma")]
+fn scatter_points_avx(
+    s: AvxFma,
+    chunk: &mut [Node],
+    width: usize,
+    row0: isize,
+    input: &ScatterIn,
+    pts: std::ops::Range<usize>,
+    sigma: &[Matrix],
+    reach: Option<(&[usize], usize, usize)>,
+    note: &mut impl FnMut((isize, isize)),
+) {
+    scatter_points(s, chunk, width, row0, input, pts, sigma, reach, note)
+}
+
+/// `scatter_points` in the lanes `simd` asks for.
+#[allow(clippy::too_many_arguments)]
+fn scatter_lanes(
+    simd: Simd,
+    chunk: &mut [Node],
+    width: usize,
+    row0: isize,
+    input: &ScatterIn,
+    pts: std::ops::Range<usize>,
+    sigma: &[Matrix],
+    reach: Option<(&[usize], usize, usize)>,
+    note: &mut impl FnMut((isize, isize)),
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = simd.avx() {
+        // SAFETY: `avx` exists, so the CPU has AVX and FMA
+        return unsafe { scatter_points_avx(avx, chunk, width, row0, input, pts, sigma, reach, note) };
+    }
+    let _ = simd;
+    scatter_points(Portable, chunk, width, row0, input, pts, sigma, reach, note)
 }
 
 /// The scatter of one part's points `pts` (stresses `sigma`) into its grid `grid` by strips
 /// of rows, `strips` tasks in parallel: a strip adds the points whose stencils reach its
-/// rows, in point order, and leaves out the rows of the stencils that are not its own. The
-/// part's map `touched` is filled first (`words` a row, the lattice `n` cells).
+/// rows, in point order, and leaves out the rows of the stencils that are not its own.
+/// `note` gets each point's first stencil node first.
 #[allow(clippy::too_many_arguments)]
 fn scatter_strips(
     grid: &mut [Node],
-    touched: &mut [u64],
+    note: &mut impl FnMut((isize, isize)),
     width: usize,
-    n: [usize; 2],
     input: &ScatterIn,
     pts: std::ops::Range<usize>,
     sigma: &[Matrix],
@@ -1171,19 +1175,13 @@ fn scatter_strips(
     simd: Simd,
 ) {
     let height = grid.len() / width;
-    let words = touched.len() / height;
-    let (nx, ny) = (n[0] as isize, n[1] as isize);
-    // each point's first stencil row (padded), and the map of the part's stencils
+    // each point's first stencil row (padded)
     let firsts: Vec<usize> = pts
         .clone()
         .map(|p| {
             let xi = lattice(input.grid, input.pts.x[p]);
             let (bx, by) = (quadratic(xi.x).0, quadratic(xi.y).0);
-            mark(touched, words, bx, by);
-            // a point clamped to the lattice's far edge (see the scatter's `note`)
-            if bx >= nx || by >= ny {
-                mark(touched, words, bx.min(nx - 2).max(-1), by.min(ny - 2).max(-1));
-            }
+            note((bx, by));
             (by + PAD as isize) as usize
         })
         .collect();
@@ -1211,134 +1209,15 @@ fn scatter_strips(
     }
     chunks.into_par_iter().for_each(|(strip, lo)| {
         let hi = lo + strip.len() / width;
-        let run = |strip: &mut [Node]| {
-            for (k, p) in pts.clone().enumerate() {
-                if firsts[k] + 3 > lo && firsts[k] < hi {
-                    scatter_point(strip, width, lo as isize - PAD as isize, input, p, &sigma[k]);
-                }
-            }
-        };
-        #[cfg(target_arch = "x86_64")]
-        if simd >= Simd::Avx {
-            // SAFETY: `simd` is at most what the CPU has (`Collocated::use_simd`)
-            return unsafe { with_fma(strip, run) };
-        }
-        run(strip);
+        let row0 = lo as isize - PAD as isize;
+        let reach = Some((&firsts[..], lo, hi));
+        scatter_lanes(simd, strip, width, row0, input, pts.clone(), sigma, reach, &mut |_| {});
     });
 }
 
-/// `run(strip)` compiled with FMA, so that `scatter_point`'s `mul_add`s are instructions
-/// (the x86-64 baseline calls libm's `fma`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma")]
-#[inline]
-fn with_fma(strip: &mut [Node], run: impl Fn(&mut [Node])) {
-    run(strip)
-}
-
-/// `scatter_point` for the four points `p .. p + 4` (stresses `sg`): their weights, stress
-/// factors and node sums computed in the lanes of AVX registers (one point per lane), then
-/// transposed to one register per node and added to it. The same
-/// operations in the same order per point: the same bits. Returns each point's first
-/// stencil column and row.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma")]
-fn scatter4_avx(
-    chunk: &mut [Node],
-    width: usize,
-    row0: isize,
-    input: &ScatterIn,
-    p: usize,
-    sg: &[Matrix],
-) -> [(isize, isize); 4] {
-    use std::arch::x86_64::*;
-    let (g, pts, dt) = (input.grid, input.pts, input.dt);
-    let h = g.h;
-    let (hv, zero) = (_mm256_set1_pd(h), _mm256_setzero_pd());
-    let ih = _mm256_set1_pd(1.0 / h);
-    let r = p..p + 4;
-    let (x, y) = soa2!(&pts.x[r.clone()]);
-    let xi_x = _mm256_mul_pd(_mm256_sub_pd(x, _mm256_set1_pd(g.origin.x)), ih);
-    let xi_y = _mm256_mul_pd(_mm256_sub_pd(y, _mm256_set1_pd(g.origin.y)), ih);
-    let (bxv, fx, wx, dwx) = bspline4!(xi_x);
-    let (byv, fy, wy, dwy) = bspline4!(xi_y);
-    let m = load4!(pts.m[r.clone()].try_into().expect("four masses"));
-    let (vx, vy) = soa2!(&pts.v[r.clone()]);
-    let ((cux, cuy), (cvx, cvy)) = if input.apic {
-        (soa2!(&pts.c_u[r.clone()]), soa2!(&pts.c_v[r.clone()]))
-    } else {
-        ((zero, zero), (zero, zero))
-    };
-    // k = Δt V⁰ det F (1/h), with det F = F11 F22 − F21 F12 (`det2`)
-    let [f11, f21, f12, f22] = soa4!(&pts.f[r.clone()]);
-    let det = _mm256_sub_pd(_mm256_mul_pd(f11, f22), _mm256_mul_pd(f21, f12));
-    let vol0 = load4!(pts.vol0[r].try_into().expect("four volumes"));
-    let k = _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(dt), vol0), det), ih);
-    let [g11, g21, g12, g22] = soa4!(sg);
-    let (s00, s01, s10, s11) =
-        (_mm256_mul_pd(k, g11), _mm256_mul_pd(k, g12), _mm256_mul_pd(k, g21), _mm256_mul_pd(k, g22));
-    // rows (channels, one point per lane) are transposed to one register per point
-    // P_a = [m wx_a, m wx_a (vx + dx_a cux) − wx_a' s00, m wx_a (vy + dx_a cvx) − wx_a' s10, 0]
-    let mut pa: [[__m256d; 4]; 3] = [[zero; 4]; 3];
-    for a in 0..3 {
-        pa[a] = {
-            let dx = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(a as Real), fx), hv);
-            let mw = _mm256_mul_pd(m, wx[a]);
-            let px =
-                _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vx, _mm256_mul_pd(dx, cux))), _mm256_mul_pd(dwx[a], s00));
-            let py =
-                _mm256_sub_pd(_mm256_mul_pd(mw, _mm256_add_pd(vy, _mm256_mul_pd(dx, cvx))), _mm256_mul_pd(dwx[a], s10));
-            transpose4!(mw, px, py, zero)
-        };
-    }
-    // Q_b = [0, m wy_b dy_b cuy − wy_b' s01, m wy_b dy_b cvy − wy_b' s11, 0]
-    let mut qb: [[__m256d; 4]; 3] = [[zero; 4]; 3];
-    for b in 0..3 {
-        qb[b] = {
-            let dy = _mm256_mul_pd(_mm256_sub_pd(_mm256_set1_pd(b as Real), fy), hv);
-            let mwd = _mm256_mul_pd(_mm256_mul_pd(m, wy[b]), dy);
-            let qx = _mm256_sub_pd(_mm256_mul_pd(mwd, cuy), _mm256_mul_pd(dwy[b], s01));
-            let qy = _mm256_sub_pd(_mm256_mul_pd(mwd, cvy), _mm256_mul_pd(dwy[b], s11));
-            transpose4!(zero, qx, qy, zero)
-        };
-    }
-    let (bx, by) = (store4!(bxv), store4!(byv));
-    let (wxs, wys) =
-        ([store4!(wx[0]), store4!(wx[1]), store4!(wx[2])], [store4!(wy[0]), store4!(wy[1]), store4!(wy[2])]);
-    let mut firsts = [(0, 0); 4];
-    let mut first_nodes = [0; 4];
-    // the lattice of this part's grid: nodes −PAD ..= n + PAD on each axis
-    let (nx, ny) = ((width - 1 - 2 * PAD) as isize, (chunk.len() / width - 1 - 2 * PAD) as isize);
-    for l in 0..4 {
-        let (bx, by) = (bx[l] as isize, by[l] as isize);
-        firsts[l] = (bx, by);
-        // a finite point is in the domain (the gather keeps it there): its stencil starts on
-        // a node in [−1, n − 1]; checked on the values, before any cast can wrap
-        assert!((-1..=nx).contains(&bx) && (-1..=ny).contains(&by), "a stencil off the padded lattice");
-        first_nodes[l] = (by - row0) as usize * width + (bx + PAD as isize) as usize;
-    }
-    let base = chunk.as_mut_ptr() as *mut Real;
-    for l in 0..4 {
-        for b in 0..3 {
-            let wyb = _mm256_set1_pd(wys[b][l]);
-            for a in 0..3 {
-                let add = _mm256_fmadd_pd(wyb, pa[a][l], _mm256_mul_pd(_mm256_set1_pd(wxs[a][l]), qb[b][l]));
-                // SAFETY: node b·width + a of the stencil lies in `chunk` (its first node was
-                // asserted in the lattice, which the padding surrounds by 2); four f64
-                unsafe {
-                    let at = base.add(4 * (first_nodes[l] + b * width + a));
-                    _mm256_storeu_pd(at, _mm256_add_pd(_mm256_loadu_pd(at), add));
-                }
-            }
-        }
-    }
-    firsts
-}
-
 /// A gather block's sums for the step's figures in four lanes: point k of the block adds
-/// to lane k mod 4, in point order, whether it is finished alone or in the lanes of a
-/// register, so that every path adds the same numbers in the same order; the lanes are
-/// then added in lane order (`total`).
+/// to lane k mod 4, in point order, so that every thread count adds the same numbers in
+/// the same order; the lanes are then added in lane order (`total`).
 #[derive(Default)]
 struct LaneSums {
     ke: [Real; 4],
@@ -1350,16 +1229,27 @@ struct LaneSums {
 }
 
 impl LaneSums {
-    /// One point's kinetic energy, mass, momentum and squared speed into `lane`.
+    /// The kinetic energies, masses and momenta `v` and squared speeds `s2` of four points
+    /// into their lanes, of the first `n` of them.
     #[inline(always)]
-    fn add(&mut self, lane: usize, ke: Real, m: Real, px: Real, py: Real, s2: Real) {
-        self.ke[lane] += ke;
-        self.mass[lane] += m;
-        self.px[lane] += px;
-        self.py[lane] += py;
-        // a NaN stays out, as in `_mm256_max_pd(s2, acc)`
-        if s2 > self.s2[lane] {
-            self.s2[lane] = s2;
+    fn add<S: Lanes>(&mut self, s: S, n: usize, v: [S::V; 4], s2: S::V) {
+        if n == 4 {
+            for (acc, v) in [&mut self.ke, &mut self.mass, &mut self.px, &mut self.py].into_iter().zip(v) {
+                (s.load(acc) + v).store(acc);
+            }
+            // a NaN stays out: max(s2, acc) is acc unless s2 > acc
+            s2.max(s.load(&self.s2)).store(&mut self.s2);
+            return;
+        }
+        let (ke, m, px, py, s2) = (v[0].to_array(), v[1].to_array(), v[2].to_array(), v[3].to_array(), s2.to_array());
+        for l in 0..n {
+            self.ke[l] += ke[l];
+            self.mass[l] += m[l];
+            self.px[l] += px[l];
+            self.py[l] += py[l];
+            if s2[l] > self.s2[l] {
+                self.s2[l] = s2[l];
+            }
         }
     }
 
@@ -1393,73 +1283,4 @@ struct Finish {
     hi: Vector,
     eps: Real,
     periodic: [bool; 2],
-}
-
-/// What the end of a point's gather writes.
-struct Out<'a> {
-    x: &'a mut Vector,
-    v: &'a mut Vector,
-    f: &'a mut Matrix,
-    gv: &'a mut Matrix,
-    cu: &'a mut Vector,
-    cv: &'a mut Vector,
-}
-
-/// `finish_point` compiled with FMA, for the points the lanes gathered but do not finish
-/// (a full F, a periodic side): its `mul_add`s are instructions here, where the baseline
-/// x86-64 build would call libm's `fma` (mpm88 with a linear elastic stress, 1 thread: 26.3
-/// against 21.9 M particle-steps/s).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma")]
-fn finish_point_fma(fin: &Finish, r: &[Real; 10], m: Real, out: Out, lane: usize, sums: &mut LaneSums) {
-    finish_point(fin, r, m, out, lane, sums)
-}
-
-/// The end of a point's gather from its sums `r` (see `gather_point`): velocity, APIC C, ∇v,
-/// F (or J), position (wrapped at periodic sides, stopped at walls), and its share of the
-/// step's figures.
-#[inline(always)]
-fn finish_point(fin: &Finish, r: &[Real; 10], m: Real, out: Out, lane: usize, sums: &mut LaneSums) {
-    let dt = fin.dt;
-    let ih = fin.ih;
-    let l = Matrix::new(r[2] * ih, r[4] * ih, r[3] * ih, r[5] * ih);
-    let mut vk = Vector::new(r[0], r[1]);
-    if fin.apic {
-        *out.cu = Vector::new(r[6] * fin.dinv, r[8] * fin.dinv);
-        *out.cv = Vector::new(r[7] * fin.dinv, r[9] * fin.dinv);
-    }
-    if fin.velocity_gradient {
-        *out.gv = l;
-    }
-    let step =
-        Matrix::new(dt.mul_add(l.m11, 1.0), dt.mul_add(l.m12, 0.0), dt.mul_add(l.m21, 0.0), dt.mul_add(l.m22, 1.0));
-    *out.f = if fin.volumetric_only {
-        // F = diag(J, 1): only J = det F matters to the stress (see `Lagrangian`)
-        Matrix::new(det2(out.f) * det2(&step), 0.0, 0.0, 1.0)
-    } else {
-        step * *out.f
-    };
-    let mut xk = Vector::new(dt.mul_add(vk.x, out.x.x), dt.mul_add(vk.y, out.x.y));
-    for axis in 0..2 {
-        let (lo, hi) = (fin.lo[axis], fin.hi[axis]);
-        if fin.periodic[axis] {
-            if xk[axis] < lo || xk[axis] >= hi {
-                xk[axis] = lo + (xk[axis] - lo).rem_euclid(hi - lo);
-            }
-        } else if xk[axis] < lo + fin.eps {
-            xk[axis] = lo + fin.eps;
-            if vk[axis] < 0.0 {
-                vk[axis] = 0.0;
-            }
-        } else if xk[axis] > hi - fin.eps {
-            xk[axis] = hi - fin.eps;
-            if vk[axis] > 0.0 {
-                vk[axis] = 0.0;
-            }
-        }
-    }
-    *out.x = xk;
-    *out.v = vk;
-    let s2 = vk.x * vk.x + vk.y * vk.y;
-    sums.add(lane, 0.5 * m * s2, m, m * vk.x, m * vk.y, s2);
 }

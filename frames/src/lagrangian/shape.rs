@@ -4,6 +4,7 @@
 //! (support 2 nodes); `Quadratic` is the quadratic B-spline (support 3 nodes, C¹, removes
 //! most cell-crossing noise).
 
+use super::lanes::Arith;
 use multifield_core::math::Real;
 use serde::{Deserialize, Serialize};
 
@@ -76,10 +77,20 @@ impl Shape {
 /// path keeps its own so that its results keep their bits.
 #[inline(always)]
 pub fn quadratic(xi: Real) -> (isize, Real, [Real; 3], [Real; 3]) {
-    let base = (xi + 0.5) as isize - 1;
-    let f = xi - base as Real;
-    let (a, b, c) = (1.5 - f, f - 1.0, f - 0.5);
-    (base, f, [0.5 * a * a, 0.75 - b * b, 0.5 * c * c], [-a, -2.0 * b, c])
+    let (base, f, w, dw) = quadratic_lanes(xi);
+    (base as isize, f, w, dw)
+}
+
+/// [`quadratic`] for any [`Arith`] number (one or the four lanes of the collocated grid's
+/// transfers, by the same operations: the same bits), the first node as a number.
+#[inline(always)]
+pub fn quadratic_lanes<T: Arith>(xi: T) -> (T, T, [T; 3], [T; 3]) {
+    let k = |c: Real| xi.splat_as(c);
+    let base = (xi + k(0.5)).trunc_small() - k(1.0);
+    let f = xi - base;
+    let (a, b, c) = (k(1.5) - f, f - k(1.0), f - k(0.5));
+    let half = k(0.5);
+    (base, f, [half * a * a, k(0.75) - b * b, half * c * c], [-a, k(-2.0) * b, c])
 }
 
 /// ⌊x⌋ for |x| < 2⁶³, inlined: without SSE4.1 (the x86-64 baseline) `f64::floor` is a call
