@@ -19,7 +19,7 @@ pub struct PluginSpec {
     /// Registered name, e.g. `"newtonian"`.
     pub model: String,
     /// The model's parameters, e.g. `(viscosity: 0.01)`. Omitted: all defaults.
-    #[serde(default = "empty_params")]
+    #[serde(default = "empty_params", deserialize_with = "crate::finite::finite_json")]
     pub params: serde_json::Value,
 }
 
@@ -350,7 +350,7 @@ pub struct ExchangeSpec {
     /// Registered exchange model name, e.g. `"no_slip"`, `"constant"`.
     pub model: String,
     /// The model's parameters.
-    #[serde(default = "empty_params")]
+    #[serde(default = "empty_params", deserialize_with = "crate::finite::finite_json")]
     pub params: serde_json::Value,
     /// Implicit (default) or explicit.
     #[serde(default)]

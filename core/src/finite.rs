@@ -315,6 +315,80 @@ impl ser::SerializeStructVariant for Compound<'_> {
     }
 }
 
+/// Deserializes plugin parameters as serde_json's `Value` does, except that a NaN or an
+/// infinity is refused (serde_json's `Value` would turn it into `null`, and the plugin
+/// would then say `invalid type: null`).
+pub fn finite_json<'de, D: serde::Deserializer<'de>>(d: D) -> Result<serde_json::Value, D::Error> {
+    d.deserialize_any(FiniteJson).map(|FiniteValue(v)| v)
+}
+
+struct FiniteValue(serde_json::Value);
+
+impl<'de> serde::Deserialize<'de> for FiniteValue {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(FiniteJson)
+    }
+}
+
+struct FiniteJson;
+
+impl<'de> serde::de::Visitor<'de> for FiniteJson {
+    type Value = FiniteValue;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a value")
+    }
+    fn visit_bool<E>(self, v: bool) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(v.into()))
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(v.into()))
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(v.into()))
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<FiniteValue, E> {
+        match serde_json::Number::from_f64(v) {
+            Some(n) => Ok(FiniteValue(serde_json::Value::Number(n))),
+            None => Err(E::custom(format!(
+                "{v} is not a finite number: every number of a case is finite; give a finite value"
+            ))),
+        }
+    }
+    fn visit_str<E>(self, v: &str) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(v.into()))
+    }
+    fn visit_string<E>(self, v: String) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(v.into()))
+    }
+    fn visit_none<E>(self) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(serde_json::Value::Null))
+    }
+    fn visit_unit<E>(self) -> Result<FiniteValue, E> {
+        Ok(FiniteValue(serde_json::Value::Null))
+    }
+    fn visit_some<D: serde::Deserializer<'de>>(self, d: D) -> Result<FiniteValue, D::Error> {
+        d.deserialize_any(FiniteJson)
+    }
+    fn visit_newtype_struct<D: serde::Deserializer<'de>>(self, d: D) -> Result<FiniteValue, D::Error> {
+        d.deserialize_any(FiniteJson)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<FiniteValue, A::Error> {
+        let mut items = Vec::new();
+        while let Some(FiniteValue(v)) = seq.next_element()? {
+            items.push(v);
+        }
+        Ok(FiniteValue(serde_json::Value::Array(items)))
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<FiniteValue, A::Error> {
+        let mut out = serde_json::Map::new();
+        while let Some((k, FiniteValue(v))) = map.next_entry::<String, FiniteValue>()? {
+            out.insert(k, v);
+        }
+        Ok(FiniteValue(serde_json::Value::Object(out)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::first_non_finite;

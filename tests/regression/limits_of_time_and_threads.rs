@@ -54,3 +54,15 @@ fn non_finite_initial_data_is_refused_before_step_0() {
         }
     }
 }
+
+#[test]
+fn a_plugin_parameter_that_is_not_finite_is_refused_at_its_place() {
+    // serde_json's values have no NaN: it became `null` and the plugin said `invalid type: null`
+    let dir = scratch("non_finite_parameter");
+    let case = edited(&dir, "taylor_green.ron", "viscosity: 0.01", "viscosity: NaN");
+    let text = std::fs::read_to_string(&case).unwrap();
+    let line = text.lines().position(|l| l.contains("viscosity: NaN")).unwrap() + 1;
+    let ran = multifield(&["check", case.to_str().unwrap()]);
+    ran.refused_with(&[&format!("taylor_green.ron:{line}:"), "NaN is not a finite number"]);
+    assert!(!ran.stderr.contains("null"), "{}", ran.stderr);
+}
