@@ -348,11 +348,8 @@ pub fn restore(case: &Case, path: &Path) -> Result<(Simulation, Checkpoint), Err
 /// Next time of a schedule of `interval` after `t` when it cannot be carried over: the
 /// first multiple of `interval` after `t`.
 pub fn next_after(t: Real, interval: Real) -> Real {
-    let mut next = ((t / interval).floor() + 1.0) * interval;
-    while next <= t + 1e-9 * interval {
-        next += interval;
-    }
-    next
+    let first = ((t / interval).floor() + 1.0) * interval;
+    crate::core::driver::schedule_past(if first.is_finite() { first } else { t }, t + 1e-9 * interval, interval)
 }
 
 /// Deletes the checkpoints of `run_dir` beyond `step`: a run continued from the

@@ -41,8 +41,8 @@ enum Command {
         /// Output directory [default: out/<case name>].
         #[arg(long, short)]
         out: Option<PathBuf>,
-        /// Worker threads [default: all cores].
-        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        /// Worker threads, at most 1024 [default: all cores].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true, value_parser = thread_count)]
         threads: usize,
         /// Override an entry: `--set time.end=0.5`, `--set fields.water.density=1.2`.
         #[arg(long = "set", value_name = "PATH=VALUE")]
@@ -85,8 +85,8 @@ enum Command {
         /// Output directory [default: out/compare_<case name>].
         #[arg(long, short)]
         out: Option<PathBuf>,
-        /// Worker threads [default: all cores].
-        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        /// Worker threads, at most 1024 [default: all cores].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true, value_parser = thread_count)]
         threads: usize,
         /// Folder of the reference curves, laid out as validation/reference/dkt-uhlmann2005
         /// [default: that folder's curves, built into multifield].
@@ -114,14 +114,14 @@ enum Command {
     Study {
         /// The study file (RON).
         study: PathBuf,
-        /// Runs at a time [default: cores / threads per run].
-        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true)]
+        /// Runs at a time, at most 1024 [default: cores / threads per run].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true, value_parser = thread_count)]
         jobs: usize,
         /// Output directory [default: out/studies/<study name>].
         #[arg(long, short)]
         out: Option<PathBuf>,
-        /// Worker threads of each run.
-        #[arg(long, default_value_t = 1)]
+        /// Worker threads of each run, at most 1024.
+        #[arg(long, default_value_t = 1, value_parser = thread_count)]
         threads_per_run: usize,
         /// Only the combinations with this label on this axis (repeatable; several labels
         /// of one axis: any of them), e.g. `--only representation=resolved`.
@@ -131,6 +131,20 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+}
+
+/// A count of threads (or of runs at a time) from the command line: at most
+/// [`run::MAX_THREADS`].
+fn thread_count(text: &str) -> Result<usize, String> {
+    let n: usize = text.trim().parse().map_err(|e| format!("`{text}` is not a count of threads: {e}"))?;
+    if n > run::MAX_THREADS {
+        return Err(format!(
+            "{n} threads: at most {}; 0 uses every core (this machine has {})",
+            run::MAX_THREADS,
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        ));
+    }
+    Ok(n)
 }
 
 /// Why the command stopped.
@@ -167,14 +181,17 @@ pub fn main() -> ExitCode {
                 .map_err(Failure::from)
                 .and_then(|case| {
                     println!("running the built-in case {} ({})", case.name, file.display());
-                    run_case(&case, None, &RunOptions::default())?;
+                    let options = RunOptions { case_file: Some(file.to_path_buf()), ..RunOptions::default() };
+                    run_case(&case, file, None, &options)?;
                     let dir = Path::new("out").join(run::directory_name(&case.name));
                     dkt(&[dir], None, None)
                 })
         }
-        Some(Command::Run { case, out, threads, overrides, quiet, restart }) => Case::load(&case, &overrides)
-            .map_err(Failure::from)
-            .and_then(|c| run_case(&c, out, &RunOptions { threads, quiet, restart })),
+        Some(Command::Run { case, out, threads, overrides, quiet, restart }) => {
+            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
+                run_case(&c, &case, out, &RunOptions { threads, quiet, restart, case_file: Some(case.clone()) })
+            })
+        }
         Some(Command::Check { case, overrides }) => {
             Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| check(&c, &case))
         }
@@ -189,7 +206,8 @@ pub fn main() -> ExitCode {
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
         Some(Command::Compare { case, overrides, point_overrides, out, threads, reference }) => {
             Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
-                compare(&c, &point_overrides, out, &RunOptions { threads, quiet: true, restart: None }, reference)
+                let options = RunOptions { threads, quiet: true, restart: None, case_file: Some(case.clone()) };
+                compare(&c, &case, &point_overrides, out, &options, reference)
             })
         }
         Some(Command::Study { study, jobs, out, threads_per_run, only, quiet }) => {
@@ -210,12 +228,12 @@ pub fn main() -> ExitCode {
     }
 }
 
-fn run_case(case: &Case, out: Option<PathBuf>, options: &RunOptions) -> Result<(), Failure> {
+fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions) -> Result<(), Failure> {
     let dir = out.unwrap_or_else(|| Path::new("out").join(run::directory_name(&case.name)));
     // a case that cannot start is bad input; an output file that cannot be written is not
     let outcome = run::run(case, &dir, options).map_err(|e| match e {
         Error::Io { .. } => Failure::Run(e.to_string()),
-        e => Failure::Input(e),
+        e => Failure::Input(e.in_file(file)),
     })?;
     let s = &outcome.summary;
     println!(
@@ -426,6 +444,7 @@ fn run_study(
 /// `multifield compare CASE`: the scene resolved and as mass points, side by side.
 fn compare(
     case: &Case,
+    file: &Path,
     point_overrides: &[String],
     out: Option<PathBuf>,
     options: &RunOptions,
@@ -436,7 +455,7 @@ fn compare(
     println!("running {} resolved, then as mass points, into {}", case.name, dir.display());
     let c = crate::compare::compare(case, point_overrides, &dir, options, Some(&reference)).map_err(|e| match e {
         Error::Io { .. } => Failure::Run(e.to_string()),
-        e => Failure::Input(e),
+        e => Failure::Input(e.in_file(file)),
     })?;
     let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.4}"));
     println!(

@@ -51,9 +51,7 @@ impl Due {
         if t < self.next - 1e-9 * self.interval {
             return false;
         }
-        while self.next <= t + 1e-9 * self.interval {
-            self.next += self.interval;
-        }
+        self.next = crate::core::driver::schedule_past(self.next, t + 1e-9 * self.interval, self.interval);
         true
     }
 }

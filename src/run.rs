@@ -56,21 +56,29 @@ pub use crate::core::driver::{
     body_overlap, number, reference_energy, BODIES_HEADER, CSV_HEADER, ENERGY_GROWTH, OVERLAP_FRACTION,
 };
 
+/// The most worker threads a run (and the most runs at a time a study) may ask for:
+/// `--threads` beyond it is refused (a typo such as 100000 would spawn threads until the
+/// memory runs out).
+pub const MAX_THREADS: usize = 1024;
+
 /// How to run.
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
-    /// Worker threads; 0 lets rayon choose (all cores, or `RAYON_NUM_THREADS`).
+    /// Worker threads; 0 lets rayon choose (all cores, or `RAYON_NUM_THREADS`); at most
+    /// [`MAX_THREADS`].
     pub threads: usize,
     /// No progress bar.
     pub quiet: bool,
     /// Continue from this checkpoint ([`crate::checkpoint`]) instead of starting at t = 0.
     pub restart: Option<PathBuf>,
+    /// The case file, named in the messages of a case that cannot start (else `<case>`).
+    pub case_file: Option<PathBuf>,
 }
 
 impl RunOptions {
     /// Default threads, no progress bar (for tests and scripts).
     pub fn quiet() -> Self {
-        Self { threads: 0, quiet: true, restart: None }
+        Self { threads: 0, quiet: true, restart: None, case_file: None }
     }
 }
 
@@ -170,9 +178,17 @@ fn progress_bar(show: bool, end: Real) -> ProgressBar {
 ///
 /// Returns `Err` only when the case cannot start: a plugin that is not registered or
 /// whose parameters are invalid (bad input; `summary.json` still says `"failed"`), or an
-/// output file that cannot be written. Instabilities and errors during the time loop end
-/// in an [`Outcome`] whose status says so.
+/// output file that cannot be written before step 0 or after the last (`summary.json`
+/// says `"failed"` when it can be written). Instabilities, errors during the time loop and
+/// output that cannot be written during it (a full disk) end in an [`Outcome`] whose
+/// status says so.
 pub fn run(case: &Case, output_dir: &Path, options: &RunOptions) -> Result<Outcome, Error> {
+    if options.threads > MAX_THREADS {
+        return Err(Error::Model(format!(
+            "{} worker threads: at most {MAX_THREADS}; 0 uses every core",
+            options.threads
+        )));
+    }
     std::fs::create_dir_all(output_dir).map_err(|source| Error::Io { path: output_dir.to_path_buf(), source })?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads)
@@ -214,6 +230,10 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         None => match Simulation::new(case) {
             Ok(sim) => (sim, None),
             Err(e) => {
+                let e = match &options.case_file {
+                    Some(file) => e.in_file(file),
+                    None => e,
+                };
                 write_file(&dir.join("case.ron"), &case.to_ron())?;
                 let status = Status::Failed(e.to_string());
                 summary.status = status.label().into();
@@ -224,6 +244,31 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             }
         },
     };
+    let result = run_simulation(sim, resumed, dir, options, &mut summary);
+    if let Err(e) = &result {
+        // an output that could not be written (a full disk), or a writer that could not
+        // start: the summary says so, if it can still be written
+        if summary.status.is_empty() {
+            summary.status = Status::Failed(String::new()).label().into();
+            summary.reason = e.to_string();
+            if !summary.min_dt.is_finite() {
+                summary.min_dt = 0.0;
+            }
+            let _ = write_summary(dir, &summary);
+        }
+    }
+    result
+}
+
+/// The run of `sim` once it is built (or restored): the writers, the time loop and the
+/// summary. On `Err`, `summary` holds what the run reached.
+fn run_simulation(
+    sim: Simulation,
+    resumed: Option<crate::checkpoint::Checkpoint>,
+    dir: &Path,
+    options: &RunOptions,
+    summary: &mut Summary,
+) -> Result<Outcome, Error> {
     let interval = sim.case.output.interval;
     if let Some(c) = &resumed {
         crate::checkpoint::discard_after(dir, c.step)?;
@@ -311,7 +356,8 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             }
         });
     }
-    let outcome = driver.run()?;
+    let started = Instant::now();
+    let result = driver.run();
     bar.finish_and_clear();
     let (sim, state) = (&driver.sim, &driver.state);
     summary.steps = sim.steps;
@@ -325,6 +371,13 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     summary.diagnostics_rows = state.rows;
     summary.last_checkpoint =
         driver.writer("checkpoints").and_then(|w| w.last_written()).map(|p| p.display().to_string());
+    // an output that cannot be written mid-run (a full disk) ends the run as failed, with
+    // its summary
+    let outcome = result.unwrap_or_else(|e| crate::core::driver::Outcome {
+        status: Status::Failed(format!("after step {}, t = {}: {e}", sim.steps, sim.time)),
+        reason: String::new(),
+        wall_seconds: started.elapsed().as_secs_f64(),
+    });
     summary.wall_seconds = outcome.wall_seconds;
     let status = outcome.status;
     summary.status = status.label().into();
@@ -335,9 +388,9 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             eprintln!("warning: {w}");
         }
     }
-    write_summary(dir, &summary)?;
+    write_summary(dir, summary)?;
     if sim.case.output.charts {
         crate::charts::write(dir)?;
     }
-    Ok(Outcome { status, summary, output_dir: dir.to_path_buf() })
+    Ok(Outcome { status, summary: summary.clone(), output_dir: dir.to_path_buf() })
 }

@@ -386,7 +386,7 @@ pub fn short(x: Real) -> String {
 impl Study {
     /// Parses a study from RON text; `file` is only used in messages.
     pub fn from_ron(text: &str, file: &Path) -> Result<Study, Error> {
-        ron::Options::default().from_str::<Study>(text).map_err(|e| Error::Syntax {
+        crate::core::input::ron_options().from_str::<Study>(text).map_err(|e| Error::Syntax {
             file: file.to_path_buf(),
             line: e.span.start.line,
             column: e.span.start.col,
@@ -646,13 +646,12 @@ impl Study {
 /// (`axis=label`, e.g. `representation=resolved`), just the combinations with those labels
 /// (several labels of one axis: any of them).
 pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, Error> {
-    let text = std::fs::read_to_string(file).map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
+    let text = crate::core::input::read_text(file)?;
     let study = Study::from_ron(&text, file)?;
     let points = study.points(file)?;
     study.check_specs(file, &points)?;
     let base_file = study.relative(file, &study.base);
-    let base_text =
-        std::fs::read_to_string(&base_file).map_err(|source| Error::Io { path: base_file.clone(), source })?;
+    let base_text = crate::core::input::read_text(&base_file)?;
     let base = Case::from_ron(&base_text, &base_file)?;
     let out = out.unwrap_or_else(|| Path::new("out/studies").join(run::directory_name(&study.name)));
     let mut wanted: Vec<(usize, String)> = Vec::new();
@@ -799,7 +798,7 @@ pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
                         crate::output::write_atomically(&c.dir.join(STUDY_CASE), texts[r].as_bytes())
                     })
                     .and_then(|_| {
-                        let options = RunOptions { threads, quiet: true, restart: None };
+                        let options = RunOptions { threads, quiet: true, restart: None, case_file: None };
                         run::run(&c.case, &c.dir, &options)
                     });
                 let line = match &started {

@@ -19,7 +19,7 @@ pub struct PluginSpec {
     /// Registered name, e.g. `"newtonian"`.
     pub model: String,
     /// The model's parameters, e.g. `(viscosity: 0.01)`. Omitted: all defaults.
-    #[serde(default = "empty_params")]
+    #[serde(default = "empty_params", deserialize_with = "crate::finite::finite_json")]
     pub params: serde_json::Value,
 }
 
@@ -350,7 +350,7 @@ pub struct ExchangeSpec {
     /// Registered exchange model name, e.g. `"no_slip"`, `"constant"`.
     pub model: String,
     /// The model's parameters.
-    #[serde(default = "empty_params")]
+    #[serde(default = "empty_params", deserialize_with = "crate::finite::finite_json")]
     pub params: serde_json::Value,
     /// Implicit (default) or explicit.
     #[serde(default)]
@@ -613,7 +613,7 @@ pub struct Case {
 pub const MAX_FIELDS: usize = 8;
 
 fn ron_options() -> ron::Options {
-    ron::Options::default()
+    crate::input::ron_options()
 }
 
 impl Case {
@@ -629,9 +629,9 @@ impl Case {
 
     /// Reads, overrides (`--set path=value`) and validates a case file.
     pub fn load(file: &Path, overrides: &[String]) -> Result<Case> {
-        let text = std::fs::read_to_string(file).map_err(|source| Error::Io { path: file.to_path_buf(), source })?;
+        let text = crate::input::read_text(file)?;
         let mut case = Case::from_ron(&text, file)?;
-        case = case.with_overrides(overrides)?;
+        case = case.with_overrides(overrides).map_err(|e| e.in_file(file))?;
         case.validate().map_err(|e| e.in_file(file))?;
         Ok(case)
     }
@@ -651,13 +651,27 @@ impl Case {
         if overrides.is_empty() {
             return Ok(self.clone());
         }
+        // JSON has no NaN or infinity: serde_json would turn them into `null`, and the
+        // result would fail to read back, blamed on the override
+        self.check_finite()?;
         let mut tree = serde_json::to_value(self).map_err(|e| Error::Model(e.to_string()))?;
         for assignment in overrides {
-            let err = |message: String| Error::Override { assignment: assignment.clone(), message };
+            let err = |message: String| Error::Override { assignment: shown(assignment), message };
             let (path, value) =
                 assignment.split_once('=').ok_or_else(|| err("expected path=value, e.g. time.end=0.1".into()))?;
-            let value: serde_json::Value = crate::ron_value::parse(value.trim())
-                .unwrap_or_else(|_| serde_json::Value::String(value.trim().to_string()));
+            crate::input::check_nesting(value.trim()).map_err(err)?;
+            let value = match crate::ron_value::parse(value.trim()) {
+                Ok(v) => v,
+                // a number that is not one (`inf`, `1e400`, `1..2`) says so
+                Err(m)
+                    if value.trim().starts_with(|c: char| c.is_ascii_digit() || "+-.".contains(c))
+                        || ["inf", "NaN"].contains(&value.trim()) =>
+                {
+                    return Err(err(m));
+                }
+                // anything else that is not RON is taken as a string
+                Err(_) => serde_json::Value::String(value.trim().to_string()),
+            };
             let mut node = &mut tree;
             let keys: Vec<&str> = path.trim().split('.').collect();
             for (depth, key) in keys.iter().enumerate() {
@@ -718,13 +732,25 @@ impl Case {
             }
         }
         serde_json::from_value::<Case>(tree).map_err(|e| Error::Override {
-            assignment: overrides.join(" "),
+            assignment: shown(&overrides.join(" ")),
             message: format!("the result is not a valid case: {e}"),
         })
     }
 
+    /// Refuses the first real number of the case that is NaN or infinite, by its path.
+    pub fn check_finite(&self) -> Result<()> {
+        match crate::finite::first_non_finite(self) {
+            None => Ok(()),
+            Some((path, x)) => Err(Error::invalid(
+                path,
+                format!("{x} is not a finite number: every number of a case is finite; give a finite value"),
+            )),
+        }
+    }
+
     /// Rejects impossible values before step 0, saying how to fix them.
     pub fn validate(&self) -> Result<()> {
+        self.check_finite()?;
         let bad = |path: &str, message: String| Err(Error::invalid(path, message));
         let d = &self.domain;
         if !(d.size[0] > 0.0 && d.size[1] > 0.0 && d.size.iter().all(|s| s.is_finite())) {
@@ -993,6 +1019,16 @@ impl Case {
     }
 }
 
+/// An override as shown in a message: at most 100 characters of it.
+fn shown(assignment: &str) -> String {
+    let n = assignment.chars().count();
+    if n <= 100 {
+        return assignment.to_string();
+    }
+    let head: String = assignment.chars().take(80).collect();
+    format!("{head}… ({n} characters)")
+}
+
 /// Turns a RON error into a message that says how to fix it.
 pub fn explain_ron_error(e: &ron::Error) -> String {
     match e {
@@ -1008,6 +1044,7 @@ pub fn explain_ron_error(e: &ron::Error) -> String {
             expected.join(", "),
             crate::error::did_you_mean(found, expected.iter().copied())
         ),
+        ron::Error::ExceededRecursionLimit => crate::input::nesting_message_here(),
         ron::Error::MissingStructField { field, outer } => format!(
             "missing key `{field}`{}: add `{field}: ...`",
             outer.as_ref().map(|o| format!(" in {o}")).unwrap_or_default()

@@ -468,9 +468,7 @@ impl Driver {
             if row {
                 state.rows += 1;
                 if interval > 0.0 {
-                    while state.next_row <= d.time * (1.0 + 1e-9) {
-                        state.next_row += interval;
-                    }
+                    state.next_row = schedule_past(state.next_row, d.time * (1.0 + 1e-9), interval);
                 }
             }
             state.last_row_written = row;
@@ -516,17 +514,16 @@ fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so
-/// that `path` is either the old file or the complete new one.
+/// that `path` is either the old file or the complete new one. A write that fails (a
+/// full disk) removes its temporary file.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.tmp"));
-    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if written.is_err() {
-        // a full disk: the partial file goes, which frees the room summary.json needs
+    std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path)).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-    }
-    written.map_err(io)
+        io(e)
+    })
 }
 
 /// A number as it round-trips, in plain notation for moderate magnitudes and in
@@ -733,4 +730,34 @@ pub fn resume_csv(
         .open(path)
         .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     Ok((table::writer(file), kept))
+}
+
+/// The next time of a schedule of `interval` that lies past `bound`, from `next`: `next`
+/// plus as many intervals as it takes (the same sums as adding them one by one, for a
+/// schedule a few intervals behind), in a bounded number of operations however small the
+/// interval: beyond 64 intervals it jumps to the first multiple of `interval` past
+/// `bound`, and when `interval` is below the spacing of the reals near `bound`, to the
+/// next real after `bound` (the schedule then fires at every step).
+pub fn schedule_past(mut next: Real, bound: Real, interval: Real) -> Real {
+    for _ in 0..64 {
+        if next > bound {
+            return next;
+        }
+        next += interval;
+    }
+    let jumped = ((bound / interval).floor() + 1.0) * interval;
+    if jumped.is_finite() && jumped > next {
+        next = jumped;
+    }
+    for _ in 0..4 {
+        if next > bound {
+            return next;
+        }
+        next += interval;
+    }
+    if next > bound {
+        next
+    } else {
+        bound.next_up()
+    }
 }

@@ -17,6 +17,14 @@ pub enum Error {
         /// What is wrong there.
         message: String,
     },
+    /// An input file that cannot be taken as a whole (too large, a directory).
+    #[error("{file}: {message}")]
+    File {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
     /// A value is impossible; the message says which entry and how to fix it.
     #[error("{file}: {path}: {message}")]
     Invalid {

@@ -14,7 +14,10 @@
 use serde_json::{Map, Number, Value};
 
 /// Parses `text` as one RON value; the error says where it stopped and why.
+/// Brackets nested deeper than [`crate::input::MAX_NESTING`] are refused before parsing,
+/// so the parser's recursion is bounded.
 pub fn parse(text: &str) -> Result<Value, String> {
+    crate::input::check_nesting(text)?;
     let mut p = Parser { s: text.as_bytes(), i: 0 };
     let v = p.value()?;
     p.skip();

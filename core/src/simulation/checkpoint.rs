@@ -86,6 +86,7 @@ impl Simulation {
         if n != self.forcings.len() {
             return Err(format!("{n} direct forcings in the checkpoint, {} here", self.forcings.len()));
         }
+        let grid = &self.grid;
         for (f, c) in self.fields.iter_mut().zip(&saved.fields) {
             let (name, model) = (&c.name, &c.model);
             if *name != f.name || *model != f.frame.model() {
@@ -117,6 +118,9 @@ impl Simulation {
                 state::copy_into(&mut v.v, &w.v, &what(&format!("{q} on y-faces")))?;
             }
             f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;
+            if let Some(points) = f.frame.points() {
+                check_points(&points, grid).map_err(|m| format!("field `{name}`: {m}"))?;
+            }
         }
         for (p, lag) in self.forcings.iter_mut().zip(saved.marker_forces) {
             p.lag = lag.into_owned();
@@ -129,4 +133,46 @@ impl Simulation {
         self.body_forces = saved.body_forces.into_owned();
         Ok(())
     }
+}
+
+/// Refuses point state that no run writes (a damaged or forged checkpoint whose checksum
+/// was recomputed), which the frames' kernels take for granted: arrays of one length,
+/// finite values, positions inside the domain, body indices of the field's bodies.
+fn check_points(p: &crate::quantity::PointSet, grid: &Grid) -> std::result::Result<(), String> {
+    let n = p.position.len();
+    let lengths = [p.velocity.len(), p.volume.len(), p.mass.len(), p.stress.len(), p.body.len()];
+    if lengths.iter().any(|&l| l != n) {
+        return Err(format!("the point arrays have different lengths ({n} positions, others {lengths:?})"));
+    }
+    let (lo, size) = (grid.origin, grid.size());
+    let tol = 1e-6 * grid.h;
+    for k in 0..n {
+        let x = p.position[k];
+        let q = x - lo;
+        if !(q.x >= -tol && q.y >= -tol && q.x <= size.x + tol && q.y <= size.y + tol) {
+            return Err(format!(
+                "point {k} is at ({}, {}), outside the domain [{}, {}] × [{}, {}]",
+                x.x,
+                x.y,
+                lo.x,
+                lo.x + size.x,
+                lo.y,
+                lo.y + size.y
+            ));
+        }
+        let v = p.velocity[k];
+        if !(v.x.is_finite() && v.y.is_finite() && p.mass[k].is_finite() && p.volume[k].is_finite()) {
+            return Err(format!(
+                "point {k} has velocity ({}, {}), mass {} and volume {}: not all finite",
+                v.x, v.y, p.mass[k], p.volume[k]
+            ));
+        }
+        if !p.stress[k].iter().all(|s| s.is_finite()) {
+            return Err(format!("point {k} has a stress that is not finite"));
+        }
+        if p.body[k] < -1 || p.body[k] >= p.bodies.len() as i64 {
+            return Err(format!("point {k} belongs to body {}, of a field of {} bodies", p.body[k], p.bodies.len()));
+        }
+    }
+    Ok(())
 }

@@ -1,0 +1,32 @@
+//! An output that could not be written mid-run (a full disk) ended the run with exit code
+//! 1 but wrote no `summary.json` (issue 20). Now the summary says `failed` with the reason
+//! and the steps reached, whenever the process survives.
+
+use crate::hostile_input::{example, multifield, scratch};
+
+#[test]
+fn a_picture_that_cannot_be_written_at_step_2_leaves_a_summary() {
+    let dir = scratch("failed_write");
+    let out = dir.join("out");
+    // the temporary file of the third picture cannot be created: a folder holds its name
+    std::fs::create_dir_all(out.join("frames/.frame_000002.partial.png/blocked")).unwrap();
+    let case = example("taylor_green.ron");
+    let ran = multifield(&[
+        "run".as_ref(),
+        case.as_os_str(),
+        "--quiet".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--set".as_ref(),
+        "output.pictures=Some((interval: 0.05, width: 16))".as_ref(),
+        "--set".as_ref(),
+        "time.max_steps=5".as_ref(),
+    ]);
+    assert_eq!(ran.code, Some(1), "the output failed: {}", ran.stderr);
+    assert!(ran.stderr.contains("frame_000002.png"), "{}", ran.stderr);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("a summary")).unwrap();
+    assert_eq!(summary["status"], "failed", "{summary}");
+    assert!(summary["reason"].as_str().unwrap().contains("frame_000002.png"), "{summary}");
+    assert_eq!(summary["steps"], 2, "{summary}");
+}
