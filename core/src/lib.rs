@@ -17,6 +17,7 @@ pub mod field;
 pub mod geometry;
 pub mod grid;
 pub mod immersed;
+pub mod limits;
 pub mod math;
 pub mod plugin;
 pub mod poisson;
