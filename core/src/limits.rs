@@ -289,7 +289,7 @@ impl Case {
                     // the level's 5-point operator (f64): face couplings, ghost terms, diagonal
                     // and its inverse
                     b = b.saturating_add(mul(R, lx_faces.saturating_add(ly_faces)).saturating_add(mul(3 * R, lc)));
-                    if !(lx % 2 == 0 && ly % 2 == 0 && lx >= 4 && ly >= 4) {
+                    if !(lx.is_multiple_of(2) && ly.is_multiple_of(2) && lx >= 4 && ly >= 4) {
                         b = b.saturating_add(cholesky_bytes(lc));
                         break;
                     }
@@ -323,7 +323,7 @@ impl Case {
         if out > 0 {
             parts.push(("output buffers".into(), out));
         }
-        parts.sort_by(|a, b| b.1.cmp(&a.1));
+        parts.sort_by_key(|p| std::cmp::Reverse(p.1));
         let bytes = parts.iter().map(|p| p.1).fold(0, u64::saturating_add);
         MemoryEstimate { bytes, breakdown: parts, points: points_total }
     }
@@ -420,7 +420,7 @@ pub fn group(n: u64) -> String {
     let s = n.to_string();
     let mut out = String::new();
     for (i, ch) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
             out.push(',');
         }
         out.push(ch);

@@ -19,6 +19,7 @@ const CASE: &str = r#"(
 /// - the Eulerian frame: θ, θ¹ and its rate (3 C), four face velocities (4 (X + Y)), three
 ///   lattices with two ghost layers ((64+5)(64+4) + (64+4)(64+5) + (64+4)²), the fluxes of u
 ///   ((64+2) 64 + 65²), of v (65² + 64 (64+2)) and of θ (X + Y).
+///
 /// Reals: 3·4096 + (4096 + 7·8320 + 4096) + (3·4096 + 4·8320 + 4692 + 4692 + 4624 + 4224
 /// + 4225 + 4225 + 4224 + 8320) = 12,288 + 66,432 + 84,794 = 163,514; × 8 bytes.
 const BY_HAND: u64 = 163_514 * 8;
