@@ -1062,3 +1062,46 @@ pub fn explain_ron_error(e: &ron::Error) -> String {
         other => other.to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sweep finds, for every body, the same first overlapping earlier disk as the
+    /// plain loop over every earlier body (issue 20: that loop was O(n²)).
+    #[test]
+    fn the_sweep_finds_the_overlaps_of_the_plain_loop() {
+        let mut bodies = Vec::new();
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as Real / (1u64 << 53) as Real
+        };
+        for k in 0..400 {
+            let shape = if k % 7 == 3 {
+                BodyShape::Rectangle { min: [next(), next()], max: [1.5, 1.5] }
+            } else {
+                BodyShape::Disk { center: [10.0 * next(), 10.0 * next()], radius: 0.05 + 0.3 * next() }
+            };
+            bodies.push(BodySpec {
+                name: format!("b{k}"),
+                shape,
+                motion: Motion::Free,
+                velocity: [0.0; 2],
+                angular_velocity: 0.0,
+            });
+        }
+        let plain: Vec<Option<usize>> = (0..bodies.len())
+            .map(|b| {
+                (0..b).find(|&o| match (&bodies[b].shape, &bodies[o].shape) {
+                    (BodyShape::Disk { center: c1, radius: r1 }, BodyShape::Disk { center: c2, radius: r2 }) => {
+                        disk_distance(c1, c2) < r1 + r2
+                    }
+                    _ => false,
+                })
+            })
+            .collect();
+        assert!(plain.iter().filter(|o| o.is_some()).count() > 50);
+        assert_eq!(first_disk_overlaps(&bodies), plain);
+    }
+}
