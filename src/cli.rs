@@ -15,6 +15,7 @@
 
 use crate::core::case::{Case, Region, Representation};
 use crate::core::error::Error;
+use crate::core::limits::{self, MemoryEstimate, MemoryLimit};
 use crate::core::registry::{self, Role};
 use crate::core::simulation::{Simulation, Status};
 use crate::run::{self, RunOptions};
@@ -55,6 +56,10 @@ enum Command {
         /// from the checkpoint's only in time.*, output.* and description.
         #[arg(long, value_name = "FILE")]
         restart: Option<PathBuf>,
+        /// The most memory the run may use, e.g. 8GB or 8GiB [default: $MULTIFIELD_MAX_MEMORY,
+        /// else the memory available now]; a case estimated above it is refused.
+        #[arg(long, value_name = "SIZE")]
+        max_memory: Option<String>,
     },
     /// Parse, validate and build every plugin of a case without stepping; describe it.
     Check {
@@ -63,6 +68,9 @@ enum Command {
         /// Override an entry, as for `run`.
         #[arg(long = "set", value_name = "PATH=VALUE")]
         overrides: Vec<String>,
+        /// The most memory a run may use, as for `run`.
+        #[arg(long, value_name = "SIZE")]
+        max_memory: Option<String>,
     },
     /// List every registered plugin by role, with its parameters, units and defaults.
     Plugins,
@@ -92,6 +100,9 @@ enum Command {
         /// [default: that folder's curves, built into multifield].
         #[arg(long, value_name = "DIR")]
         reference: Option<PathBuf>,
+        /// The most memory a run may use, as for `run`.
+        #[arg(long, value_name = "SIZE")]
+        max_memory: Option<String>,
     },
     /// Drafting–kissing–tumbling analysis of finished two-disk runs: kiss and tumble
     /// times, RMS distance to Uhlmann (2005), and trajectory plots (PNG and SVG) against
@@ -130,6 +141,12 @@ enum Command {
         /// No progress bar and no line per run.
         #[arg(long, short)]
         quiet: bool,
+        /// The most runs the study may have (the product of its axes' lengths).
+        #[arg(long, value_name = "N", default_value_t = crate::study::MAX_RUNS)]
+        max_runs: u64,
+        /// The most memory each run may use, as for `run`.
+        #[arg(long, value_name = "SIZE")]
+        max_memory: Option<String>,
     },
 }
 
@@ -187,13 +204,14 @@ pub fn main() -> ExitCode {
                     dkt(&[dir], None, None)
                 })
         }
-        Some(Command::Run { case, out, threads, overrides, quiet, restart }) => {
+        Some(Command::Run { case, out, threads, overrides, quiet, restart, max_memory }) => {
             Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
+                resources(&c, &case, &max_memory)?;
                 run_case(&c, &case, out, &RunOptions { threads, quiet, restart, case_file: Some(case.clone()) })
             })
         }
-        Some(Command::Check { case, overrides }) => {
-            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| check(&c, &case))
+        Some(Command::Check { case, overrides, max_memory }) => {
+            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| check(&c, &case, &max_memory))
         }
         Some(Command::Plugins) => {
             plugins();
@@ -204,15 +222,17 @@ pub fn main() -> ExitCode {
             Ok(())
         }
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
-        Some(Command::Compare { case, overrides, point_overrides, out, threads, reference }) => {
+        Some(Command::Compare { case, overrides, point_overrides, out, threads, reference, max_memory }) => {
             Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
+                resources(&c, &case, &max_memory)?;
                 let options = RunOptions { threads, quiet: true, restart: None, case_file: Some(case.clone()) };
                 compare(&c, &case, &point_overrides, out, &options, reference)
             })
         }
-        Some(Command::Study { study, jobs, out, threads_per_run, only, quiet }) => {
+        Some(Command::Study { study, jobs, out, threads_per_run, only, quiet, max_runs, max_memory }) => {
             let options = crate::study::StudyOptions { jobs, threads_per_run, quiet };
-            run_study(&study, out, &only, &options)
+            memory_limit(&max_memory)
+                .and_then(|memory| run_study(&study, out, &only, &options, &crate::study::Limits { max_runs, memory }))
         }
     };
     match result {
@@ -226,6 +246,23 @@ pub fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// The memory a case may use: `--max-memory`, else `MULTIFIELD_MAX_MEMORY`, else what the
+/// machine has available.
+fn memory_limit(option: &Option<String>) -> Result<MemoryLimit, Failure> {
+    let bytes = option
+        .as_deref()
+        .map(|s| limits::parse_bytes(s).map_err(|m| Failure::Input(Error::Model(format!("--max-memory {s}: {m}")))))
+        .transpose()?;
+    MemoryLimit::resolve(bytes).map_err(|m| Failure::Input(Error::Model(m)))
+}
+
+/// Refuses a case beyond the caps or the memory limit, before anything is allocated.
+fn resources(case: &Case, file: &Path, option: &Option<String>) -> Result<(MemoryEstimate, MemoryLimit), Failure> {
+    let limit = memory_limit(option)?;
+    let estimate = case.check_resources(&limit).map_err(|e| Failure::Input(e.in_file(file)))?;
+    Ok((estimate, limit))
 }
 
 fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions) -> Result<(), Failure> {
@@ -273,10 +310,15 @@ fn region_text(r: &Region) -> String {
         Region::Rectangle { min, max } => format!("rectangle {min:?}–{max:?}"),
         Region::Disk { center, radius } => format!("disk at {center:?}, radius {radius}"),
         Region::Bodies(bodies) => format!(
-            "{} bod{} ({})",
+            "{} bod{} ({}{})",
             bodies.len(),
             if bodies.len() == 1 { "y" } else { "ies" },
-            bodies.iter().map(|b| b.name.as_str()).collect::<Vec<_>>().join(", ")
+            bodies.iter().take(SHOWN_BODIES).map(|b| b.name.as_str()).collect::<Vec<_>>().join(", "),
+            if bodies.len() > SHOWN_BODIES {
+                format!(", … {} more", bodies.len() - SHOWN_BODIES)
+            } else {
+                String::new()
+            }
         ),
     }
 }
@@ -290,7 +332,12 @@ fn params_text(v: &serde_json::Value) -> String {
     }
 }
 
-fn check(case: &Case, file: &Path) -> Result<(), Failure> {
+/// Bodies named in `check`'s description of a region.
+const SHOWN_BODIES: usize = 8;
+
+fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Failure> {
+    // the estimate and the caps before anything is allocated
+    let (estimate, allowed) = resources(case, file, max_memory)?;
     let sim = Simulation::new(case).map_err(|e| Failure::Input(e.in_file(file)))?;
     let c = &sim.case;
     let g = &sim.grid;
@@ -376,6 +423,16 @@ fn check(case: &Case, file: &Path) -> Result<(), Failure> {
     if let Some(k) = &c.output.checkpoints {
         println!("output   a checkpoint every {}", k.interval);
     }
+    let parts: Vec<String> =
+        estimate.breakdown.iter().map(|(what, b)| format!("{what} {}", limits::bytes_text(*b))).collect();
+    println!(
+        "memory   about {} at the peak ({} bytes: {}){}; limit: {}",
+        limits::bytes_text(estimate.bytes),
+        limits::group(estimate.bytes),
+        parts.join(", "),
+        if estimate.points > 0 { format!(", about {} material points", estimate.points) } else { String::new() },
+        allowed.describe()
+    );
     Ok(())
 }
 
@@ -420,8 +477,12 @@ fn run_study(
     out: Option<PathBuf>,
     only: &[String],
     options: &crate::study::StudyOptions,
+    limits: &crate::study::Limits,
 ) -> Result<(), Failure> {
-    let plan = crate::study::plan(file, out, only)?;
+    let plan = crate::study::plan_within(file, out, only, limits)?;
+    if !options.quiet {
+        println!("study {}: {} runs (at most {} with --max-runs)", plan.study.name, plan.runs.len(), limits.max_runs);
+    }
     let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
     let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
     println!(

@@ -394,11 +394,46 @@ impl Study {
         })
     }
 
+    /// The number of values of each axis and of runs (their product), counted in checked
+    /// arithmetic before any list is built; refused beyond `max_runs` (the entry named: the
+    /// axis that passes the cap).
+    pub fn count_runs(&self, file: &Path, max_runs: u64) -> Result<u64, Error> {
+        let counts: Vec<u64> = self
+            .axes
+            .iter()
+            .map(|axis| match &axis.values {
+                Values::List { values, .. } => values.len() as u64,
+                Values::Range { steps, .. } => *steps as u64,
+                Values::Sets(sets) => sets.len() as u64,
+            })
+            .collect();
+        let total = counts.iter().try_fold(1u64, |t, &n| t.checked_mul(n));
+        if total.is_none_or(|t| t > max_runs) {
+            let product = counts.iter().map(u64::to_string).collect::<Vec<_>>().join(" × ");
+            let runs = match total {
+                Some(t) if counts.len() > 1 => format!("{product} = {t} runs"),
+                Some(t) => format!("{t} runs"),
+                None => format!("{product}: more than {} runs", u64::MAX),
+            };
+            // the entry named: the longest axis
+            let k = (0..counts.len()).max_by_key(|&k| (counts[k], std::cmp::Reverse(k))).unwrap_or(0);
+            let name = if self.axes[k].name.is_empty() { k.to_string() } else { self.axes[k].name.clone() };
+            return Err(bad(
+                file,
+                &format!("axes.{name}"),
+                format!("the axes make {runs}; at most {max_runs} (`--max-runs N` raises the cap); use fewer values"),
+            ));
+        }
+        Ok(total.unwrap_or(0))
+    }
+
     /// The resolved values of every axis; checks the axes.
     pub fn points(&self, file: &Path) -> Result<Vec<Vec<Point>>, Error> {
         if self.axes.is_empty() {
             return Err(bad(file, "axes", "a study needs at least one axis".into()));
         }
+        // no axis longer than a list can hold, whatever the caller checked
+        self.count_runs(file, isize::MAX as u64 / 64)?;
         let mut all = Vec::new();
         for (k, axis) in self.axes.iter().enumerate() {
             let here = format!("axes.{}", axis.name);
@@ -646,8 +681,37 @@ impl Study {
 /// (`axis=label`, e.g. `representation=resolved`), just the combinations with those labels
 /// (several labels of one axis: any of them).
 pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, Error> {
+    plan_within(file, out, only, &Limits::default())
+}
+
+/// The most runs a study may have unless `--max-runs` says otherwise.
+pub const MAX_RUNS: u64 = 10_000;
+
+/// What a study may use: runs, and memory per run.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// The most runs (`--max-runs`; default [`MAX_RUNS`]).
+    pub max_runs: u64,
+    /// The memory a run may use ([`crate::core::limits::MemoryLimit`]).
+    pub memory: crate::core::limits::MemoryLimit,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        let memory = crate::core::limits::MemoryLimit::resolve(None).unwrap_or(crate::core::limits::MemoryLimit {
+            bytes: u64::MAX,
+            source: crate::core::limits::LimitSource::None,
+        });
+        Self { max_runs: MAX_RUNS, memory }
+    }
+}
+
+/// [`plan`] within `limits`: the runs are counted (and refused beyond the cap) before any
+/// is built, and every combination's memory is estimated before its simulation is.
+pub fn plan_within(file: &Path, out: Option<PathBuf>, only: &[String], limits: &Limits) -> Result<Plan, Error> {
     let text = crate::core::input::read_text(file)?;
     let study = Study::from_ron(&text, file)?;
+    study.count_runs(file, limits.max_runs)?;
     let points = study.points(file)?;
     study.check_specs(file, &points)?;
     let base_file = study.relative(file, &study.base);
@@ -672,6 +736,7 @@ pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, 
     let mut runs: Vec<Combination> = Vec::new();
     let mut dirs: std::collections::HashMap<PathBuf, usize> = std::collections::HashMap::new();
     let counts: Vec<usize> = points.iter().map(Vec::len).collect();
+    // counted above: at most limits.max_runs, no overflow
     let total: usize = counts.iter().product();
     for n in 0..total {
         let mut index = vec![0; counts.len()];
@@ -722,7 +787,9 @@ pub fn plan(file: &Path, out: Option<PathBuf>, only: &[String]) -> Result<Plan, 
         let mut case = base.with_overrides(&combination.overrides).map_err(context)?;
         case.validate().map_err(|e| context(e.in_file(&base_file)))?;
         case.name = format!("{}: {what}", study.name);
-        // plugins: unknown models and bad parameters are found now, not mid-study
+        // the memory before anything is allocated, then the plugins: unknown models and
+        // bad parameters are found now, not mid-study
+        case.check_resources(&limits.memory).map_err(|e| context(e.in_file(&base_file)))?;
         Simulation::new(&case).map_err(context)?;
         dirs.insert(combination.dir.clone(), runs.len());
         runs.push(Combination { case, ..combination });

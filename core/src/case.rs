@@ -838,9 +838,12 @@ impl Case {
                     if bodies.is_empty() {
                         return bad(&p("region"), "an empty list of bodies: give at least one".into());
                     }
+                    // the pairwise checks in O(n log n), found in the order of the plain loops
+                    let mut names = std::collections::HashSet::with_capacity(bodies.len());
+                    let overlaps = first_disk_overlaps(bodies);
                     for (b, body) in bodies.iter().enumerate() {
                         let bp = format!("fields.{}.region.{}", f.name, body.name);
-                        if bodies[..b].iter().any(|o| o.name == body.name) {
+                        if !names.insert(body.name.as_str()) {
                             return bad(&bp, format!("two bodies are named `{}`; names must be unique", body.name));
                         }
                         let (mut lo, mut hi) = body.shape.bounds();
@@ -869,19 +872,18 @@ impl Case {
                                 body.name, lo[0], hi[0], lo[1], hi[1]
                             ));
                         }
-                        for other in &bodies[..b] {
+                        if let Some(o) = overlaps[b] {
+                            let other = &bodies[o];
                             if let (
                                 BodyShape::Disk { center: c1, radius: r1 },
                                 BodyShape::Disk { center: c2, radius: r2 },
                             ) = (&body.shape, &other.shape)
                             {
-                                let d = ((c1[0] - c2[0]).powi(2) + (c1[1] - c2[1]).powi(2)).sqrt();
-                                if d < r1 + r2 {
-                                    return bad(&bp, format!(
-                                        "body `{}` overlaps body `{}` (centres {d} apart, radii {r1} + {r2}); move them apart",
-                                        body.name, other.name
-                                    ));
-                                }
+                                let d = disk_distance(c1, c2);
+                                return bad(&bp, format!(
+                                    "body `{}` overlaps body `{}` (centres {d} apart, radii {r1} + {r2}); move them apart",
+                                    body.name, other.name
+                                ));
                             }
                         }
                     }
@@ -1029,6 +1031,51 @@ fn shown(assignment: &str) -> String {
     format!("{head}… ({n} characters)")
 }
 
+/// Distance between two disks' centres.
+fn disk_distance(c1: &[Real; 2], c2: &[Real; 2]) -> Real {
+    ((c1[0] - c2[0]).powi(2) + (c1[1] - c2[1]).powi(2)).sqrt()
+}
+
+/// For each body, the first earlier disk that its disk overlaps (centres closer than the
+/// sum of the radii), as a loop over every earlier body finds it, but by a sweep along x:
+/// only the pairs whose extents along x overlap are tested (O(n log n) for bodies spread
+/// over the domain; issue 20 had 10,000 bodies).
+fn first_disk_overlaps(bodies: &[BodySpec]) -> Vec<Option<usize>> {
+    let disks: Vec<(usize, [Real; 2], Real)> = bodies
+        .iter()
+        .enumerate()
+        .filter_map(|(k, b)| match b.shape {
+            BodyShape::Disk { center, radius } => Some((k, center, radius)),
+            _ => None,
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..disks.len()).collect();
+    order.sort_by(|&a, &b| {
+        let lo = |k: usize| disks[k].1[0] - disks[k].2;
+        lo(a).total_cmp(&lo(b))
+    });
+    let mut first: Vec<Option<usize>> = vec![None; bodies.len()];
+    // a NaN extent can overlap nothing: `d < r1 + r2` is false, as in the plain loop
+    let mut active: Vec<usize> = Vec::new();
+    for &k in &order {
+        let (b, c, r) = disks[k];
+        // (with a slack of 1e-9 relative: rounding must not drop a pair the loop would test)
+        let lo = c[0] - r - 1e-9 * (1.0 + c[0].abs() + r.abs());
+        active.retain(|&o| !(disks[o].1[0] + disks[o].2 < lo));
+        for &o in &active {
+            let (a, c2, r2) = disks[o];
+            if disk_distance(&c, &c2) < r + r2 {
+                let (late, early) = if a < b { (b, a) } else { (a, b) };
+                if first[late].is_none_or(|e| early < e) {
+                    first[late] = Some(early);
+                }
+            }
+        }
+        active.push(k);
+    }
+    first
+}
+
 /// Turns a RON error into a message that says how to fix it.
 pub fn explain_ron_error(e: &ron::Error) -> String {
     match e {
@@ -1050,5 +1097,48 @@ pub fn explain_ron_error(e: &ron::Error) -> String {
             outer.as_ref().map(|o| format!(" in {o}")).unwrap_or_default()
         ),
         other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sweep finds, for every body, the same first overlapping earlier disk as the
+    /// plain loop over every earlier body (issue 20: that loop was O(n²)).
+    #[test]
+    fn the_sweep_finds_the_overlaps_of_the_plain_loop() {
+        let mut bodies = Vec::new();
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as Real / (1u64 << 53) as Real
+        };
+        for k in 0..400 {
+            let shape = if k % 7 == 3 {
+                BodyShape::Rectangle { min: [next(), next()], max: [1.5, 1.5] }
+            } else {
+                BodyShape::Disk { center: [10.0 * next(), 10.0 * next()], radius: 0.05 + 0.3 * next() }
+            };
+            bodies.push(BodySpec {
+                name: format!("b{k}"),
+                shape,
+                motion: Motion::Free,
+                velocity: [0.0; 2],
+                angular_velocity: 0.0,
+            });
+        }
+        let plain: Vec<Option<usize>> = (0..bodies.len())
+            .map(|b| {
+                (0..b).find(|&o| match (&bodies[b].shape, &bodies[o].shape) {
+                    (BodyShape::Disk { center: c1, radius: r1 }, BodyShape::Disk { center: c2, radius: r2 }) => {
+                        disk_distance(c1, c2) < r1 + r2
+                    }
+                    _ => false,
+                })
+            })
+            .collect();
+        assert!(plain.iter().filter(|o| o.is_some()).count() > 50);
+        assert_eq!(first_disk_overlaps(&bodies), plain);
     }
 }

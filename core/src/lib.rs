@@ -19,6 +19,7 @@ pub mod geometry;
 pub mod grid;
 pub mod immersed;
 pub mod input;
+pub mod limits;
 pub mod math;
 pub mod plugin;
 pub mod poisson;

@@ -851,8 +851,12 @@ impl Frame for Lagrangian {
             return Err("the region holds no material point: enlarge it or refine the grid".into());
         }
         if let Region::Bodies(specs) = ctx.region {
+            let mut held = vec![false; specs.len() + 1];
+            for &b in &self.points.body {
+                held[b as usize] = true;
+            }
             for (k, spec) in specs.iter().enumerate() {
-                if !self.points.body.contains(&(k as u32 + 1)) {
+                if !held[k + 1] {
                     return Err(format!(
                         "body `{}` holds no material point: it is smaller than a cell; refine the grid",
                         spec.name

@@ -5,15 +5,19 @@
 
 mod body_through_a_periodic_side;
 mod colliding_run_directories;
-mod eulerian_field_with_bodies;
 mod deep_nesting;
+mod eulerian_field_with_bodies;
 mod forged_checkpoint;
 mod full_disk;
+mod grid_too_large_for_memory;
 mod hostile_input;
 mod input_messages;
 mod instability;
 mod limits_of_time_and_threads;
+mod memory_estimate;
 mod overlap_between_fields;
 mod schedules_that_never_advance;
+mod study_beyond_the_run_cap;
 mod summary_after_a_failed_write;
+mod ten_thousand_bodies;
 mod unbounded_reads;

@@ -7,6 +7,8 @@ impl Simulation {
     /// Builds every model from the registries and seeds the initial state.
     pub fn new(case: &Case) -> Result<Simulation> {
         case.validate()?;
+        // the caps on cells, points, bodies and lists before the grid is allocated
+        case.check_counts()?;
         let mut case = case.clone();
         let d = &case.domain;
         let h = d.size[0] / d.cells[0] as Real;
