@@ -390,7 +390,15 @@ fn run_simulation(
     }
     write_summary(dir, summary)?;
     if sim.case.output.charts {
-        crate::charts::write(dir)?;
+        // charts are drawn from the run's own output: failing to draw them is an output
+        // failure (exit code 1), never bad input; a failed run keeps its own reason
+        let drawn = crate::charts::write(dir).map_err(|e| match e {
+            e @ Error::Io { .. } => e,
+            e => Error::Io { path: dir.join("charts"), source: std::io::Error::other(e.to_string()) },
+        });
+        if !matches!(status, Status::Failed(_)) {
+            drawn?;
+        }
     }
     Ok(Outcome { status, summary: summary.clone(), output_dir: dir.to_path_buf() })
 }

@@ -15,8 +15,9 @@ use std::time::{Duration, Instant};
 const CASE_INPUTS: usize = 6_000;
 const SET_INPUTS: usize = 3_500;
 const STUDY_INPUTS: usize = 500;
-/// Every this many accepted case inputs one is also built as `check` builds it.
-const BUILD_EVERY: usize = 10;
+/// Accepted case inputs whose number is a multiple of this are also built as `check`
+/// builds them.
+const BUILD_EVERY: usize = 5;
 /// Accepted cases run for a few steps by the binary.
 const RUNS: usize = 12;
 const LIMIT: Duration = Duration::from_secs(1);
@@ -224,7 +225,7 @@ struct Tally {
     built: usize,
     slowest: (Duration, String),
     defects: Vec<String>,
-    runnable: Vec<(Vec<u8>, Vec<String>)>,
+    runnable: Vec<(usize, Vec<u8>)>,
 }
 
 impl Tally {
@@ -296,23 +297,20 @@ fn mutated_inputs_are_accepted_or_refused_never_crash() {
         if outcome.as_ref().is_err() || took > LIMIT {
             keep(&keep_name(i, "case"), &data);
         }
-        if t.record(what.clone(), took, outcome) {
-            if t.accepted.is_multiple_of(BUILD_EVERY) {
-                drop(t);
-                let (took, outcome) =
-                    timed(|| std::panic::catch_unwind(|| check_case(&scratch, &data, &[], Depth::Build)));
-                let mut t = tally.lock().unwrap();
-                t.built += 1;
-                if outcome.as_ref().is_err() || took > LIMIT {
-                    keep(&keep_name(i, "case"), &data);
-                }
-                let built = t.record(format!("{what}, built"), took, outcome);
-                t.accepted -= 1; // counted once, above
-                if !built {
-                    t.refused -= 1;
-                } else if t.runnable.len() < RUNS {
-                    t.runnable.push((data, Vec::new()));
-                }
+        // every fifth input (by number, so that the same ones are built whatever the
+        // threads) that validates is also built
+        if t.record(what.clone(), took, outcome) && i.is_multiple_of(BUILD_EVERY) {
+            drop(t);
+            let (took, outcome) = timed(|| std::panic::catch_unwind(|| check_case(&scratch, &data, &[], Depth::Build)));
+            let mut t = tally.lock().unwrap();
+            t.built += 1;
+            if outcome.as_ref().is_err() || took > LIMIT {
+                keep(&keep_name(i, "case"), &data);
+            }
+            // counted once: a case the build refuses is refused, as `check` refuses it
+            t.accepted -= 1;
+            if t.record(format!("{what}, built"), took, outcome) {
+                t.runnable.push((i, data));
             }
         }
     });
@@ -376,7 +374,11 @@ fn mutated_inputs_are_accepted_or_refused_never_crash() {
     // `run` is as safe as `check`: accepted cases run for three steps or are refused before
     // step 0, and never crash
     let bin = env!("CARGO_BIN_EXE_multifield");
-    for (k, (data, _)) in t.runnable.iter().enumerate() {
+    let mut runnable = t.runnable;
+    runnable.sort_by_key(|r| r.0);
+    let step = runnable.len().div_ceil(RUNS).max(1);
+    let chosen: Vec<&Vec<u8>> = runnable.iter().step_by(step).map(|r| &r.1).collect();
+    for (k, data) in chosen.iter().enumerate() {
         let file = keep(&format!("run-{k}.ron"), data);
         let out = run_dir(k);
         let (took, status) = timed(|| {
@@ -399,7 +401,7 @@ fn mutated_inputs_are_accepted_or_refused_never_crash() {
             assert!(out.join("summary.json").exists(), "{}: no summary.json", file.display());
         }
     }
-    eprintln!("{} accepted cases run for three steps", t.runnable.len());
+    eprintln!("{} accepted cases run for three steps", chosen.len());
 }
 
 fn keep_name(i: usize, kind: &str) -> String {
