@@ -93,11 +93,14 @@ pub fn check_case(scratch: &Scratch, data: &[u8], overrides: &[String], depth: D
     result
 }
 
-/// The planning of `multifield study FILE` (every combination's case built, nothing run) on
-/// a study file holding `data`, whose `base` is resolved against the linked `examples/`.
-pub fn check_study(scratch: &Scratch, data: &[u8]) -> Result<(), Error> {
+/// The planning of `multifield study FILE` (every combination's case overridden, validated
+/// and, with [`Depth::Build`], built; nothing run) on a study file holding `data`, whose
+/// `base` is resolved against the linked `examples/`. `Ok` holds the number of runs.
+pub fn check_study(scratch: &Scratch, data: &[u8], depth: Depth) -> Result<usize, Error> {
     let file = scratch.file("studies", data, &[])?;
-    let result = crate::study::plan(&file, Some(scratch.dir.join("out")), &[]).map(|_| ());
+    let out = Some(scratch.dir.join("out"));
+    let limits = crate::study::Limits::default();
+    let result = crate::study::plan_to(&file, out, &[], &limits, depth == Depth::Build).map(|p| p.runs.len());
     scratch.remove(&file);
     result
 }

@@ -709,6 +709,19 @@ impl Default for Limits {
 /// [`plan`] within `limits`: the runs are counted (and refused beyond the cap) before any
 /// is built, and every combination's memory is estimated before its simulation is.
 pub fn plan_within(file: &Path, out: Option<PathBuf>, only: &[String], limits: &Limits) -> Result<Plan, Error> {
+    plan_to(file, out, only, limits, true)
+}
+
+/// [`plan_within`], building every combination's simulation only with `build` (without,
+/// every case is still overridden, validated and its memory estimated: what the fuzz
+/// targets check first).
+pub fn plan_to(
+    file: &Path,
+    out: Option<PathBuf>,
+    only: &[String],
+    limits: &Limits,
+    build: bool,
+) -> Result<Plan, Error> {
     let text = crate::core::input::read_text(file)?;
     let study = Study::from_ron(&text, file)?;
     study.count_runs(file, limits.max_runs)?;
@@ -790,7 +803,9 @@ pub fn plan_within(file: &Path, out: Option<PathBuf>, only: &[String], limits: &
         // the memory before anything is allocated, then the plugins: unknown models and
         // bad parameters are found now, not mid-study
         case.check_resources(&limits.memory).map_err(|e| context(e.in_file(&base_file)))?;
-        Simulation::new(&case).map_err(context)?;
+        if build {
+            Simulation::new(&case).map_err(context)?;
+        }
         dirs.insert(combination.dir.clone(), runs.len());
         runs.push(Combination { case, ..combination });
     }

@@ -5,8 +5,8 @@
 mod common;
 
 use libfuzzer_sys::fuzz_target;
-use multifield::fuzzing::check_study;
+use multifield::fuzzing::{Depth, check_study};
 
 fuzz_target!(|data: &[u8]| {
-    let _ = check_study(common::scratch(), data);
+    let _ = check_study(common::scratch(), data, Depth::Build);
 });

@@ -341,18 +341,34 @@ fn mutated_inputs_are_accepted_or_refused_never_crash() {
         let mut rng = fastrand::Rng::with_seed(2_000_000 + i as u64);
         let (name, seed) = &studies[rng.usize(..studies.len())];
         let data = mutate(seed, &studies, &mut rng);
-        let (took, outcome) = timed(|| std::panic::catch_unwind(|| check_study(&scratch, &data)));
+        let (took, outcome) =
+            timed(|| std::panic::catch_unwind(|| check_study(&scratch, &data, Depth::Validate).map(drop)));
         if outcome.as_ref().is_err() || took > LIMIT {
             keep(&keep_name(i, "study"), &data);
         }
         let what = format!("study input {i} (from {name}; {})", keep_name(i, "study"));
-        tally.lock().unwrap().record(what, took, outcome);
+        let mut t = tally.lock().unwrap();
+        if t.record(what.clone(), took, outcome) && i.is_multiple_of(BUILD_EVERY) {
+            drop(t);
+            // building every combination's simulation: a second a run at most
+            let (took, outcome) = timed(|| std::panic::catch_unwind(|| check_study(&scratch, &data, Depth::Build)));
+            let runs = outcome.as_ref().ok().and_then(|r| r.as_ref().ok()).copied().unwrap_or(1);
+            let mut t = tally.lock().unwrap();
+            t.built += 1;
+            t.accepted -= 1;
+            let what = format!("{what}, {runs} runs built");
+            if took > LIMIT * runs as u32 {
+                keep(&keep_name(i, "study"), &data);
+                t.defects.push(format!("{what}: took {took:?}"));
+            }
+            t.record(what, Duration::ZERO, outcome.map(|r| r.map(drop)));
+        }
     });
 
     let t = tally.into_inner().unwrap();
     let total = CASE_INPUTS + SET_INPUTS + STUDY_INPUTS;
     eprintln!(
-        "{total} inputs: {} accepted, {} refused with a message, {} panics or hangs; {} accepted cases also built; slowest {:?} ({})",
+        "{total} inputs: {} accepted, {} refused with a message, {} panics or hangs; {} accepted cases and studies also built; slowest {:?} ({})",
         t.accepted,
         t.refused,
         t.defects.len(),
