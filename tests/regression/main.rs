@@ -3,6 +3,7 @@
 //!
 //! One test binary: `cargo test --release --test regression [module::]`.
 
+mod a_one_megabyte_list;
 mod body_through_a_periodic_side;
 mod colliding_run_directories;
 mod deep_nesting;
