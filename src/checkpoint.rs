@@ -55,8 +55,9 @@ pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
 /// Version of the format; a checkpoint of another version is refused. Version 2 was the
 /// hand-written encoding with a 64-bit checksum; version 3 is derived structs encoded
 /// with postcard, with a CRC-32; version 4 adds the stress models' per-point state to the
-/// Lagrangian frame's points (`StressModel::point_state`).
-pub const VERSION: u32 = 4;
+/// Lagrangian frame's points (`StressModel::point_state`); version 5 adds the strain energy
+/// and max Σθ to the last step's figures.
+pub const VERSION: u32 = 5;
 /// Length of the [`Header`]: signature, version, payload length, CRC-32.
 const HEADER: usize = 8 + 4 + 8 + 4;
 /// Folder of the checkpoints in a run directory.
@@ -457,7 +458,8 @@ impl RunnerState {
 
 /// Checkpoints as a writer of the driver: after every step on the case's schedule (not
 /// after the step that ends a run as unstable: the run keeps its last good checkpoint), and
-/// at the end of a completed run (to be extended with a later `time.end`).
+/// at the end of a completed run (to be extended with a later `time.end`) or an
+/// interrupted one (to be continued).
 impl Writer for Checkpoints {
     fn name(&self) -> &str {
         "checkpoints"
@@ -473,7 +475,8 @@ impl Writer for Checkpoints {
         Ok(())
     }
     fn finish(&mut self, sim: &mut Simulation, end: &End) -> Result<(), Error> {
-        if *end.status == Status::Completed && sim.steps > 0 && self.last_step() != Some(sim.steps) {
+        let closes = matches!(end.status, Status::Completed | Status::Interrupted(_));
+        if closes && sim.steps > 0 && self.last_step() != Some(sim.steps) {
             sim.refresh_grid_state()?;
             self.write(sim, &RunnerState::of(end.state))?;
         }

@@ -170,6 +170,9 @@ enum Failure {
     Input(Error),
     /// The run or its output failed: exit code 1.
     Run(String),
+    /// Interrupted by a signal, the output of the steps taken written: exit code 130
+    /// (128 + SIGINT, as a shell reports it).
+    Interrupted(String),
 }
 
 impl From<Error> for Failure {
@@ -190,6 +193,9 @@ pub fn main() -> ExitCode {
     }
     crate::link_all();
     let cli = Cli::parse();
+    if let Err(e) = crate::run::catch_signals() {
+        eprintln!("warning: {e}; an interrupt will end the process without a summary");
+    }
     let result = match cli.command {
         None => {
             let file = Path::new(crate::DEFAULT_CASE_FILE);
@@ -244,6 +250,10 @@ pub fn main() -> ExitCode {
         Err(Failure::Run(m)) => {
             eprintln!("error: {m}");
             ExitCode::from(1)
+        }
+        Err(Failure::Interrupted(m)) => {
+            eprintln!("{m}");
+            ExitCode::from(130)
         }
     }
 }
@@ -300,6 +310,7 @@ fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions
         Status::Completed => Ok(()),
         Status::Unstable(r) => Err(Failure::Run(format!("the run became unstable: {r}"))),
         Status::Failed(r) => Err(Failure::Run(format!("the run failed: {r}"))),
+        Status::Interrupted(r) => Err(Failure::Interrupted(format!("the run was {r}"))),
     }
 }
 
@@ -471,7 +482,8 @@ fn quantities() {
 }
 
 /// `multifield study STUDY.ron`: exit 0 when every run ended (completed, unstable or
-/// failed: all data), 2 on bad input, 1 when the output cannot be written.
+/// failed: all data), 2 on bad input, 1 when the output cannot be written, 130 when an
+/// interrupt stopped it (the same command continues it).
 fn run_study(
     file: &Path,
     out: Option<PathBuf>,
@@ -486,18 +498,27 @@ fn run_study(
     let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
     let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
     println!(
-        "study {}: {} runs: {} completed, {} unstable, {} failed ({} run now, {} skipped as finished)",
+        "study {}: {} runs: {} completed, {} unstable, {} failed, {} interrupted, {} pending ({} run now, {} skipped as \
+         finished)",
         plan.study.name,
         report.statuses.len(),
         count("completed"),
         count("unstable"),
         count("failed"),
+        count("interrupted"),
+        count("pending"),
         report.ran,
         report.skipped
     );
     println!("results: {}", report.results.display());
     for c in &report.charts {
         println!("chart:   {} (and .svg)", c.display());
+    }
+    if crate::run::interrupted() {
+        return Err(Failure::Interrupted(format!(
+            "study {} interrupted: run the same command to continue it (finished runs are skipped)",
+            plan.study.name
+        )));
     }
     Ok(())
 }

@@ -23,16 +23,20 @@
 //! - the kinetic energy or the largest speed is not finite;
 //! - the chosen Δt falls below `time.min_dt` (the last, shortened step that lands on
 //!   `time.end` excepted);
-//! - the kinetic energy exceeds [`ENERGY_GROWTH`] × E_ref, with
+//! - the mechanical energy (kinetic + the strain energy stored in material points,
+//!   `diagnostics.csv`'s `strain_energy`) exceeds [`ENERGY_GROWTH`] × E_ref, with
 //!   E_ref = max(E₀, ½ M |g| L, ½ M U_b², ½ M (L / t_end)²), where E₀ is the initial kinetic
 //!   energy, M the total mass, L the longer side of the domain, U_b the fastest prescribed
 //!   boundary velocity and t_end `time.end`. Each term is an energy the case can reach
 //!   physically (the start, a fall across the domain, the driving walls, a flow crossing
 //!   the domain once in the run); a million times the largest of them is a blow-up;
+//! - the mechanical energy collapses: it falls by more than [`ENERGY_COLLAPSE`] in one step
+//!   (from above 10⁻¹² E_ref), which no dissipation does within a stable step;
 //! - Σθ drifts: max |Σθ − 1| over the cells exceeds `coupling.max_volume_fraction_error`
 //!   (default 1: a cell may empty, as a Lagrangian fluid's points leave holes, but not hold
-//!   more than twice its volume) in a case with a pressure solver (which enforces Σθ = 1;
-//!   cases without one, bodies or a free surface in vacuum, are not checked);
+//!   more than twice its volume) in a case with a pressure solver (which enforces Σθ = 1);
+//!   in a case without one (bodies or a free surface in vacuum, where Σθ < 1 is empty
+//!   space), when max Σθ − 1 exceeds it: material packed into a cell beyond twice its room;
 //! - bodies overlap: two disk bodies (one of them free) whose centres are closer than
 //!   [`OVERLAP_FRACTION`] × the sum of their radii, or a free disk body whose centre is
 //!   closer than [`OVERLAP_FRACTION`] × its radius to a wall (or outside the domain): the
@@ -50,10 +54,12 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 pub use crate::core::driver::{
-    body_overlap, number, reference_energy, BODIES_HEADER, CSV_HEADER, ENERGY_GROWTH, OVERLAP_FRACTION,
+    body_overlap, number, reference_energy, BODIES_HEADER, CSV_HEADER, ENERGY_COLLAPSE, ENERGY_GROWTH, OVERLAP_FRACTION,
 };
 
 /// The most worker threads a run (and the most runs at a time a study) may ask for:
@@ -172,6 +178,35 @@ fn progress_bar(show: bool, end: Real) -> ProgressBar {
     );
     bar.set_message(format!("t = 0 / {end}"));
     bar
+}
+
+/// The process's interrupt flag: set by [`catch_signals`]'s handler, watched by every run
+/// ([`Driver::stop_on`]) and by a study between its runs.
+pub fn interrupt_flag() -> Arc<AtomicBool> {
+    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    FLAG.get_or_init(|| Arc::new(AtomicBool::new(false))).clone()
+}
+
+/// Whether the process was asked to stop ([`interrupt_flag`]).
+pub fn interrupted() -> bool {
+    interrupt_flag().load(Ordering::SeqCst)
+}
+
+/// Catches Ctrl-C (SIGINT), SIGTERM (a scheduler's time limit) and SIGHUP: the first
+/// signal sets [`interrupt_flag`], so that the runs under way end after their current step
+/// as `"interrupted"`, with their rows, last snapshot, checkpoint and `summary.json`
+/// written; a second one ends the process at once (exit code 130), leaving every file
+/// readable as a kill does. Call once, at start-up.
+pub fn catch_signals() -> Result<(), Error> {
+    let flag = interrupt_flag();
+    ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted again: stopping at once");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the step and writing the output (interrupt again to stop at once)");
+    })
+    .map_err(|e| Error::Model(format!("cannot catch interrupt signals: {e}")))
 }
 
 /// Runs `case` and writes its output into `output_dir` (created if needed).
@@ -356,6 +391,7 @@ fn run_simulation(
             }
         });
     }
+    driver.stop_on(interrupt_flag());
     let started = Instant::now();
     let result = driver.run();
     bar.finish_and_clear();

@@ -900,6 +900,10 @@ pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
                         first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
                     }
                 }
+                if crate::run::interrupted() {
+                    // an interrupt ends the runs under way after their step; none starts
+                    next.store(todo.len(), Ordering::SeqCst);
+                }
                 if let Err(Error::Io { path, source }) = started {
                     // an output directory that cannot be written stops the study
                     first_error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(Error::Io { path, source });
@@ -925,7 +929,7 @@ pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
 /// One row of the results table.
 #[derive(Clone, Debug, Default)]
 pub struct Row {
-    /// `completed`, `unstable`, `failed` or `pending`.
+    /// `completed`, `unstable`, `failed`, `interrupted` or `pending`.
     pub status: String,
     /// Why the run stopped early.
     pub reason: String,

@@ -14,7 +14,8 @@
 //!
 //! The run ends at `time.end` (the last step shortened to land on it), at `time.max_steps`
 //! (completed, with the reason), when a check fires (unstable), when Δt falls below
-//! `time.min_dt` (unstable), or when a step fails or a model panics (failed). The writers
+//! `time.min_dt` (unstable), when a step fails or a model panics (failed), or when the
+//! flag of [`Driver::stop_on`] is set, by a signal handler (interrupted, after the step). The writers
 //! are then finished ([`Writer::finish`]): the tables get the last step's row if it was
 //! not a regular one, a checkpoint closes a completed run.
 //!
@@ -44,11 +45,17 @@ use crate::simulation::{Simulation, Status, StepDiagnostics};
 use crate::table::{self, Table};
 use std::fs::File;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
-/// Kinetic energy above this multiple of the reference energy ([`reference_energy`]) is a
-/// blow-up.
+/// Mechanical energy (kinetic + strain) above this multiple of the reference energy
+/// ([`reference_energy`]) is a blow-up.
 pub const ENERGY_GROWTH: Real = 1e6;
+
+/// Mechanical energy that falls by more than this factor in one step has collapsed
+/// ([`EnergyCollapse`]).
+pub const ENERGY_COLLAPSE: Real = 1e6;
 
 /// Bodies closer than this fraction of the sum of their radii (or of the radius to a wall)
 /// overlap: the run stops as unstable ([`body_overlap`]).
@@ -187,18 +194,57 @@ impl StopCheck for FiniteSolution {
     }
 }
 
-/// The kinetic energy stays below a bound ([`ENERGY_GROWTH`] × [`reference_energy`] by
-/// default).
+/// The mechanical energy (kinetic + strain) stays below a bound ([`ENERGY_GROWTH`] ×
+/// [`reference_energy`] by default).
 pub struct EnergyBound(pub Real);
 
 impl StopCheck for EnergyBound {
     fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
         let bound = self.0;
-        (d.kinetic_energy > bound).then(|| {
+        let energy = d.kinetic_energy + d.strain_energy;
+        (energy > bound).then(|| {
             format!(
-                "kinetic energy {:e} at step {}, t = {} exceeds the bound {bound:e} \
-                 ({ENERGY_GROWTH:e} × the reference energy; see `multifield::run`): reduce time.cfl or time.fixed_dt",
-                d.kinetic_energy, d.step, d.time
+                "mechanical energy {energy:e} (kinetic {:e}, strain {:e}) at step {}, t = {} exceeds the bound \
+                 {bound:e} ({ENERGY_GROWTH:e} × the reference energy; see `multifield::run`): reduce time.cfl or \
+                 time.fixed_dt",
+                d.kinetic_energy, d.strain_energy, d.step, d.time
+            )
+        })
+    }
+}
+
+/// The mechanical energy (kinetic + strain) does not fall by more than [`ENERGY_COLLAPSE`]
+/// in one step. No physical dissipation (viscosity, drag, PIC damping, inelastic contact)
+/// removes all but a millionth of the energy within one stable step: a state that drops
+/// to rest that fast was destroyed by a step far beyond its stability limit. Energies
+/// below `floor` (round-off of a flow at rest) are not judged.
+pub struct EnergyCollapse {
+    /// The energy after the previous step.
+    pub previous: Real,
+    /// The smallest previous energy judged.
+    pub floor: Real,
+}
+
+impl EnergyCollapse {
+    /// The check of `sim` from its current state, judging energies above 10⁻¹² × the
+    /// [`reference_energy`].
+    pub fn of(sim: &Simulation) -> Self {
+        let previous =
+            if sim.steps > 0 { sim.last.kinetic_energy + sim.last.strain_energy } else { sim.initial_energy };
+        Self { previous, floor: 1e-12 * reference_energy(sim) }
+    }
+}
+
+impl StopCheck for EnergyCollapse {
+    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        let (before, energy) = (self.previous, d.kinetic_energy + d.strain_energy);
+        self.previous = energy;
+        (before > self.floor && energy * ENERGY_COLLAPSE < before).then(|| {
+            format!(
+                "mechanical energy (kinetic + strain) collapsed from {before:e} to {energy:e} in step {}, ending at \
+                 t = {}: no dissipation removes more than all but 1/{ENERGY_COLLAPSE:e} of the energy in one stable \
+                 step; the step (Δt = {:e}, limited by {}) destroyed the state: reduce time.cfl or time.fixed_dt",
+                d.step, d.time, d.dt, d.dt_limit
             )
         })
     }
@@ -222,6 +268,26 @@ impl StopCheck for VolumeFractionDrift {
     }
 }
 
+/// max Σθ − 1 stays below `coupling.max_volume_fraction_error` (cases without a pressure
+/// solver, where Σθ < 1 is empty space but Σθ far above 1 is material packed into a cell
+/// beyond what it holds: points crowded by a step beyond the stability limit).
+pub struct VolumeFractionPacking(pub Real);
+
+impl StopCheck for VolumeFractionPacking {
+    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        let bound = self.0;
+        (d.max_volume_fraction - 1.0 > bound).then(|| {
+            format!(
+                "max Σθ = {:.4e} at step {}, t = {}: a cell holds {:.3}× the material it has room for, and \
+                 max Σθ − 1 exceeds coupling.max_volume_fraction_error = {bound}: the points crowded together (a \
+                 step beyond the stability limit, or bodies passing through each other); reduce time.cfl or \
+                 time.fixed_dt",
+                d.max_volume_fraction, d.step, d.time, d.max_volume_fraction
+            )
+        })
+    }
+}
+
 /// Disk bodies do not pass through each other or a wall ([`body_overlap`]).
 pub struct BodyOverlap;
 
@@ -232,12 +298,19 @@ impl StopCheck for BodyOverlap {
 }
 
 /// The checks every run makes (`multifield::run`'s module doc): a finite solution, the
-/// energy bound, Σθ in a case with a pressure solver, and disk bodies that do not overlap.
+/// energy bound and no energy collapse, Σθ (|Σθ − 1| in a case with a pressure solver,
+/// Σθ − 1 without one), and disk bodies that do not overlap.
 pub fn default_checks(sim: &Simulation) -> Vec<Box<dyn StopCheck>> {
-    let mut checks: Vec<Box<dyn StopCheck>> =
-        vec![Box::new(FiniteSolution), Box::new(EnergyBound(ENERGY_GROWTH * reference_energy(sim)))];
+    let mut checks: Vec<Box<dyn StopCheck>> = vec![
+        Box::new(FiniteSolution),
+        Box::new(EnergyBound(ENERGY_GROWTH * reference_energy(sim))),
+        Box::new(EnergyCollapse::of(sim)),
+    ];
+    let bound = sim.case.coupling.max_volume_fraction_error;
     if sim.case.pressure.is_some() {
-        checks.push(Box::new(VolumeFractionDrift(sim.case.coupling.max_volume_fraction_error)));
+        checks.push(Box::new(VolumeFractionDrift(bound)));
+    } else {
+        checks.push(Box::new(VolumeFractionPacking(bound)));
     }
     let has_disks =
         sim.case.fields.iter().any(
@@ -357,6 +430,7 @@ pub struct Driver {
     writers: Vec<Box<dyn Writer>>,
     checks: Vec<Box<dyn StopCheck>>,
     progress: Option<Progress>,
+    interrupt: Option<Arc<AtomicBool>>,
 }
 
 impl Driver {
@@ -371,7 +445,7 @@ impl Driver {
     /// (a restart).
     pub fn resume(sim: Simulation, state: RunState) -> Self {
         let checks = default_checks(&sim);
-        Self { sim, state, writers: Vec::new(), checks, progress: None }
+        Self { sim, state, writers: Vec::new(), checks, progress: None, interrupt: None }
     }
 
     /// Adds a writer, called after the ones added before it.
@@ -398,6 +472,14 @@ impl Driver {
         self
     }
 
+    /// Stops the run as [`Status::Interrupted`] once `flag` is set (by a signal handler):
+    /// after the step under way, which is then the run's last (its rows, snapshot and
+    /// checkpoint written), or before the first step if it is set already.
+    pub fn stop_on(&mut self, flag: Arc<AtomicBool>) -> &mut Self {
+        self.interrupt = Some(flag);
+        self
+    }
+
     /// Calls `progress` after every step.
     pub fn on_progress(&mut self, progress: impl FnMut(&Simulation, f64) + 'static) -> &mut Self {
         self.progress = Some(Box::new(progress));
@@ -413,7 +495,11 @@ impl Driver {
     /// writer fails (a file that cannot be written); instabilities and failed steps end in
     /// an [`Outcome`] that says so.
     pub fn run(&mut self) -> Result<Outcome> {
-        let Self { sim, state, writers, checks, progress } = self;
+        let Self { sim, state, writers, checks, progress, interrupt } = self;
+        let interrupted = || interrupt.as_ref().is_some_and(|f| f.load(Ordering::SeqCst));
+        let stop = |sim: &Simulation| {
+            Status::Interrupted(format!("interrupted by a signal after step {}, t = {}", sim.steps, sim.time))
+        };
         if writers.iter().any(|w| w.needs_grid_state_at_start()) {
             sim.refresh_grid_state()?;
         }
@@ -428,6 +514,10 @@ impl Driver {
         let mut reason = String::new();
         let done = |t: Real| t >= time.end * (1.0 - 1e-12);
         while !done(sim.time) {
+            if interrupted() {
+                status = stop(sim);
+                break;
+            }
             if let Some(max) = time.max_steps {
                 if sim.steps >= max {
                     reason = format!("stopped by time.max_steps = {max} at t = {} (time.end = {})", sim.time, time.end);
@@ -440,6 +530,15 @@ impl Driver {
                 status = Status::Unstable(format!(
                     "Δt = {dt:e} (limited by {limit}) fell below time.min_dt = {:e} at step {}, t = {}",
                     time.min_dt,
+                    sim.steps + 1,
+                    sim.time
+                ));
+                break;
+            }
+            if sim.time + dt == sim.time {
+                status = Status::Failed(format!(
+                    "the clock stopped: t + Δt = t at step {}, t = {}, Δt = {dt:e} (limited by {limit}): Δt is below \
+                     the resolution of t; shorten time.end",
                     sim.steps + 1,
                     sim.time
                 ));
@@ -472,7 +571,9 @@ impl Driver {
                 }
             }
             state.last_row_written = row;
-            let last = unstable.is_some() || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+            let signalled = interrupted();
+            let last =
+                unstable.is_some() || signalled || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
             let needs_grid = {
                 let step = Step { sim, diagnostics: &d, last, unstable: unstable.is_some(), row, state };
                 writers.iter().any(|w| w.needs_grid_state(&step))
@@ -486,6 +587,10 @@ impl Driver {
             }
             if let Some(reason) = unstable {
                 status = Status::Unstable(reason);
+                break;
+            }
+            if signalled {
+                status = stop(sim);
                 break;
             }
             if let Some(p) = progress.as_mut() {
@@ -538,7 +643,7 @@ pub fn number(x: Real) -> String {
 
 /// The columns of `diagnostics.csv`, in order.
 pub const CSV_HEADER: &str = "step,time,dt,dt_limit,kinetic_energy,momentum_x,momentum_y,mass,max_speed,\
-max_divergence,volume_fraction_error,pressure_iterations,pressure_residual";
+max_divergence,volume_fraction_error,pressure_iterations,pressure_residual,strain_energy,max_volume_fraction";
 
 /// Header of `bodies.csv` (one row per body per output time).
 pub const BODIES_HEADER: &str =
@@ -580,6 +685,8 @@ impl DiagnosticsCsv {
             x(d.volume_fraction_error),
             d.pressure_iterations.to_string(),
             x(d.pressure_residual),
+            x(d.strain_energy),
+            x(d.max_volume_fraction),
         ];
         write_row(&mut self.file, &self.path, &row)?;
         flush(&mut self.file, &self.path)

@@ -222,6 +222,11 @@ pub trait Frame: Send + Sync {
     fn max_speed(&self) -> Real;
     /// Kinetic energy.
     fn kinetic_energy(&self) -> Real;
+    /// Elastic energy its points store under the field's stress models (those that define
+    /// [`StressModel::strain_energy_density`]); 0 for frames without a deformation gradient.
+    fn strain_energy(&self, _stress: &[Box<dyn StressModel>]) -> Real {
+        0.0
+    }
     /// Linear momentum.
     fn momentum(&self) -> Vector;
     /// Total mass.

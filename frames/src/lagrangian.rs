@@ -495,6 +495,7 @@ impl Lagrangian {
         let pts = &self.points;
         models
             .iter()
+            .filter(|model| model.strain_energy_density(&Matrix::identity()).is_some())
             .map(|model| {
                 let e: Vec<Real> = pts
                     .f
@@ -1126,6 +1127,9 @@ impl Frame for Lagrangian {
 
     fn max_speed(&self) -> Real {
         self.points.v.par_iter().map(|v| v.norm()).reduce(|| 0.0, Real::max)
+    }
+    fn strain_energy(&self, stress: &[Box<dyn StressModel>]) -> Real {
+        Lagrangian::strain_energy(self, stress)
     }
     fn kinetic_energy(&self) -> Real {
         let e: Vec<Real> = self

@@ -24,6 +24,33 @@ fn a_time_end_that_is_not_finite_is_refused() {
 }
 
 #[test]
+fn a_finite_time_end_beyond_the_clock_resolution_is_refused() {
+    // 1e300 is finite, but t + Δt stops moving near t = 2⁵² Δt: the run would never end.
+    // The bound is 10¹² steps of the first Δt (refused in under a second by `refused_with`).
+    let tg = example("taylor_green.ron");
+    let tg = tg.to_str().unwrap();
+    multifield(&["check", tg, "--set", "time.end=1e300"]).refused_with(&[
+        "time.end: 1e300:",
+        "steps of the first Δt",
+        "more than 1e12",
+        "time.max_steps",
+    ]);
+    multifield(&[
+        "run",
+        tg,
+        "--set",
+        "time.end=1e300",
+        "--quiet",
+        "--out",
+        scratch("time_end_1e300").to_str().unwrap(),
+    ])
+    .refused_with(&["time.end: 1e300:", "more than 1e12"]);
+    // with time.max_steps the run is bounded, and such an end is only an upper bound
+    let ran = multifield(&["check", tg, "--set", "time.end=1e300", "--set", "time.max_steps=Some(3)"]);
+    assert_eq!(ran.code, Some(0), "{}", ran.stderr);
+}
+
+#[test]
 fn a_hundred_thousand_threads_are_refused() {
     let case = example("taylor_green.ron");
     let ran = multifield(&["run", case.to_str().unwrap(), "--threads", "100000", "--quiet"]);

@@ -3,7 +3,9 @@
 //!
 //! One test binary: `cargo test --release --test regression [module::]`.
 
+mod a_missed_blow_up;
 mod a_one_megabyte_list;
+mod an_interrupted_run;
 mod body_through_a_periodic_side;
 mod colliding_run_directories;
 mod deep_nesting;

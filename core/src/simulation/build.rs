@@ -209,7 +209,7 @@ impl Simulation {
         if alone {
             check_alone(&case, &fields, pressure_solver.is_some())?;
         }
-        Ok(Simulation {
+        let sim = Simulation {
             gravity: vector(case.gravity),
             pressure: vec![0.0; grid.n_cells()],
             case,
@@ -229,9 +229,39 @@ impl Simulation {
             initial_energy,
             alone,
             grid_state_stale: false,
-        })
+        };
+        sim.check_time_resolution()?;
+        Ok(sim)
+    }
+
+    /// Refuses a `time.end` more than [`MAX_STEPS`] first steps away (unless
+    /// `time.max_steps` bounds the run): beyond that the clock t, a float, resolves Δt to
+    /// worse than 2⁻⁵² × 10¹² ≈ 2e-4 of itself, and the run would not end in any wall time.
+    fn check_time_resolution(&self) -> Result<()> {
+        let time = &self.case.time;
+        if time.max_steps.is_some() {
+            return Ok(());
+        }
+        let (dt, limit) = self.choose_dt();
+        let steps = time.end / dt;
+        if steps > MAX_STEPS {
+            return Err(Error::invalid(
+                "time.end",
+                format!(
+                    "{:e}: {steps:.3e} steps of the first Δt {dt:.3e} (limited by {limit}), more than {MAX_STEPS:e}: \
+                     beyond that the clock no longer resolves Δt (t + Δt rounds by more than 2e-4 Δt) and the run \
+                     would not end in any wall time; shorten time.end, or bound the run with time.max_steps",
+                    time.end
+                ),
+            ));
+        }
+        Ok(())
     }
 }
+
+/// The most steps of the first Δt a run may need to reach `time.end`
+/// ([`Simulation::check_time_resolution`]).
+pub const MAX_STEPS: Real = 1e12;
 
 /// How far Σθ may exceed 1 in a cell before the first step: the fields' regions are
 /// sampled on 8 × 8 points a cell, so two regions that only touch can share one sample.

@@ -101,6 +101,9 @@ pub struct StepDiagnostics {
     pub dt_limit: String,
     /// Total kinetic energy.
     pub kinetic_energy: Real,
+    /// Elastic energy stored in the material points, Σ_p V⁰_p ψ(F_p), of the stress models
+    /// that define a strain-energy density ψ (0 when none does).
+    pub strain_energy: Real,
     /// Total linear momentum.
     pub momentum: Vector,
     /// Total mass.
@@ -112,6 +115,9 @@ pub struct StepDiagnostics {
     pub max_divergence: Real,
     /// max |Σθ − 1| over the cells.
     pub volume_fraction_error: Real,
+    /// max Σθ over the cells: above 1 where material is packed beyond what a cell holds
+    /// (NaN when the only field steps alone and Σθ is not computed).
+    pub max_volume_fraction: Real,
     /// Iterations of the pressure solve.
     pub pressure_iterations: usize,
     /// Relative residual of the pressure solve.
@@ -127,22 +133,26 @@ pub enum Status {
     Unstable(String),
     /// Stopped by an error.
     Failed(String),
+    /// Stopped on request (an interrupt or termination signal) after a whole step, its
+    /// output written: a restart from its last checkpoint continues it.
+    Interrupted(String),
 }
 
 impl Status {
-    /// "completed", "unstable" or "failed".
+    /// "completed", "unstable", "failed" or "interrupted".
     pub fn label(&self) -> &'static str {
         match self {
             Status::Completed => "completed",
             Status::Unstable(_) => "unstable",
             Status::Failed(_) => "failed",
+            Status::Interrupted(_) => "interrupted",
         }
     }
     /// The reason (empty when completed).
     pub fn reason(&self) -> &str {
         match self {
             Status::Completed => "",
-            Status::Unstable(r) | Status::Failed(r) => r,
+            Status::Unstable(r) | Status::Failed(r) | Status::Interrupted(r) => r,
         }
     }
 }
@@ -281,6 +291,11 @@ impl Simulation {
     /// Total kinetic energy.
     pub fn kinetic_energy(&self) -> Real {
         self.fields.iter().map(|f| f.frame.kinetic_energy()).sum()
+    }
+
+    /// Elastic energy stored in the fields' material points ([`Frame::strain_energy`]).
+    pub fn strain_energy(&self) -> Real {
+        self.fields.iter().map(|f| f.frame.strain_energy(&f.stress)).sum()
     }
 
     /// Where the run left its models' range of validity (point particles larger than a

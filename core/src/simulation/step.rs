@@ -92,7 +92,7 @@ impl Simulation {
             return self.step_alone(dt, dt_limit);
         }
         self.particles_to_grid(dt)?;
-        let volume_fraction_error = self.volume_fractions();
+        let (volume_fraction_error, max_volume_fraction) = self.volume_fractions();
         self.carry_immersed_forces();
         self.predictor(dt)?;
         self.exchange(dt);
@@ -111,11 +111,13 @@ impl Simulation {
             dt,
             dt_limit,
             kinetic_energy: self.kinetic_energy(),
+            strain_energy: self.strain_energy(),
             momentum,
             mass: self.fields.iter().map(|f| f.frame.mass()).sum(),
             max_speed: self.max_speed(),
             max_divergence,
             volume_fraction_error,
+            max_volume_fraction,
             pressure_iterations: iterations,
             pressure_residual: residual,
         };
@@ -140,11 +142,13 @@ impl Simulation {
             dt,
             dt_limit,
             kinetic_energy: figures.kinetic_energy,
+            strain_energy: self.strain_energy(),
             momentum: figures.momentum,
             mass: figures.mass,
             max_speed: figures.max_speed,
             max_divergence: 0.0,
             volume_fraction_error: Real::NAN,
+            max_volume_fraction: Real::NAN,
             pressure_iterations: 0,
             pressure_residual: 0.0,
         };
@@ -305,8 +309,8 @@ impl Simulation {
     }
 
     /// Phase 2: volume fractions; the field of region `Rest` takes what the others leave.
-    /// Returns max |Σθ − 1|.
-    pub(super) fn volume_fractions(&mut self) -> Real {
+    /// Returns max |Σθ − 1| and max Σθ over the cells.
+    pub(super) fn volume_fractions(&mut self) -> (Real, Real) {
         let n = self.grid.n_cells();
         let mut others = vec![0.0; n];
         for f in self.fields.iter().filter(|f| !f.fills_rest) {
@@ -335,12 +339,13 @@ impl Simulation {
                 }
             }
         }
-        let mut err: Real = 0.0;
+        let (mut err, mut max): (Real, Real) = (0.0, 0.0);
         for c in 0..n {
             let s: Real = self.fields.iter().map(|f| f.state.theta[c]).sum();
             err = err.max((s - 1.0).abs());
+            max = max.max(s);
         }
-        err
+        (err, max)
     }
 
     /// Phase 3: frame predictors (advection and grid stresses, in each frame's own time
