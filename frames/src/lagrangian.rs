@@ -1185,7 +1185,7 @@ impl Frame for Lagrangian {
         state::finite(&p.grad_v[..], "velocity gradient of point")?;
         state::finite(&p.c_u[..], "APIC matrix (x) of point")?;
         state::finite(&p.c_v[..], "APIC matrix (y) of point")?;
-        if let Some(k) = p.vol0.iter().position(|&v| !(v > 0.0)) {
+        if let Some(k) = p.vol0.iter().position(|&v| v <= 0.0) {
             return Err(format!("initial volume of point {k} is {}: not positive", p.vol0[k]));
         }
         let nb = saved.bodies.len();

@@ -433,7 +433,7 @@ impl Frame for MassPoint {
                     return Err(format!("point `{}` has {q} {x}: not a positive number", s.name));
                 }
             }
-            if !(*re >= 0.0) {
+            if re.is_nan() || *re < 0.0 {
                 return Err(format!("point `{}` has largest Reynolds number {re}: not a number ≥ 0", s.name));
             }
         }
