@@ -26,9 +26,15 @@ const BOX_COLOR: usize = 5;
 struct Table(crate::core::table::Table);
 
 impl Table {
-    /// The file at `path`: `None` when it does not exist or has no data row.
+    /// The file at `path`: `None` when it does not exist or has no data row. A table the
+    /// run wrote that does not read back is [`Error::Io`] of the file, like one that
+    /// cannot be read.
     fn read(path: &Path) -> Result<Option<Table>, Error> {
-        Ok(crate::core::table::Table::read(path)?.filter(|t| !t.rows.is_empty()).map(Table))
+        let table = crate::core::table::Table::read(path).map_err(|e| match e {
+            e @ Error::Io { .. } => e,
+            e => Error::Io { path: path.to_path_buf(), source: std::io::Error::other(e.to_string()) },
+        })?;
+        Ok(table.filter(|t| !t.rows.is_empty()).map(Table))
     }
 
     /// Column `name` as numbers (NaN where a cell is not one; all NaN when missing).
@@ -92,7 +98,8 @@ fn case_of(dir: &Path) -> Option<Case> {
     Case::from_ron(&text, &path).ok()
 }
 
-/// Draws the charts of the run in `dir` into `dir/charts/` (module doc).
+/// Draws the charts of the run in `dir` into `dir/charts/` (module doc). Every error is
+/// [`Error::Io`] of the file that could not be read or written (an output failure).
 pub fn write(dir: &Path) -> Result<(), Error> {
     let diagnostics = Table::read(&dir.join("diagnostics.csv"))?;
     let bodies = Table::read(&dir.join("bodies.csv"))?;

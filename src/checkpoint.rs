@@ -36,7 +36,14 @@
 //! match), of another format version (an older multifield's checkpoint cannot be continued
 //! by this one: run the case again from t = 0, or continue it with the multifield that
 //! wrote it), or written by another case: the case may differ only in `time` (e.g. a later
-//! `time.end`), `output` and `description`. The rows of `diagnostics.csv` and
+//! `time.end`), `output` and `description`. It also refuses, with the field, the array,
+//! the index and the value, a checkpoint whose CRC-32 is right but whose state no run
+//! writes (a damaged file whose checksum was recomputed, or a forged one): arrays of
+//! another length than the grid's or the points', reals that are not finite, volume
+//! fractions or masses below zero, an Eulerian field's volume fraction above
+//! 1 + `coupling.max_volume_fraction_error`, points or body centres outside the domain,
+//! another number of bodies, a stress model's point state that does not fit its model
+//! ([`Simulation::load_state`]; each frame checks its own state). The rows of `diagnostics.csv` and
 //! `bodies.csv` up to the checkpoint's step are kept (from the checkpoint's run directory,
 //! else from the output directory) and the restarted run appends after them.
 

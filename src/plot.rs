@@ -262,7 +262,9 @@ where
 }
 
 /// Draws `stem.png` and `stem.svg` with `png` and `svg` (each given its file), under
-/// temporary names renamed at the end.
+/// temporary names renamed at the end. A failure of the plotting backend (it draws and
+/// writes the file in one go: a full disk, a folder that cannot be written) is
+/// [`Error::Io`] of the file, as is a failed rename: an output failure, never bad input.
 pub(crate) fn write_both(
     stem: &Path,
     png: impl Fn(&Path) -> Result<(), String>,
@@ -275,7 +277,8 @@ pub(crate) fn write_both(
         let result = if ext == "png" { png(&tmp) } else { svg(&tmp) };
         if let Err(m) = result {
             let _ = std::fs::remove_file(&tmp);
-            return Err(Error::Model(format!("cannot draw {}: {m}", path.display())));
+            let source = std::io::Error::other(format!("the plotting backend cannot draw and write it: {m}"));
+            return Err(Error::Io { path, source });
         }
         std::fs::rename(&tmp, &path).map_err(|source| Error::Io { path: path.clone(), source })?;
     }

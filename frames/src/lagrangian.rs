@@ -1182,6 +1182,16 @@ impl Frame for Lagrangian {
         if lengths.iter().chain(&more).any(|&l| l != n) {
             return Err(format!("the point arrays have different lengths ({n} positions)"));
         }
+        // positions, velocities, masses and stresses are checked by the core with the
+        // grid (`Frame::points`), the models' point state with the models
+        state::finite(&p.vol0[..], "initial volume of point")?;
+        state::finite(&p.f[..], "deformation gradient of point")?;
+        state::finite(&p.grad_v[..], "velocity gradient of point")?;
+        state::finite(&p.c_u[..], "APIC matrix (x) of point")?;
+        state::finite(&p.c_v[..], "APIC matrix (y) of point")?;
+        if let Some(k) = p.vol0.iter().position(|&v| v <= 0.0) {
+            return Err(format!("initial volume of point {k} is {}: not positive", p.vol0[k]));
+        }
         let nb = saved.bodies.len();
         if nb != self.bodies.len() {
             return Err(format!("{nb} bodies in the checkpoint, {} in the case", self.bodies.len()));

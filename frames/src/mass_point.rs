@@ -424,6 +424,19 @@ impl Frame for MassPoint {
         if let Some(((s, _), p)) = saved.points.iter().zip(&self.points).find(|((s, _), p)| s.name != p.state.name) {
             return Err(format!("point `{}` in the checkpoint where the case has `{}`", s.name, p.state.name));
         }
+        // the core checks that every real is finite and the centre inside the domain
+        for (s, re) in &saved.points {
+            for (q, x) in
+                [("mass", s.mass), ("volume", s.volume), ("radius", s.radius), ("moment of inertia", s.inertia)]
+            {
+                if !(x > 0.0 && x.is_finite()) {
+                    return Err(format!("point `{}` has {q} {x}: not a positive number", s.name));
+                }
+            }
+            if re.is_nan() || *re < 0.0 {
+                return Err(format!("point `{}` has largest Reynolds number {re}: not a number ≥ 0", s.name));
+            }
+        }
         for (p, (s, re)) in self.points.iter_mut().zip(saved.points) {
             p.state = s.into_owned();
             p.max_reynolds = re;

@@ -5,6 +5,7 @@
 //! is refused with the place and the fix.
 
 use crate::hostile_input::{example, multifield, scratch};
+use std::path::Path;
 
 const DEPTH: usize = 10_000;
 
@@ -36,4 +37,30 @@ fn a_set_value_nested_10000_deep_is_refused() {
         ran.refused_with(&[&format!("--set {path}="), "nest more than 128 levels deep", "at column"]);
         assert!(ran.stderr.len() < 1000, "the message shows the value cut short: {} bytes", ran.stderr.len());
     }
+}
+
+#[test]
+fn a_study_file_nested_10000_deep_is_refused_with_its_place() {
+    let dir = scratch("deep_study");
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/transfers_taylor_green.ron");
+    let text = std::fs::read_to_string(study).unwrap();
+    let base = example("taylor_green_flip.ron");
+    let text = text.replacen("\"../examples/taylor_green_flip.ron\"", &format!("{:?}", base.to_str().unwrap()), 1);
+    // an axis value `((((…0.1…))))`
+    let from = "values: [0.1, 0.2,";
+    let deep = text.replacen(from, &format!("values: [{}, 0.2,", nested("(", "0.1", ")")), 1);
+    assert_ne!(deep, text, "the study has `{from}`");
+    let file = dir.join("deep_study.ron");
+    std::fs::write(&file, deep).unwrap();
+    let line = text.lines().position(|l| l.contains(from)).unwrap() + 1;
+    let out = dir.join("out");
+    let ran = multifield(&["study".as_ref(), file.as_os_str(), "--out".as_ref(), out.as_os_str()]);
+    ran.refused_with(&[
+        &format!("deep_study.ron:{line}:"),
+        "brackets nest more than 128 levels deep",
+        "remove the extra brackets",
+    ]);
+    assert!(!ran.stderr.contains("serde_stacker") && !ran.stderr.contains("overflow"), "{}", ran.stderr);
+    assert!(ran.stderr.len() < 1000, "the message does not echo the value: {} bytes", ran.stderr.len());
+    assert!(!out.exists(), "nothing was run");
 }

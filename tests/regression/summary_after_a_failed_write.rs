@@ -30,3 +30,28 @@ fn a_picture_that_cannot_be_written_at_step_2_leaves_a_summary() {
     assert!(summary["reason"].as_str().unwrap().contains("frame_000002.png"), "{summary}");
     assert_eq!(summary["steps"], 2, "{summary}");
 }
+
+#[test]
+fn a_chart_the_plotting_backend_cannot_write_is_an_output_failure_naming_the_file() {
+    let dir = scratch("failed_chart");
+    let out = dir.join("out");
+    // the temporary file of the diagnostics chart cannot be created: a folder holds its name
+    std::fs::create_dir_all(out.join("charts/diagnostics.partial.png/blocked")).unwrap();
+    let case = example("taylor_green.ron");
+    let ran = multifield(&[
+        "run".as_ref(),
+        case.as_os_str(),
+        "--quiet".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--set".as_ref(),
+        "output.charts=true".as_ref(),
+        "--set".as_ref(),
+        "time.max_steps=2".as_ref(),
+    ]);
+    assert_eq!(ran.code, Some(1), "an output failure, not bad input: {}", ran.stderr);
+    assert!(ran.stderr.contains("charts/diagnostics.png"), "the file is named: {}", ran.stderr);
+    assert!(ran.stderr.contains("the plotting backend cannot draw and write it"), "{}", ran.stderr);
+    assert!(!ran.stderr.contains("panicked"), "{}", ran.stderr);
+    assert!(!out.join("charts/diagnostics.png").exists());
+}

@@ -170,3 +170,36 @@ fn a_restarted_run_carries_the_point_state_bit_for_bit() {
     assert_eq!(bits(&sa), bits(&sb), "point state after the restart");
     assert!(std::fs::read(&list[1].1).unwrap() == std::fs::read(&end_b).unwrap(), "final checkpoints differ");
 }
+
+/// A checkpoint whose point state does not fit the strain meter (a value that is not
+/// finite, another length) is refused on loading, naming the field, the model, the point
+/// and the value (issue 20; tests/regression/forged_checkpoint.rs has the other classes).
+#[test]
+fn a_restored_point_state_that_is_not_finite_or_does_not_fit_is_refused() {
+    let case = block("staggered");
+    let mut sim = Simulation::new(&case).unwrap();
+    let n = frame(&sim).points.len();
+    let refusal = |sim: &Simulation| {
+        let bytes = sim.save_state().unwrap();
+        Simulation::new(&case).unwrap().load_state(&bytes).unwrap_err().to_string()
+    };
+    frame_mut(&mut sim).points.model_state = vec![vec![0.25; n]];
+    frame_mut(&mut sim).points.model_state[0][5] = Real::NAN;
+    let e = refusal(&sim);
+    assert!(
+        e.contains(
+            "field `block`: point state of stress `strain_meter` (1 values per point)[5] is NaN, not a finite number"
+        ),
+        "{e}"
+    );
+    frame_mut(&mut sim).points.model_state = vec![vec![0.25; n + 1]];
+    let e = refusal(&sim);
+    let want = format!(
+        "point state of stress `strain_meter` (1 values per point): {} values in the checkpoint, {n} here",
+        n + 1
+    );
+    assert!(e.contains(&want), "{e}");
+    frame_mut(&mut sim).points.model_state = vec![vec![0.25; n]];
+    let bytes = sim.save_state().unwrap();
+    Simulation::new(&case).unwrap().load_state(&bytes).expect("a state that fits is restored");
+}

@@ -87,7 +87,8 @@ impl Simulation {
             return Err(format!("{n} direct forcings in the checkpoint, {} here", self.forcings.len()));
         }
         let grid = &self.grid;
-        for (f, c) in self.fields.iter_mut().zip(&saved.fields) {
+        let theta_max = 1.0 + self.case.coupling.max_volume_fraction_error;
+        for ((f, c), contact) in self.fields.iter_mut().zip(&saved.fields).zip(saved.body_forces.iter()) {
             let (name, model) = (&c.name, &c.model);
             if *name != f.name || *model != f.frame.model() {
                 return Err(format!(
@@ -117,10 +118,39 @@ impl Simulation {
                 state::copy_into(&mut v.u, &w.u, &what(&format!("{q} on x-faces")))?;
                 state::copy_into(&mut v.v, &w.v, &what(&format!("{q} on y-faces")))?;
             }
-            f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;
-            if let Some(points) = f.frame.points() {
-                check_points(&points, grid).map_err(|m| format!("field `{name}`: {m}"))?;
+            // Volume fractions and masses are not negative (beyond round-off); a field on
+            // the grid holds at most 1 + coupling.max_volume_fraction_error of a cell, the
+            // bound on Σθ that every step of a run with a pressure solve checks. (A
+            // Lagrangian field's θ is rebuilt from its points at every step and may exceed
+            // it where they are compressed.)
+            let hi = if f.frame.is_lagrangian() { Real::INFINITY } else { theta_max };
+            let why = "a volume fraction lies in [0, 1], to round-off and coupling.max_volume_fraction_error";
+            for (t, q) in [
+                (&s.theta, "volume fraction"),
+                (&s.theta_u, "x-face volume fraction"),
+                (&s.theta_v, "y-face volume fraction"),
+            ] {
+                state::within(t, -THETA_ROUND_OFF, hi, &what(q), why)?;
             }
+            let m0 = -THETA_ROUND_OFF * f.density * grid.cell_area();
+            for (m, q) in [(&s.mass_u, "x-face mass"), (&s.mass_v, "y-face mass")] {
+                state::within(m, m0, Real::INFINITY, &what(q), "a mass is not negative")?;
+            }
+            f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;
+            let bodies = f.frame.bodies();
+            if !contact.is_empty() && contact.len() != bodies.len() {
+                let n = contact.len();
+                return Err(what(&format!("contact forces of {n} bodies in the checkpoint, {} here", bodies.len())));
+            }
+            state::finite(&contact[..], &what("contact force and torque of body"))?;
+            check_bodies(&bodies, grid).map_err(|m| what(&m))?;
+            if let Some(points) = f.frame.points() {
+                check_points(&points, grid).map_err(|m| what(&m))?;
+                check_model_state(&points, &f.stress).map_err(|m| what(&m))?;
+            }
+        }
+        for (k, lag) in saved.marker_forces.iter().enumerate() {
+            state::finite(&lag[..], &format!("lagged marker forces of direct forcing {k}, body"))?;
         }
         for (p, lag) in self.forcings.iter_mut().zip(saved.marker_forces) {
             p.lag = lag.into_owned();
@@ -135,6 +165,76 @@ impl Simulation {
     }
 }
 
+/// Volume fractions as low as −this (round-off of the transport) are accepted on loading.
+const THETA_ROUND_OFF: Real = 1e-6;
+
+/// Distance outside the domain (× h) within which a restored point or body centre is
+/// accepted (the round-off of the frames' wall and periodic clamps).
+const DOMAIN_ROUND_OFF: Real = 1e-6;
+
+/// A position outside the domain of `grid` (beyond [`DOMAIN_ROUND_OFF`]), as "at (x, y),
+/// outside the domain [x0, x1] × [y0, y1]"; NaN is outside.
+fn outside(x: Vector, grid: &Grid) -> Option<String> {
+    let (lo, size) = (grid.origin, grid.size());
+    let tol = DOMAIN_ROUND_OFF * grid.h;
+    let q = x - lo;
+    let inside = q.x >= -tol && q.y >= -tol && q.x <= size.x + tol && q.y <= size.y + tol;
+    (!inside).then(|| {
+        format!(
+            "at ({}, {}), outside the domain [{}, {}] × [{}, {}]",
+            x.x,
+            x.y,
+            lo.x,
+            lo.x + size.x,
+            lo.y,
+            lo.y + size.y
+        )
+    })
+}
+
+/// Refuses body states that no run writes: a real that is not finite (centre, velocity,
+/// angular velocity, mass, forces, …), a centre outside the domain (a body's centre stays
+/// inside: the case puts bodies inside, walls stop them, rigid bodies do not cross
+/// periodic sides and mass points wrap across them).
+fn check_bodies(bodies: &[crate::plugin::BodyState], grid: &Grid) -> std::result::Result<(), String> {
+    for b in bodies {
+        state::finite(b, &format!("body `{}`", b.name))?;
+        if let Some(at) = outside(b.position, grid) {
+            return Err(format!("body `{}` has its centre {at}", b.name));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses stress models' point state ([`crate::plugin::StressModel::point_state`]) that
+/// does not fit the field's models and points: one array per model (or none at all), each
+/// of k values per point (or empty: sized at the next step), all finite.
+fn check_model_state(
+    p: &crate::quantity::PointSet,
+    models: &[Box<dyn crate::plugin::StressModel>],
+) -> std::result::Result<(), String> {
+    if p.model_state.is_empty() {
+        return Ok(());
+    }
+    if p.model_state.len() != models.len() {
+        return Err(format!(
+            "the points hold the state of {} stress models, the field has {}",
+            p.model_state.len(),
+            models.len()
+        ));
+    }
+    let n = p.len();
+    for (s, m) in p.model_state.iter().zip(models) {
+        let k = m.point_state().len();
+        let what = format!("point state of stress `{}` ({k} values per point)", m.model());
+        if !s.is_empty() {
+            state::length(s.len(), k * n, &what)?;
+        }
+        state::finite(&s[..], &what)?;
+    }
+    Ok(())
+}
+
 /// Refuses point state that no run writes (a damaged or forged checkpoint whose checksum
 /// was recomputed), which the frames' kernels take for granted: arrays of one length,
 /// finite values, positions inside the domain, body indices of the field's bodies.
@@ -144,21 +244,9 @@ fn check_points(p: &crate::quantity::PointSet, grid: &Grid) -> std::result::Resu
     if lengths.iter().any(|&l| l != n) {
         return Err(format!("the point arrays have different lengths ({n} positions, others {lengths:?})"));
     }
-    let (lo, size) = (grid.origin, grid.size());
-    let tol = 1e-6 * grid.h;
     for k in 0..n {
-        let x = p.position[k];
-        let q = x - lo;
-        if !(q.x >= -tol && q.y >= -tol && q.x <= size.x + tol && q.y <= size.y + tol) {
-            return Err(format!(
-                "point {k} is at ({}, {}), outside the domain [{}, {}] × [{}, {}]",
-                x.x,
-                x.y,
-                lo.x,
-                lo.x + size.x,
-                lo.y,
-                lo.y + size.y
-            ));
+        if let Some(at) = outside(p.position[k], grid) {
+            return Err(format!("point {k} is {at}"));
         }
         let v = p.velocity[k];
         if !(v.x.is_finite() && v.y.is_finite() && p.mass[k].is_finite() && p.volume[k].is_finite()) {
@@ -167,9 +255,10 @@ fn check_points(p: &crate::quantity::PointSet, grid: &Grid) -> std::result::Resu
                 v.x, v.y, p.mass[k], p.volume[k]
             ));
         }
-        if !p.stress[k].iter().all(|s| s.is_finite()) {
-            return Err(format!("point {k} has a stress that is not finite"));
+        if p.mass[k] < 0.0 {
+            return Err(format!("point {k} has mass {}: negative", p.mass[k]));
         }
+        state::finite(&p.stress[k], &format!("point {k}: stress"))?;
         if p.body[k] < -1 || p.body[k] >= p.bodies.len() as i64 {
             return Err(format!("point {k} belongs to body {}, of a field of {} bodies", p.body[k], p.bodies.len()));
         }
