@@ -202,9 +202,18 @@ pub struct BodySpec {
     /// Initial angular velocity (1/time).
     #[serde(default)]
     pub angular_velocity: Real,
+    /// The body's own material density, e.g. `Some(1.25)`; default (`None`): the field's.
+    /// Bodies of different density can then share one field and one exchange entry.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<Real>,
 }
 
 impl BodySpec {
+    /// The body's material density: its own, or the field's `field_density`.
+    pub fn density_or(&self, field_density: Real) -> Real {
+        self.density.unwrap_or(field_density)
+    }
+
     /// Initial velocity at `(x, y)`: rigid motion about the shape's centre.
     pub fn velocity_at(&self, x: Real, y: Real) -> [Real; 2] {
         let (lo, hi) = self.shape.bounds();
@@ -846,6 +855,18 @@ impl Case {
                         if !names.insert(body.name.as_str()) {
                             return bad(&bp, format!("two bodies are named `{}`; names must be unique", body.name));
                         }
+                        if let Some(rho) = body.density {
+                            if !(rho > 0.0 && rho.is_finite()) {
+                                return bad(
+                                    &format!("{bp}.density"),
+                                    format!(
+                                        "{rho}: the material density of body `{}` must be positive and finite \
+                                         (omit it for the field's, {})",
+                                        body.name, f.density
+                                    ),
+                                );
+                            }
+                        }
                         let (mut lo, mut hi) = body.shape.bounds();
                         if let BodyShape::Disk { radius, .. } = body.shape {
                             if !(radius > 0.0) {
@@ -1126,6 +1147,7 @@ mod tests {
                 motion: Motion::Free,
                 velocity: [0.0; 2],
                 angular_velocity: 0.0,
+                density: None,
             });
         }
         let plain: Vec<Option<usize>> = (0..bodies.len())

@@ -66,6 +66,7 @@ impl Simulation {
             fields.push(Field {
                 name: spec.name.clone(),
                 density: spec.density,
+                own_densities: matches!(&spec.region, Region::Bodies(b) if b.iter().any(|b| b.density.is_some())),
                 fills_rest,
                 frame,
                 stress,
