@@ -289,3 +289,20 @@ fn a_body_density_that_is_not_positive_and_finite_is_refused_with_the_body_entry
         assert_contains(&stderr, &[named, bad.trim_end_matches(".0")]);
     }
 }
+
+#[test]
+fn from_inflow_without_an_inflow_side_is_refused_with_the_field_entry() {
+    // the box has walls on every side
+    let text = GOOD.replace("region: All,", "region: All, velocity: FromInflow,");
+    let m = error_of("from_inflow.ron", &text, &[]);
+    assert_contains(&m, &["fields.water.velocity", "no side is an inflow", "Uniform((1.0, 0.0))"]);
+    // two inflow sides: which profile is ambiguous
+    let two = ["boundaries.left=Velocity(velocity: (1.0, 0.0))", "boundaries.bottom=Velocity(velocity: (0.0, 1.0))"];
+    let m = error_of("from_inflow2.ron", &text, &two);
+    assert_contains(&m, &["fields.water.velocity", "left and bottom are inflows"]);
+    // and through the binary: exit code 2
+    let path = case_file("from_inflow3.ron", &text);
+    let (code, _, stderr) = multifield(&["run", path.to_str().unwrap(), "--out", env!("CARGO_TARGET_TMPDIR")]);
+    assert_eq!(code, 2, "{stderr}");
+    assert_contains(&stderr, &["fields.water.velocity", "no side is an inflow"]);
+}

@@ -174,6 +174,10 @@ impl Simulation {
                      use an Eulerian field for a partial volume fraction",
                 ));
             }
+            let velocity = spec
+                .velocity
+                .resolved(&case.boundaries, &case.domain)
+                .map_err(|m| Error::invalid(format!("fields.{}.velocity", f.name), m))?;
             f.frame
                 .initialize(&InitContext {
                     grid: &grid,
@@ -181,7 +185,7 @@ impl Simulation {
                     name: &f.name,
                     density: f.density,
                     region: &spec.region,
-                    velocity: &spec.velocity,
+                    velocity: &velocity,
                     theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
@@ -192,6 +196,10 @@ impl Simulation {
                 continue;
             }
             let spec = &case.fields[k];
+            let velocity = spec
+                .velocity
+                .resolved(&case.boundaries, &case.domain)
+                .map_err(|m| Error::invalid(format!("fields.{}.velocity", f.name), m))?;
             f.frame
                 .initialize(&InitContext {
                     grid: &grid,
@@ -199,7 +207,7 @@ impl Simulation {
                     name: &f.name,
                     density: f.density,
                     region: &spec.region,
-                    velocity: &spec.velocity,
+                    velocity: &velocity,
                     theta: Some(&rest),
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
