@@ -324,7 +324,15 @@ fn region_text(r: &Region) -> String {
             "{} bod{} ({}{})",
             bodies.len(),
             if bodies.len() == 1 { "y" } else { "ies" },
-            bodies.iter().take(SHOWN_BODIES).map(|b| b.name.as_str()).collect::<Vec<_>>().join(", "),
+            bodies
+                .iter()
+                .take(SHOWN_BODIES)
+                .map(|b| match b.density {
+                    Some(rho) => format!("{} of density {rho}", b.name),
+                    None => b.name.clone(),
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
             if bodies.len() > SHOWN_BODIES {
                 format!(", … {} more", bodies.len() - SHOWN_BODIES)
             } else {

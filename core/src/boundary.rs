@@ -143,6 +143,20 @@ impl Boundaries {
         Ok(())
     }
 
+    /// Whether `side` is an inflow: a `Velocity` boundary whose velocity points into the
+    /// domain.
+    pub fn is_inflow(&self, side: Side) -> bool {
+        match self.side(side) {
+            Boundary::Velocity { velocity, .. } => match side {
+                Side::Left => velocity[0] > 0.0,
+                Side::Right => velocity[0] < 0.0,
+                Side::Bottom => velocity[1] > 0.0,
+                Side::Top => velocity[1] < 0.0,
+            },
+            _ => false,
+        }
+    }
+
     /// Prescribed velocity of `side` at `s`, the fraction (0..1) of the way along it.
     pub fn wall_velocity(&self, side: Side, s: Real) -> Vector {
         match self.side(side) {

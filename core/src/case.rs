@@ -5,7 +5,7 @@
 //! between fields, the pressure solver, and output. Plugins are named by `model` with
 //! their own `params`; the registries turn them into typed models.
 
-use crate::boundary::Boundaries;
+use crate::boundary::{Boundaries, Side};
 use crate::error::{Error, Result};
 use crate::math::Real;
 use crate::quantity::Place;
@@ -202,9 +202,18 @@ pub struct BodySpec {
     /// Initial angular velocity (1/time).
     #[serde(default)]
     pub angular_velocity: Real,
+    /// The body's own material density, e.g. `Some(1.25)`; default (`None`): the field's.
+    /// Bodies of different density can then share one field and one exchange entry.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<Real>,
 }
 
 impl BodySpec {
+    /// The body's material density: its own, or the field's `field_density`.
+    pub fn density_or(&self, field_density: Real) -> Real {
+        self.density.unwrap_or(field_density)
+    }
+
     /// Initial velocity at `(x, y)`: rigid motion about the shape's centre.
     pub fn velocity_at(&self, x: Real, y: Real) -> [Real; 2] {
         let (lo, hi) = self.shape.bounds();
@@ -264,6 +273,23 @@ pub enum InitialVelocity {
         /// Wavenumber k (1/length).
         wavenumber: Real,
     },
+    /// The inflow side's profile (a `Velocity` boundary whose velocity points into the
+    /// domain, e.g. `Parabolic`) carried across the whole domain: a channel starts developed.
+    /// Refused when no side, or more than one, is an inflow.
+    FromInflow,
+    /// `FromInflow` resolved by the core ([`InitialVelocity::resolved`]): the velocity of
+    /// `side` at the fraction `(coordinate − start)/length` along it. Not in case files.
+    #[serde(skip)]
+    Inflow {
+        /// The case's boundaries.
+        boundaries: Boundaries,
+        /// The inflow side.
+        side: Side,
+        /// Where the side starts (the domain origin's y for left and right, x otherwise).
+        start: Real,
+        /// The side's length.
+        length: Real,
+    },
 }
 
 impl Default for InitialVelocity {
@@ -285,7 +311,50 @@ impl InitialVelocity {
                 [-angular_velocity * (y - center[1]), angular_velocity * (x - center[0])]
             }
             InitialVelocity::SineX { amplitude, wavenumber } => [amplitude * (wavenumber * (x - origin[0])).sin(), 0.0],
+            // resolved before the fields start (`resolved`): unresolved it has no inflow
+            InitialVelocity::FromInflow => [0.0, 0.0],
+            InitialVelocity::Inflow { boundaries, side, start, length } => {
+                let along = match side {
+                    Side::Left | Side::Right => y,
+                    Side::Bottom | Side::Top => x,
+                };
+                let w = boundaries.wall_velocity(side, (along - start) / length);
+                [w.x, w.y]
+            }
         }
+    }
+
+    /// This initial velocity with `FromInflow` made the profile of the inflow side of
+    /// `boundaries` in `domain`; an error (the fix, without the entry's path) when no side,
+    /// or more than one, is an inflow.
+    pub fn resolved(&self, boundaries: &Boundaries, domain: &Domain) -> std::result::Result<InitialVelocity, String> {
+        if *self != InitialVelocity::FromInflow {
+            return Ok(self.clone());
+        }
+        let inflows: Vec<Side> = Side::ALL.into_iter().filter(|&s| boundaries.is_inflow(s)).collect();
+        let side = match inflows[..] {
+            [side] => side,
+            [] => {
+                return Err("`FromInflow` takes the profile of the inflow side, but no side is an inflow \
+                            (a `Velocity` boundary pointing into the domain, e.g. \
+                            `left: Velocity(velocity: (1.0, 0.0), profile: Parabolic)`); give one, or another \
+                            initial velocity such as `Uniform((1.0, 0.0))`"
+                    .into())
+            }
+            _ => {
+                let names: Vec<&str> = inflows.iter().map(|s| s.name()).collect();
+                return Err(format!(
+                    "`FromInflow` takes the profile of one inflow side, but {} are inflows; \
+                     give another initial velocity such as `Uniform(...)`",
+                    names.join(" and ")
+                ));
+            }
+        };
+        let (start, length) = match side {
+            Side::Left | Side::Right => (domain.origin[1], domain.size[1]),
+            Side::Bottom | Side::Top => (domain.origin[0], domain.size[0]),
+        };
+        Ok(InitialVelocity::Inflow { boundaries: *boundaries, side, start, length })
     }
 }
 
@@ -815,6 +884,12 @@ impl Case {
             if !(f.density > 0.0 && f.density.is_finite()) {
                 return bad(&p("density"), format!("{}: the material density must be positive", f.density));
             }
+            if let Err(m) = f.velocity.resolved(&self.boundaries, &self.domain) {
+                return bad(&p("velocity"), m);
+            }
+            if matches!(f.velocity, InitialVelocity::Inflow { .. }) {
+                return bad(&p("velocity"), "`Inflow` is internal: write `FromInflow`".into());
+            }
             if !(f.volume_fraction > 0.0 && f.volume_fraction <= 1.0) {
                 return bad(&p("volume_fraction"), format!("{}: must lie in (0, 1]", f.volume_fraction));
             }
@@ -845,6 +920,18 @@ impl Case {
                         let bp = format!("fields.{}.region.{}", f.name, body.name);
                         if !names.insert(body.name.as_str()) {
                             return bad(&bp, format!("two bodies are named `{}`; names must be unique", body.name));
+                        }
+                        if let Some(rho) = body.density {
+                            if !(rho > 0.0 && rho.is_finite()) {
+                                return bad(
+                                    &format!("{bp}.density"),
+                                    format!(
+                                        "{rho}: the material density of body `{}` must be positive and finite \
+                                         (omit it for the field's, {})",
+                                        body.name, f.density
+                                    ),
+                                );
+                            }
                         }
                         let (mut lo, mut hi) = body.shape.bounds();
                         if let BodyShape::Disk { radius, .. } = body.shape {
@@ -1126,6 +1213,7 @@ mod tests {
                 motion: Motion::Free,
                 velocity: [0.0; 2],
                 angular_velocity: 0.0,
+                density: None,
             });
         }
         let plain: Vec<Option<usize>> = (0..bodies.len())

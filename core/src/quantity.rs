@@ -343,17 +343,19 @@ fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
             // material points sample the field; a mass point stands for a whole body
             Some(p) if f.frame.representation() == Representation::Resolved => deposit_velocity(g, &p),
             _ => {
+                // validated: an unresolvable `FromInflow` does not reach a simulation
+                let velocity = spec.velocity.resolved(&sim.case.boundaries, &sim.case.domain).unwrap_or_default();
                 let mut vel = FaceVelocity::zeros(g);
                 for j in 0..g.ny {
                     for i in 0..=g.nx {
                         let p = g.node_position(Lattice::XFace, i, j);
-                        vel.u[g.xface(i, j)] = spec.velocity.at(p.x, p.y, origin)[0];
+                        vel.u[g.xface(i, j)] = velocity.at(p.x, p.y, origin)[0];
                     }
                 }
                 for j in 0..=g.ny {
                     for i in 0..g.nx {
                         let p = g.node_position(Lattice::YFace, i, j);
-                        vel.v[g.yface(i, j)] = spec.velocity.at(p.x, p.y, origin)[1];
+                        vel.v[g.yface(i, j)] = velocity.at(p.x, p.y, origin)[1];
                     }
                 }
                 vel

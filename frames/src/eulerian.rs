@@ -1021,6 +1021,7 @@ mod tests {
             motion: Default::default(),
             velocity: [0.0, 0.0],
             angular_velocity: 0.0,
+            density: None,
         }]);
         let vel = InitialVelocity::default();
         let bc = periodic();

@@ -816,6 +816,8 @@ impl Frame for Lagrangian {
             // points' centroid is the body's centre and small offsets between bodies survive
             let a = g.h / n as Real;
             for (k, spec) in specs.iter().enumerate() {
+                // each body's points carry its own density (the field's by default)
+                let rho = spec.density_or(ctx.density);
                 let (lo, hi) = spec.shape.bounds();
                 let c = Vector::new(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
                 let kx = ((hi[0] - lo[0]) / (2.0 * a)).ceil() as i64 + 1;
@@ -826,7 +828,7 @@ impl Frame for Lagrangian {
                         let y = c.y + (j as Real + 0.5) * a;
                         if spec.shape.contains(x, y) && g.contains(Vector::new(x, y)) {
                             let v = spec.velocity_at(x, y);
-                            self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
+                            self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), rho * dv, dv);
                             *self.points.body.last_mut().expect("just pushed") = k as u32 + 1;
                         }
                     }
@@ -1254,6 +1256,7 @@ mod tests {
             motion,
             velocity: [0.0, 0.0],
             angular_velocity: 0.0,
+            density: None,
         }])
     }
 

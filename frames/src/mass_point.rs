@@ -56,6 +56,8 @@ pub struct PointBody {
     pub motion: Motion,
     /// Mass, volume, radius, position, velocity, rotation, forces (`bodies.csv`).
     pub state: BodyState,
+    /// Material density of the body (its own, or the field's).
+    pub density: Real,
     /// Largest particle Reynolds number ρ_f |U − u_f| d / μ seen (0 without a drag law).
     pub max_reynolds: Real,
     /// Cells of the footprint and their θ.
@@ -148,7 +150,8 @@ impl Frame for MassPoint {
                 return Err(format!("body `{}` is not a disk; a mass point stands for a disk", spec.name));
             };
             let volume = PI * radius * radius;
-            let mass = ctx.density * volume;
+            let density = spec.density_or(ctx.density);
+            let mass = density * volume;
             let (velocity, omega) = match spec.motion {
                 Motion::Free => (spec.velocity, spec.angular_velocity),
                 Motion::Fixed => ([0.0, 0.0], 0.0),
@@ -169,6 +172,7 @@ impl Frame for MassPoint {
                     torque: 0.0,
                     free: spec.motion == Motion::Free,
                 },
+                density,
                 max_reynolds: 0.0,
                 cells: Vec::new(),
                 xfaces: Vec::new(),
@@ -186,8 +190,9 @@ impl Frame for MassPoint {
         for a in [&mut s.theta, &mut s.mass_u, &mut s.mass_v, &mut s.velocity.u, &mut s.velocity.v] {
             a.fill(0.0);
         }
-        let scale = ctx.density * g.cell_area();
+        let area = g.cell_area();
         for p in &mut self.points {
+            let scale = p.density * area;
             let (x, r, u) = (p.state.position, p.state.radius, p.state.velocity);
             if !(x.x.is_finite() && x.y.is_finite()) {
                 return Err(format!("point `{}` is at {x:?}: the run has blown up", p.state.name));

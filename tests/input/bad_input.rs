@@ -256,3 +256,53 @@ fn overrides_choose_enum_variants_and_name_the_valid_entries() {
     let m = set(&["boundaries.left=Wall"]).unwrap_err().to_string();
     assert_contains(&m, &["boundaries.left=Wall", "not a valid case", "Wall"]);
 }
+
+#[test]
+fn a_body_density_that_is_not_positive_and_finite_is_refused_with_the_body_entry() {
+    let bodies = GOOD.replace("region: All,", "region: Rest,").replace(
+        "    ],\n    pressure",
+        r#"        (
+            name: "disks",
+            density: 1.5,
+            frame: (model: "lagrangian"),
+            region: Bodies([
+                (name: "a", shape: Disk(center: (0.3, 0.5), radius: 0.1)),
+                (name: "b", shape: Disk(center: (0.7, 0.5), radius: 0.1), density: Some(BAD)),
+            ]),
+            stress: [(model: "rigid")],
+        ),
+    ],
+    exchange: [(between: ("water", "disks"), model: "no_slip")],
+    pressure"#,
+    );
+    // a good own density is accepted
+    multifield::link_all();
+    let good = case_file("body_density_good.ron", &bodies.replace("BAD", "1.25"));
+    Simulation::new(&Case::load(&good, &[]).unwrap()).unwrap();
+    for (k, bad) in ["0.0", "-1.0", "NaN", "inf"].iter().enumerate() {
+        let path = case_file(&format!("body_density{k}.ron"), &bodies.replace("BAD", bad));
+        let (code, _, stderr) = multifield(&["run", path.to_str().unwrap(), "--out", env!("CARGO_TARGET_TMPDIR")]);
+        assert_eq!(code, 2, "{bad}: {stderr}");
+        // NaN and inf are caught by the finite check of every number (path
+        // `fields.disks.region.Bodies.b.density`), 0 and −1 by the case's validation
+        let named = if k < 2 { "fields.disks.region.b.density" } else { "fields.disks.region.Bodies.b.density" };
+        assert_contains(&stderr, &[named, bad.trim_end_matches(".0")]);
+    }
+}
+
+#[test]
+fn from_inflow_without_an_inflow_side_is_refused_with_the_field_entry() {
+    // the box has walls on every side
+    let text = GOOD.replace("region: All,", "region: All, velocity: FromInflow,");
+    let m = error_of("from_inflow.ron", &text, &[]);
+    assert_contains(&m, &["fields.water.velocity", "no side is an inflow", "Uniform((1.0, 0.0))"]);
+    // two inflow sides: which profile is ambiguous
+    let two = ["boundaries.left=Velocity(velocity: (1.0, 0.0))", "boundaries.bottom=Velocity(velocity: (0.0, 1.0))"];
+    let m = error_of("from_inflow2.ron", &text, &two);
+    assert_contains(&m, &["fields.water.velocity", "left and bottom are inflows"]);
+    // and through the binary: exit code 2
+    let path = case_file("from_inflow3.ron", &text);
+    let (code, _, stderr) = multifield(&["run", path.to_str().unwrap(), "--out", env!("CARGO_TARGET_TMPDIR")]);
+    assert_eq!(code, 2, "{stderr}");
+    assert_contains(&stderr, &["fields.water.velocity", "no side is an inflow"]);
+}

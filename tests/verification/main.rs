@@ -3,6 +3,7 @@
 //!
 //! One test binary: `cargo test --release --test verification [module::]`.
 
+mod body_densities;
 mod collocated;
 mod drag;
 mod elastic;

@@ -66,6 +66,7 @@ impl Simulation {
             fields.push(Field {
                 name: spec.name.clone(),
                 density: spec.density,
+                own_densities: matches!(&spec.region, Region::Bodies(b) if b.iter().any(|b| b.density.is_some())),
                 fills_rest,
                 frame,
                 stress,
@@ -173,6 +174,10 @@ impl Simulation {
                      use an Eulerian field for a partial volume fraction",
                 ));
             }
+            let velocity = spec
+                .velocity
+                .resolved(&case.boundaries, &case.domain)
+                .map_err(|m| Error::invalid(format!("fields.{}.velocity", f.name), m))?;
             f.frame
                 .initialize(&InitContext {
                     grid: &grid,
@@ -180,7 +185,7 @@ impl Simulation {
                     name: &f.name,
                     density: f.density,
                     region: &spec.region,
-                    velocity: &spec.velocity,
+                    velocity: &velocity,
                     theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
@@ -191,6 +196,10 @@ impl Simulation {
                 continue;
             }
             let spec = &case.fields[k];
+            let velocity = spec
+                .velocity
+                .resolved(&case.boundaries, &case.domain)
+                .map_err(|m| Error::invalid(format!("fields.{}.velocity", f.name), m))?;
             f.frame
                 .initialize(&InitContext {
                     grid: &grid,
@@ -198,7 +207,7 @@ impl Simulation {
                     name: &f.name,
                     density: f.density,
                     region: &spec.region,
-                    velocity: &spec.velocity,
+                    velocity: &velocity,
                     theta: Some(&rest),
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;

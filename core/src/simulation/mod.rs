@@ -53,6 +53,9 @@ pub struct Field {
     pub name: String,
     /// Material density ρ⁰.
     pub density: Real,
+    /// Whether some of its bodies have their own density: the grid's θρ⁰ is then the mass
+    /// its points put there, not θ times the field's ρ⁰.
+    pub own_densities: bool,
     /// Whether it fills what the others leave (region `Rest`).
     pub fills_rest: bool,
     /// Its frame.

@@ -60,7 +60,8 @@ impl Simulation {
                         (s.mass_v[face], s.theta_v[face], s.velocity.v[face], s.velocity_old.v[face])
                     };
                     loc.rho[k] = m / area;
-                    loc.rho_w[k] = t * densities[k];
+                    // bodies of their own densities: θρ⁰ is the mass the points put there
+                    loc.rho_w[k] = if f.own_densities { m / area } else { t * densities[k] };
                     loc.theta[k] = t;
                     loc.u[k] = u;
                     loc.u_old[k] = u0;
@@ -116,13 +117,14 @@ impl Simulation {
         let area = self.grid.cell_area();
         for f in &mut self.fields {
             let rho0 = f.density;
+            let own = f.own_densities;
             let s = &mut f.state;
             for (w, m, t) in
                 [(&mut s.specific_volume.u, &s.mass_u, &s.theta_u), (&mut s.specific_volume.v, &s.mass_v, &s.theta_v)]
             {
                 for ((w, m), t) in w.iter_mut().zip(m.iter()).zip(t.iter()) {
                     let rho = m / area;
-                    let rho_w = t * rho0;
+                    let rho_w = if own { rho } else { t * rho0 };
                     *w = if rho > 1e-10 * rho0 {
                         if rho_w > 0.0 {
                             t / rho_w

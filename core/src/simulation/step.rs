@@ -302,7 +302,7 @@ impl Simulation {
                 motion: spec.motion,
                 velocity: state.velocity,
                 angular_velocity: state.angular_velocity,
-                density: self.fields[p.bodies].density,
+                density: spec.density_or(self.fields[p.bodies].density),
                 contact: self.body_forces[p.bodies].get(j).copied().unwrap_or((Vector::zeros(), 0.0)),
             })
             .collect()
