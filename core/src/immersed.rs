@@ -555,7 +555,7 @@ impl ForcedBody {
     /// the steps' lengths (forcing where the body stands at the start closes it a step
     /// late, with the next step's Δt: a shortened last step reported a force 3–4 times too
     /// large).
-    fn ahead(&self, dt: Real) -> ForcedBody {
+    pub fn ahead(&self, dt: Real) -> ForcedBody {
         let u = match self.motion {
             Motion::Fixed => return self.clone(),
             Motion::Prescribed { velocity, .. } => Vector::new(velocity[0], velocity[1]),
@@ -590,14 +590,25 @@ pub fn spread_lagged(
     lag: &[Vec<Vector>],
     out: &mut FaceVelocity,
 ) {
+    spread_all_lagged(grid, bc, &[(retraction, bodies, lag)], out);
+}
+
+/// One direct forcing's share of a fluid's lagged force: its retraction, its bodies and
+/// their lagged marker forces.
+pub type LaggedForcing<'a> = (Real, &'a [ForcedBody], &'a [Vec<Vector>]);
+
+/// [`spread_lagged`] of several direct forcings on one fluid, summed in their order.
+pub fn spread_all_lagged(grid: &Grid, bc: &Boundaries, forcings: &[LaggedForcing], out: &mut FaceVelocity) {
     out.u.fill(0.0);
     out.v.fill(0.0);
-    for (j, b) in bodies.iter().enumerate() {
-        let markers = b.markers(grid, retraction);
-        let forces = lagged_of(lag.get(j), markers.len());
-        for (m, f) in markers.iter().zip(&forces) {
-            if grid.contains(m.position) && *f != Vector::zeros() {
-                spread(grid, bc, m.position, *f, m.volume, out);
+    for &(retraction, bodies, lag) in forcings {
+        for (j, b) in bodies.iter().enumerate() {
+            let markers = b.markers(grid, retraction);
+            let forces = lagged_of(lag.get(j), markers.len());
+            for (m, f) in markers.iter().zip(&forces) {
+                if grid.contains(m.position) && *f != Vector::zeros() {
+                    spread(grid, bc, m.position, *f, m.volume, out);
+                }
             }
         }
     }
@@ -620,8 +631,12 @@ fn force_sums(forces: &[Vector], markers: &[Marker], c: Vector) -> (Vector, Real
 ///
 /// The markers' forces of the last step, `lag` (per body, per marker; per unit mass), are
 /// lagged into the fluid's predictor as the pressure acceleration is: `fluid.body_force`
-/// holds them spread from where the markers stand now ([`spread_lagged`], which the core
-/// calls before the predictor). This step forces only the change: ṽ = u* + Δt (a_pⁿ + f)
+/// holds them spread from where the markers stand now ([`spread_all_lagged`], which the
+/// core calls before the predictor, and again where the bodies end the step,
+/// [`ForcedBody::ahead`], before the first forcing of the fluid when a body moves). Of
+/// several forcings on one fluid, the first adds Δt f to the velocity, and the later ones
+/// are called with `fluid.body_force` zero (their share is in the velocity already) and
+/// add only their own change. This step forces only the change: ṽ = u* + Δt (a_pⁿ + f)
 /// (the velocity the step would end with), the markers' forces δF that take every marker
 /// to its body's velocity from ṽ, u ← u* + Δt f + Δt S δF, F ← F + δF (stored back into
 /// `lag`) and f ← f + S δF. A steady state then has δF = 0 and every stage of the
@@ -647,11 +662,9 @@ pub fn couple(
     let start: Vec<Vector> = bodies.iter().map(|b| b.center).collect();
     let bodies: Vec<ForcedBody> = bodies.iter().map(|b| b.ahead(dt)).collect();
     let bodies = &bodies[..];
-    // `fluid.body_force` holds the lagged forces where the bodies start the step (the
-    // predictor's estimate); spread them again only where a body moves ahead
-    if bodies.iter().zip(&start).any(|(b, c)| b.center != *c) {
-        spread_lagged(grid, bc, retraction, bodies, lag, &mut fluid.body_force);
-    }
+    // `fluid.body_force` holds the lagged forces of every forcing on this fluid, spread
+    // where the bodies end the step (the caller's [`spread_all_lagged`] of the bodies
+    // `ahead`), less those already added to the velocity by an earlier forcing of the step
     // the first step has no lagged pressure: the estimate takes the pressure that holds
     // the fluid against gravity (a_p = −g, hydrostatic), as the predictor leaves gravity
     // out (without it a body fell freely through its first step: a disk of ρ_b/ρ_f = 1.01

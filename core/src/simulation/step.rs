@@ -3,6 +3,7 @@
 //! `momentum_exchange.rs` (4) and `projection.rs` (5–6).
 
 use super::*;
+use crate::grid::FaceVelocity;
 
 impl Simulation {
     /// The next time step and what limits it.
@@ -240,12 +241,34 @@ impl Simulation {
     /// direct forcing moves its free bodies and forces its fluid towards the bodies' rigid
     /// motion on their surfaces ([`crate::immersed::couple`]).
     pub(super) fn immersed_boundaries(&mut self, dt: Real) -> Result<()> {
-        for k in 0..self.forcings.len() {
-            let bodies = self.forced_bodies(k);
+        let bodies: Vec<Vec<crate::immersed::ForcedBody>> =
+            (0..self.forcings.len()).map(|k| self.forced_bodies(k)).collect();
+        // every forcing's lagged forces where the bodies end the step, if one of the
+        // fluid's bodies moves (else they stand where carry_immersed_forces spread them)
+        for (fluid, ks) in self.forcings_by_fluid() {
+            let ahead: Vec<Vec<crate::immersed::ForcedBody>> =
+                ks.iter().map(|&k| bodies[k].iter().map(|b| b.ahead(dt)).collect()).collect();
+            let moves =
+                ks.iter().zip(&ahead).any(|(&k, a)| a.iter().zip(&bodies[k]).any(|(a, b)| a.center != b.center));
+            if moves {
+                let parts: Vec<_> = ks
+                    .iter()
+                    .zip(&ahead)
+                    .map(|(&k, a)| (self.forcings[k].forcing.retraction, &a[..], &self.forcings[k].lag[..]))
+                    .collect();
+                let out = &mut self.fields[fluid].state.body_force;
+                crate::immersed::spread_all_lagged(&self.grid, &self.boundaries, &parts, out);
+            }
+        }
+        let mut applied = vec![false; self.fields.len()];
+        for (k, bodies) in bodies.iter().enumerate() {
             let p = &mut self.forcings[k];
             let rho_f = self.fields[p.fluid].density;
             let name = self.fields[p.bodies].name.clone();
             let fluid = &mut self.fields[p.fluid].state;
+            // a later forcing of the fluid: Δt f is in the velocity already
+            let total = std::mem::replace(&mut applied[p.fluid], true)
+                .then(|| std::mem::replace(&mut fluid.body_force, FaceVelocity::zeros(&self.grid)));
             let steps = crate::immersed::couple(
                 &self.grid,
                 &self.boundaries,
@@ -255,11 +278,20 @@ impl Simulation {
                 self.gravity,
                 rho_f,
                 fluid,
-                &bodies,
+                bodies,
                 &mut p.lag,
                 self.steps > 0,
             )
             .map_err(|m| Error::Model(format!("immersed boundaries of field `{name}`: {m}")))?;
+            if let Some(mut total) = total {
+                // f ← f + S δF of this forcing
+                for (t, f) in
+                    total.u.iter_mut().zip(&fluid.body_force.u).chain(total.v.iter_mut().zip(&fluid.body_force.v))
+                {
+                    *t += f;
+                }
+                fluid.body_force = total;
+            }
             self.boundaries.enforce(&self.grid, &mut fluid.velocity);
             self.body_steps[p.bodies] = steps;
         }
@@ -270,13 +302,29 @@ impl Simulation {
     /// step's marker forces spread from where its bodies' markers stand now
     /// ([`crate::immersed::spread_lagged`]), the lagged force its predictor sees.
     pub(super) fn carry_immersed_forces(&mut self) {
-        for k in 0..self.forcings.len() {
-            let bodies = self.forced_bodies(k);
-            let p = &self.forcings[k];
-            let fluid = &mut self.fields[p.fluid].state;
-            let (grid, bc) = (&self.grid, &self.boundaries);
-            crate::immersed::spread_lagged(grid, bc, p.forcing.retraction, &bodies, &p.lag, &mut fluid.body_force);
+        for (fluid, ks) in self.forcings_by_fluid() {
+            let bodies: Vec<_> = ks.iter().map(|&k| self.forced_bodies(k)).collect();
+            let parts: Vec<_> = ks
+                .iter()
+                .zip(&bodies)
+                .map(|(&k, b)| (self.forcings[k].forcing.retraction, &b[..], &self.forcings[k].lag[..]))
+                .collect();
+            let out = &mut self.fields[fluid].state.body_force;
+            crate::immersed::spread_all_lagged(&self.grid, &self.boundaries, &parts, out);
         }
+    }
+
+    /// The fluids of the direct forcings, in the order of their first forcing, each with
+    /// its forcings' indices in order.
+    fn forcings_by_fluid(&self) -> Vec<(usize, Vec<usize>)> {
+        let mut out: Vec<(usize, Vec<usize>)> = Vec::new();
+        for (k, p) in self.forcings.iter().enumerate() {
+            match out.iter_mut().find(|(f, _)| *f == p.fluid) {
+                Some((_, ks)) => ks.push(k),
+                None => out.push((p.fluid, vec![k])),
+            }
+        }
+        out
     }
 
     /// The bodies of direct forcing `k` as they stand now.
