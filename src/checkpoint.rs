@@ -275,7 +275,7 @@ fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
 }
 
 /// Entries of `case` that a restart may change.
-const MAY_CHANGE: [&str; 3] = ["time", "output", "description"];
+const MAY_CHANGE: [&str; 5] = ["time", "output", "description", "monitors", "stop"];
 
 /// The entries in which two cases differ (dotted paths as for `--set`, named list entries
 /// by name), except [`MAY_CHANGE`]; each as "`path` is A in the checkpoint, B here".

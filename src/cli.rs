@@ -423,6 +423,15 @@ fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Fa
     if let Some(k) = &c.output.checkpoints {
         println!("output   a checkpoint every {}", k.interval);
     }
+    for m in &c.monitors {
+        println!("monitor  {}: {}", m.name, m.describe());
+    }
+    for s in &c.stop {
+        println!("stop     {}", s.describe());
+    }
+    if !c.stop.is_empty() {
+        println!("stop     (the first condition met ends the run as completed; time.end = {} stays the bound)", t.end);
+    }
     let parts: Vec<String> =
         estimate.breakdown.iter().map(|(what, b)| format!("{what} {}", limits::bytes_text(*b))).collect();
     println!(

@@ -40,6 +40,7 @@ use crate::boundary::{Boundary, Side};
 use crate::case::{BodyShape, Region};
 use crate::error::{Error, Result};
 use crate::math::Real;
+use crate::monitor::Monitors;
 use crate::simulation::{Simulation, Status, StepDiagnostics};
 use crate::table::{self, Table};
 use std::fs::File;
@@ -338,7 +339,8 @@ pub fn body_overlap(sim: &Simulation) -> Option<String> {
 pub struct Outcome {
     /// Completed, unstable or failed, with the reason.
     pub status: Status,
-    /// What bounded a completed run short of `time.end` (`time.max_steps`), else empty.
+    /// What bounded a completed run short of `time.end` (`time.max_steps`, or the stop
+    /// condition that was met, with its figures), else empty.
     pub reason: String,
     /// Wall-clock time of the time loop, seconds.
     pub wall_seconds: f64,
@@ -357,6 +359,7 @@ pub struct Driver {
     writers: Vec<Box<dyn Writer>>,
     checks: Vec<Box<dyn StopCheck>>,
     progress: Option<Progress>,
+    monitors: Option<Monitors>,
 }
 
 impl Driver {
@@ -371,7 +374,7 @@ impl Driver {
     /// (a restart).
     pub fn resume(sim: Simulation, state: RunState) -> Self {
         let checks = default_checks(&sim);
-        Self { sim, state, writers: Vec::new(), checks, progress: None }
+        Self { sim, state, writers: Vec::new(), checks, progress: None, monitors: None }
     }
 
     /// Adds a writer, called after the ones added before it.
@@ -398,6 +401,18 @@ impl Driver {
         self
     }
 
+    /// Samples `monitors` and evaluates their stop conditions after every step, before the
+    /// writers ([`crate::monitor`]): a stop condition that is met makes the step the last.
+    pub fn set_monitors(&mut self, monitors: Monitors) -> &mut Self {
+        self.monitors = Some(monitors);
+        self
+    }
+
+    /// The monitors, if set.
+    pub fn monitors(&self) -> Option<&Monitors> {
+        self.monitors.as_ref()
+    }
+
     /// Calls `progress` after every step.
     pub fn on_progress(&mut self, progress: impl FnMut(&Simulation, f64) + 'static) -> &mut Self {
         self.progress = Some(Box::new(progress));
@@ -413,12 +428,15 @@ impl Driver {
     /// writer fails (a file that cannot be written); instabilities and failed steps end in
     /// an [`Outcome`] that says so.
     pub fn run(&mut self) -> Result<Outcome> {
-        let Self { sim, state, writers, checks, progress } = self;
+        let Self { sim, state, writers, checks, progress, monitors } = self;
         if writers.iter().any(|w| w.needs_grid_state_at_start()) {
             sim.refresh_grid_state()?;
         }
         for w in writers.iter_mut() {
             w.start(sim)?;
+        }
+        if let Some(m) = monitors.as_mut() {
+            m.start(sim)?;
         }
         let time = sim.case.time.clone();
         let interval = sim.case.output.interval;
@@ -472,7 +490,15 @@ impl Driver {
                 }
             }
             state.last_row_written = row;
-            let last = unstable.is_some() || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+            let mut last = unstable.is_some() || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+            // the monitors sample this step before the stop conditions are evaluated on it
+            let stopped = match monitors.as_mut() {
+                Some(m) => m.after_step(sim, last, unstable.is_some())?,
+                None => None,
+            };
+            if stopped.is_some() {
+                last = true;
+            }
             let needs_grid = {
                 let step = Step { sim, diagnostics: &d, last, unstable: unstable.is_some(), row, state };
                 writers.iter().any(|w| w.needs_grid_state(&step))
@@ -486,6 +512,10 @@ impl Driver {
             }
             if let Some(reason) = unstable {
                 status = Status::Unstable(reason);
+                break;
+            }
+            if let Some(why) = stopped {
+                reason = why;
                 break;
             }
             if let Some(p) = progress.as_mut() {
@@ -680,7 +710,7 @@ impl Writer for BodiesCsv {
     }
 }
 
-fn csv_error(path: &Path, e: csv::Error) -> Error {
+pub(crate) fn csv_error(path: &Path, e: csv::Error) -> Error {
     match e.into_kind() {
         csv::ErrorKind::Io(source) => Error::Io { path: path.to_path_buf(), source },
         other => Error::Model(format!("{}: {other:?}", path.display())),
@@ -695,7 +725,7 @@ fn flush(file: &mut csv::Writer<File>, path: &Path) -> Result<()> {
     file.flush().map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }
 
-fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
+pub(crate) fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
     let mut file = table::writer(File::create(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?);
     write_row(&mut file, path, &header.split(',').collect::<Vec<_>>())?;
     flush(&mut file, path)?;
