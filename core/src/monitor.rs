@@ -753,6 +753,7 @@ pub struct Monitors {
     before: Real,
     resumed: bool,
     started: Instant,
+    seconds: f64,
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
@@ -865,6 +866,7 @@ impl Monitors {
             before: sim.time,
             resumed: resume.is_some(),
             started: Instant::now(),
+            seconds: 0.0,
         };
         if out.resumed {
             // the Steady conditions' history from the rows kept
@@ -900,6 +902,19 @@ impl Monitors {
     /// unless the run stops as unstable, evaluates the stop conditions; the first met
     /// gives the reason to stop, and every monitor then gets this step's row.
     pub fn after_step(&mut self, sim: &mut Simulation, last: bool, unstable: bool) -> Result<Option<String>> {
+        let clock = Instant::now();
+        let out = self.sample_and_stop(sim, last, unstable);
+        self.seconds += clock.elapsed().as_secs_f64();
+        out
+    }
+
+    /// Wall-clock seconds spent after the steps sampling the monitors and evaluating the
+    /// stop conditions (the refresh of a stale grid state included).
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    fn sample_and_stop(&mut self, sim: &mut Simulation, last: bool, unstable: bool) -> Result<Option<String>> {
         for r in &mut self.running {
             r.written = false;
         }

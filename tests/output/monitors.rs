@@ -309,3 +309,37 @@ fn steps_and_wall_time_stops_end_the_run_as_completed() {
     assert_eq!(o.summary.steps, 1);
     assert!(o.summary.reason.starts_with("wall time: "), "{}", o.summary.reason);
 }
+
+/// The cost of the monitors (issue 22's benchmark): the Uhlmann DKT at 16 cells per
+/// diameter with ten velocity probes, a line of 100 points and the forces on both disks,
+/// all sampled every step, for 150 steps: the time spent sampling against the run's.
+/// `cargo test --release --test output monitors::cost -- --ignored --nocapture`
+#[test]
+#[ignore = "a benchmark: about 15 s"]
+fn cost_of_the_monitors_in_a_dkt_run() {
+    use multifield::core::driver::Driver;
+    let points: Vec<String> = (0..10).map(|k| format!("({}, {})", 0.2 + 0.16 * k as Real, 1.0 + 0.45 * k as Real)).collect();
+    let monitors = format!(
+        r#"(name: "probes", of: Probes(quantity: "velocity", points: [{}])),
+           (name: "line", of: Line(quantity: "velocity", from: (0.0, 3.0), to: (2.0, 3.0), points: 100)),
+           (name: "forces", of: Forces(bodies: ["trailing", "leading"]))"#,
+        points.join(", ")
+    );
+    let case = case_of("cost", &example("examples/dkt_uhlmann2005.ron"), &monitors, "", &["time.max_steps=150"]);
+    let dir = out_dir("cost");
+    let sim = Simulation::new(&case).unwrap();
+    let m = Monitors::create(&sim, &dir).unwrap().unwrap();
+    let mut driver = Driver::new(sim);
+    driver.set_monitors(m);
+    let end = driver.run().unwrap();
+    let sampling = driver.monitors().unwrap().seconds();
+    eprintln!(
+        "DKT 16 cells per diameter, {} steps: {:.3} s, of which {:.4} s sampling the monitors ({:.3} %)",
+        driver.sim.steps,
+        end.wall_seconds,
+        sampling,
+        100.0 * sampling / end.wall_seconds
+    );
+    assert_eq!(driver.sim.steps, 150);
+    assert!(sampling < 0.02 * end.wall_seconds, "{sampling} s of {} s", end.wall_seconds);
+}
