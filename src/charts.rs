@@ -15,9 +15,9 @@
 //! value of each of 2000 time buckets, so spikes stay visible.
 
 use crate::core::case::Case;
-use crate::core::monitor::{MonitorSpec, Monitored};
 use crate::core::error::Error;
 use crate::core::math::Real;
+use crate::core::monitor::{MonitorSpec, Monitored};
 use crate::plot::{write_figure, Chart, Figure, Series};
 use std::path::Path;
 
@@ -141,7 +141,8 @@ fn write_monitor(stem: &Path, name: &str, m: &MonitorSpec, t: &Table) -> Result<
             let s: Vec<Real> = (0..points.len()).map(|k| length * k as Real / (points.len() - 1) as Real).collect();
             let last = t.0.rows.len() - 1;
             let vector = columns.first().is_some_and(|c| c.ends_with("_x"));
-            let parts: Vec<(&str, String)> = if vector { vec![("_x", "x".into()), ("_y", "y".into())] } else { vec![("", m.name.clone())] };
+            let parts: Vec<(&str, String)> =
+                if vector { vec![("_x", "x".into()), ("_y", "y".into())] } else { vec![("", m.name.clone())] };
             let series = parts
                 .iter()
                 .enumerate()

@@ -293,8 +293,16 @@ fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions
     if let Some(c) = &s.last_checkpoint {
         println!("  last checkpoint: {c} (continue with --restart {c})");
     }
-    let files =
-        ["case.ron", "diagnostics.csv", "summary.json", "bodies.csv", "monitors/", "snapshots/", "frames/", "checkpoints/"];
+    let files = [
+        "case.ron",
+        "diagnostics.csv",
+        "summary.json",
+        "bodies.csv",
+        "monitors/",
+        "snapshots/",
+        "frames/",
+        "checkpoints/",
+    ];
     let written: Vec<&str> = files.into_iter().chain(["charts/"]).filter(|f| dir.join(f).exists()).collect();
     println!("output: {}/ ({})", dir.display(), written.join(", "));
     match outcome.status {

@@ -46,9 +46,9 @@
 
 use crate::core::case::Case;
 use crate::core::driver::{BodiesCsv, DiagnosticsCsv, Driver, RunState};
-use crate::core::monitor::Monitors;
 use crate::core::error::Error;
 use crate::core::math::Real;
+use crate::core::monitor::Monitors;
 use crate::core::simulation::{Simulation, Status};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;

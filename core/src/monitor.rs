@@ -301,9 +301,13 @@ impl MonitorSpec {
                 }
                 c
             }
-            Monitored::Probes { points, .. } => (0..points.len()).flat_map(|k| components(&format!("p{k}"), n)).collect(),
+            Monitored::Probes { points, .. } => {
+                (0..points.len()).flat_map(|k| components(&format!("p{k}"), n)).collect()
+            }
             Monitored::Line { points, .. } => (0..*points).flat_map(|k| components(&format!("s{k}"), n)).collect(),
-            Monitored::Difference { .. } => ["from", "to", "difference"].iter().flat_map(|b| components(b, n)).collect(),
+            Monitored::Difference { .. } => {
+                ["from", "to", "difference"].iter().flat_map(|b| components(b, n)).collect()
+            }
             Monitored::Average { .. } => components("mean", n),
         })
     }
@@ -413,9 +417,16 @@ pub fn validate(case: &Case) -> Result<()> {
     let bodies = bodies_of(case);
     let all_bodies = || bodies.iter().flat_map(|(_, b)| b.iter().copied());
     for (k, m) in case.monitors.iter().enumerate() {
-        let p = |what: &str| format!("monitors.{}.{what}", if m.name.is_empty() { k.to_string() } else { m.name.clone() });
-        if m.name.is_empty() || !m.name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) || m.name.starts_with('.') {
-            return bad(p("name"), format!("`{}`: a monitor's name is its file name: use letters, digits, `-`, `_` and `.`", m.name));
+        let p =
+            |what: &str| format!("monitors.{}.{what}", if m.name.is_empty() { k.to_string() } else { m.name.clone() });
+        if m.name.is_empty()
+            || !m.name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            || m.name.starts_with('.')
+        {
+            return bad(
+                p("name"),
+                format!("`{}`: a monitor's name is its file name: use letters, digits, `-`, `_` and `.`", m.name),
+            );
         }
         if case.monitors[..k].iter().any(|o| o.name == m.name) {
             return bad(p("name"), format!("two monitors are named `{}`; names must be unique", m.name));
@@ -428,7 +439,10 @@ pub fn validate(case: &Case) -> Result<()> {
         if let Some((q, field)) = m.of.quantity() {
             if let Some(f) = field {
                 if !case.fields.iter().any(|s| &s.name == f) {
-                    return bad(p("of.field"), format!("no field `{f}`; {}", choices(f, case.fields.iter().map(|s| s.name.as_str()))));
+                    return bad(
+                        p("of.field"),
+                        format!("no field `{f}`; {}", choices(f, case.fields.iter().map(|s| s.name.as_str()))),
+                    );
                 }
             }
             if let Err(message) = crate::quantity::find(q.as_str(), place(field)) {
@@ -438,7 +452,10 @@ pub fn validate(case: &Case) -> Result<()> {
         match &m.of {
             Monitored::Forces { bodies: names, field, reference } => {
                 if names.is_empty() && field.is_none() {
-                    return bad(p("of.bodies"), "name the bodies (`bodies: [\"...\"]`) or a field of bodies (`field: Some(\"...\")`)".into());
+                    return bad(
+                        p("of.bodies"),
+                        "name the bodies (`bodies: [\"...\"]`) or a field of bodies (`field: Some(\"...\")`)".into(),
+                    );
                 }
                 for b in names {
                     if !all_bodies().any(|n| n == b) {
@@ -447,7 +464,10 @@ pub fn validate(case: &Case) -> Result<()> {
                 }
                 if let Some(f) = field {
                     if !bodies.iter().any(|(n, _)| n == f) {
-                        return bad(p("of.field"), format!("no field of bodies `{f}`; {}", choices(f, bodies.iter().map(|(n, _)| *n))));
+                        return bad(
+                            p("of.field"),
+                            format!("no field of bodies `{f}`; {}", choices(f, bodies.iter().map(|(n, _)| *n))),
+                        );
                     }
                 }
                 if let Some(r) = reference {
@@ -474,7 +494,8 @@ pub fn validate(case: &Case) -> Result<()> {
                     return bad(p("of"), format!("rectangle min {min:?} must lie below and left of max {max:?}"));
                 }
                 let h = d.size[0] / d.cells[0] as Real;
-                let centres = |lo: Real, hi: Real, o: Real| ((hi - o) / h - 0.5).floor() - ((lo - o) / h - 0.5).ceil() + 1.0;
+                let centres =
+                    |lo: Real, hi: Real, o: Real| ((hi - o) / h - 0.5).floor() - ((lo - o) / h - 0.5).ceil() + 1.0;
                 if centres(min[0], max[0], x0) < 1.0 || centres(min[1], max[1], y0) < 1.0 {
                     return bad(p("of"), format!("the rectangle {min:?}–{max:?} holds no cell centre; make it larger"));
                 }
@@ -488,10 +509,13 @@ pub fn validate(case: &Case) -> Result<()> {
         for q in m.points() {
             if !inside(&q) {
                 let what = if matches!(m.of, Monitored::Probes { .. }) { "of.points" } else { "of" };
-                return bad(p(what), format!(
-                    "the point ({}, {}) lies outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside",
-                    q[0], q[1]
-                ));
+                return bad(
+                    p(what),
+                    format!(
+                        "the point ({}, {}) lies outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside",
+                        q[0], q[1]
+                    ),
+                );
             }
         }
     }
@@ -500,14 +524,29 @@ pub fn validate(case: &Case) -> Result<()> {
         match s {
             StopSpec::Steady { monitor, column, tolerance, window } => {
                 let Some(m) = case.monitors.iter().find(|m| &m.name == monitor) else {
-                    return bad(p("monitor"), format!("no monitor `{monitor}`; {}", choices(monitor, case.monitors.iter().map(|m| m.name.as_str()))));
+                    return bad(
+                        p("monitor"),
+                        format!(
+                            "no monitor `{monitor}`; {}",
+                            choices(monitor, case.monitors.iter().map(|m| m.name.as_str()))
+                        ),
+                    );
                 };
                 let columns = m.columns().unwrap_or_default();
                 if !columns.iter().any(|c| c == column) {
-                    return bad(p("column"), format!("monitor `{monitor}` has no column `{column}`; {}", choices(column, columns.iter().map(String::as_str))));
+                    return bad(
+                        p("column"),
+                        format!(
+                            "monitor `{monitor}` has no column `{column}`; {}",
+                            choices(column, columns.iter().map(String::as_str))
+                        ),
+                    );
                 }
                 if !(*tolerance > 0.0) {
-                    return bad(p("tolerance"), format!("{tolerance}: a relative tolerance must be positive, e.g. 1e-4"));
+                    return bad(
+                        p("tolerance"),
+                        format!("{tolerance}: a relative tolerance must be positive, e.g. 1e-4"),
+                    );
                 }
                 if !(*window > 0.0) {
                     return bad(p("window"), format!("{window}: the window must be a positive time"));
@@ -852,7 +891,13 @@ impl Monitors {
             steady.push(match s {
                 StopSpec::Steady { monitor, column, .. } => {
                     let m = running.iter().position(|r| &r.spec.name == monitor).expect("validated");
-                    let c = running[m].spec.columns().unwrap_or_default().iter().position(|c| c == column).expect("validated");
+                    let c = running[m]
+                        .spec
+                        .columns()
+                        .unwrap_or_default()
+                        .iter()
+                        .position(|c| c == column)
+                        .expect("validated");
                     Some(Steady { monitor: m, column: c + 2, history: VecDeque::new() })
                 }
                 _ => None,
@@ -918,8 +963,9 @@ impl Monitors {
         for r in &mut self.running {
             r.written = false;
         }
-        let due: Vec<usize> =
-            (0..self.running.len()).filter(|&k| last || self.running[k].spec.every.due(self.before, sim.time)).collect();
+        let due: Vec<usize> = (0..self.running.len())
+            .filter(|&k| last || self.running[k].spec.every.due(self.before, sim.time))
+            .collect();
         self.before = sim.time;
         self.refresh(sim, &due)?;
         self.sample(sim, &due)?;
@@ -992,7 +1038,10 @@ impl Monitors {
                     if !(span >= window * (1.0 - 1e-9)) {
                         continue;
                     }
-                    let (lo, hi) = s.history.iter().fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1), hi.max(x.1)));
+                    let (lo, hi) = s
+                        .history
+                        .iter()
+                        .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1), hi.max(x.1)));
                     let change = (hi - lo) / latest.1.abs();
                     if !(hi - lo < tolerance * latest.1.abs()) {
                         continue;
@@ -1022,14 +1071,22 @@ impl Monitors {
                         continue;
                     }
                     let d = if *direction == Direction::Above { "≥" } else { "≤" };
-                    format!("reaches: body `{body}` has {c} = {} {d} {value} at step {}, t = {}", number(x), sim.steps, sim.time)
+                    format!(
+                        "reaches: body `{body}` has {c} = {} {d} {value} at step {}, t = {}",
+                        number(x),
+                        sim.steps,
+                        sim.time
+                    )
                 }
                 (StopSpec::WallTime { seconds }, _) => {
                     let s = self.started.elapsed().as_secs_f64();
                     if s < *seconds {
                         continue;
                     }
-                    format!("wall time: {s:.1} s reached the limit of {seconds} s at step {}, t = {}", sim.steps, sim.time)
+                    format!(
+                        "wall time: {s:.1} s reached the limit of {seconds} s at step {}, t = {}",
+                        sim.steps, sim.time
+                    )
                 }
                 (StopSpec::Steps(n), _) => {
                     if sim.steps < *n {

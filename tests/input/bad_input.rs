@@ -271,7 +271,10 @@ fn with_monitors(monitors: &str, stop: &str) -> String {
     ],"#;
     GOOD.replace("region: All", "region: Rest")
         .replacen("    ],", disk, 1)
-        .replace("    pressure:", "    exchange: [(between: (\"water\", \"disks\"), model: \"direct_forcing\")],\n    pressure:")
+        .replace(
+            "    pressure:",
+            "    exchange: [(between: (\"water\", \"disks\"), model: \"direct_forcing\")],\n    pressure:",
+        )
         .replace("\n)\n", &format!("\n    monitors: [{monitors}],\n    stop: [{stop}],\n)\n"))
 }
 
@@ -324,7 +327,9 @@ fn a_probe_outside_the_domain_and_a_tolerance_not_positive_are_refused() {
     let outside = with_monitors(r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.5, 1.5)]))"#, "");
     let path = case_file("probe_outside_binary.ron", &outside);
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_input").join("probe_outside_out");
-    for args in [vec!["check", path.to_str().unwrap()], vec!["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]] {
+    for args in
+        [vec!["check", path.to_str().unwrap()], vec!["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]]
+    {
         let (code, _, stderr) = multifield(&args);
         assert_eq!(code, 2, "{args:?}: {stderr}");
         assert_contains(&stderr, &["monitors.p.of.points", "(0.5, 1.5) lies outside the domain"]);

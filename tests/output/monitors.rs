@@ -289,7 +289,10 @@ fn a_reaches_stop_ends_a_falling_disk_at_the_step_it_crosses() {
     let steps = column(&table(&b.join("bodies.csv")), "step");
     eprintln!(
         "settling disk: stopped at step {} (t = {:.5}, y = {}); the long run crosses at step {}",
-        short.summary.steps, short.summary.simulated_time, y[n - 1], steps[crossing]
+        short.summary.steps,
+        short.summary.simulated_time,
+        y[n - 1],
+        steps[crossing]
     );
     assert_eq!(short.summary.steps, steps[crossing] as u64);
     assert!(short.summary.reason.starts_with("reaches: body `disk` has y = "), "{}", short.summary.reason);
@@ -318,7 +321,8 @@ fn steps_and_wall_time_stops_end_the_run_as_completed() {
 #[ignore = "a benchmark: about 15 s"]
 fn cost_of_the_monitors_in_a_dkt_run() {
     use multifield::core::driver::Driver;
-    let points: Vec<String> = (0..10).map(|k| format!("({}, {})", 0.2 + 0.16 * k as Real, 1.0 + 0.45 * k as Real)).collect();
+    let points: Vec<String> =
+        (0..10).map(|k| format!("({}, {})", 0.2 + 0.16 * k as Real, 1.0 + 0.45 * k as Real)).collect();
     let monitors = format!(
         r#"(name: "probes", of: Probes(quantity: "velocity", points: [{}])),
            (name: "line", of: Line(quantity: "velocity", from: (0.0, 3.0), to: (2.0, 3.0), points: 100)),
