@@ -36,7 +36,7 @@
 //! match), of another format version (an older multifield's checkpoint cannot be continued
 //! by this one: run the case again from t = 0, or continue it with the multifield that
 //! wrote it), or written by another case: the case may differ only in `time` (e.g. a later
-//! `time.end`), `output` and `description`. The rows of `diagnostics.csv` and
+//! `time.end`), `output`, `description`, `monitors` and `stop`. The rows of `diagnostics.csv` and
 //! `bodies.csv` up to the checkpoint's step are kept (from the checkpoint's run directory,
 //! else from the output directory) and the restarted run appends after them.
 
@@ -331,7 +331,7 @@ pub fn restore(case: &Case, path: &Path) -> Result<(Simulation, Checkpoint), Err
         let more = if diff.len() > 6 { format!("; and {} more", diff.len() - 6) } else { String::new() };
         return Err(Error::Model(format!(
             "checkpoint {} was written by a different case `{}`: {shown}{more}. A restart may change only \
-             time.*, output.* and description: restart with the case the checkpoint was written with (its \
+             time.*, output.*, description, monitors and stop: restart with the case the checkpoint was written with (its \
              run directory's case.ron, with --set time.end=… to go further), or run the changed case from \
              t = 0 without --restart",
             path.display(),

@@ -53,7 +53,7 @@ enum Command {
         quiet: bool,
         /// Continue from a checkpoint (DIR/checkpoints/checkpoint_<step>.bin, written when the
         /// case has `output.checkpoints`) instead of starting at t = 0; the case may differ
-        /// from the checkpoint's only in time.*, output.* and description.
+        /// from the checkpoint's only in time.*, output.*, description, monitors and stop.
         #[arg(long, value_name = "FILE")]
         restart: Option<PathBuf>,
         /// The most memory the run may use, e.g. 8GB or 8GiB [default: $MULTIFIELD_MAX_MEMORY,

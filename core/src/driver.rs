@@ -8,9 +8,11 @@
 //!    run as [`Status::Unstable`] after this step's output);
 //! 3. decides whether a row of the tables is due (every `output.interval` of simulated
 //!    time, every step when it is 0, and always the run's last step);
-//! 4. brings the fields' grid state up to date if a writer needs it, and calls every
+//! 4. samples the case's monitors and evaluates its stop conditions ([`crate::monitor`];
+//!    the first met makes this step the last, and the run completed with its reason);
+//! 5. brings the fields' grid state up to date if a writer needs it, and calls every
 //!    writer in the order they were added;
-//! 5. calls the progress callback.
+//! 6. calls the progress callback.
 //!
 //! The run ends at `time.end` (the last step shortened to land on it), at `time.max_steps`
 //! (completed, with the reason), when a check fires (unstable), when Δt falls below
