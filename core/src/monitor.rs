@@ -10,7 +10,10 @@
 //!   the hydrodynamic force and torque summed over the named bodies (and every body of the
 //!   field `f`), as `bodies.csv` reports them (the same numbers, not recomputed): columns
 //!   `fx, fy, torque`, and with a reference, `c_D = fx / q`, `c_L = fy / q`,
-//!   `c_M = torque / (q L)` with `q = ½ ρ U² L`.
+//!   `c_M = torque / (q L)` with `q = ½ ρ U² L`; then the force's pressure and viscous
+//!   parts `fx_pressure, fy_pressure, fx_viscous, fy_viscous`, summed as `bodies.csv`
+//!   gives them per body (empty cells when the coupling does not give them for every
+//!   body).
 //! - `Probes(quantity, field, points: [...])`: a quantity at points, columns `p0, p1, …`
 //!   (`p0_x, p0_y, …` for a vector).
 //! - `Line(quantity, field, from, to, points: N)`: the quantity at N points evenly spaced
@@ -299,6 +302,7 @@ impl MonitorSpec {
                 if reference.is_some() {
                     c.extend(["c_D", "c_L", "c_M"].map(String::from));
                 }
+                c.extend(["fx_pressure", "fy_pressure", "fx_viscous", "fy_viscous"].map(String::from));
                 c
             }
             Monitored::Probes { points, .. } => {
@@ -725,21 +729,37 @@ struct Running {
 }
 
 impl Running {
-    fn values(&self, view: &mut View, bodies: &[(String, crate::plugin::BodyState)]) -> Vec<Real> {
+    fn values(
+        &self,
+        view: &mut View,
+        bodies: &[(String, crate::plugin::BodyState)],
+        pressure: &[Option<crate::math::Vector>],
+    ) -> Vec<Real> {
         match &self.spec.of {
             Monitored::Forces { reference, .. } => {
                 let (mut fx, mut fy, mut t) = (0.0, 0.0, 0.0);
+                let (mut px, mut py) = (0.0, 0.0);
                 for &k in &self.bodies {
                     let b = &bodies[k].1;
                     fx += b.force.x;
                     fy += b.force.y;
                     t += b.torque;
+                    // the pressure part where the coupling gives it for every body (NaN:
+                    // an empty cell, as in bodies.csv)
+                    match pressure.get(k).copied().flatten() {
+                        Some(p) => {
+                            px += p.x;
+                            py += p.y;
+                        }
+                        None => (px, py) = (Real::NAN, Real::NAN),
+                    }
                 }
                 let mut v = vec![fx, fy, t];
                 if let Some(r) = reference {
                     let q = r.q();
                     v.extend([fx / q, fy / q, t / (q * r.length)]);
                 }
+                v.extend([px, py, fx - px, fy - py]);
                 v
             }
             Monitored::Average { .. } => {
@@ -772,6 +792,16 @@ impl Running {
     }
     fn needs_grid(&self) -> bool {
         !matches!(self.source, None | Some(Source::Pressure))
+    }
+}
+
+/// A value as written: [`number`], an empty cell for NaN (a force's pressure part where
+/// the coupling does not give it).
+fn cell(x: Real) -> String {
+    if x.is_nan() {
+        String::new()
+    } else {
+        number(x)
     }
 }
 
@@ -993,16 +1023,17 @@ impl Monitors {
             return Ok(());
         }
         let mut view = View::new(sim, self.keys);
-        let bodies = if which.iter().any(|&k| !self.running[k].bodies.is_empty()) { sim.bodies() } else { Vec::new() };
+        let forces = which.iter().any(|&k| !self.running[k].bodies.is_empty());
+        let (bodies, pressure) = if forces { (sim.bodies(), sim.pressure_forces()) } else { (Vec::new(), Vec::new()) };
         for &k in which {
-            let values = self.running[k].values(&mut view, &bodies);
+            let values = self.running[k].values(&mut view, &bodies, &pressure);
             let mut row = Vec::with_capacity(values.len() + 2);
             row.push(sim.steps as Real);
             row.push(sim.time);
             row.extend(values);
             let r = &mut self.running[k];
             let text: Vec<String> =
-                std::iter::once(sim.steps.to_string()).chain(row[1..].iter().map(|x| number(*x))).collect();
+                std::iter::once(sim.steps.to_string()).chain(row[1..].iter().map(|&x| cell(x))).collect();
             r.file.write_record(&text).map_err(|e| crate::driver::csv_error(&r.path, e))?;
             r.file.flush().map_err(io(&r.path))?;
             r.written = true;

@@ -174,8 +174,8 @@ fn a_line_across_poiseuille_flow_matches_the_parabola() {
     assert!(err_v < 1e-10, "max |v| {err_v:e}");
 }
 
-/// `Forces` on the cylinder of the channel: fx, fy and torque are `bodies.csv`'s (the same
-/// text, row by row), and the coefficient columns are them divided by q = ½ ρ U² L (and
+/// `Forces` on the cylinder of the channel: fx, fy, torque and the pressure and viscous
+/// parts are `bodies.csv`'s (the same text, row by row), and the coefficient columns are them divided by q = ½ ρ U² L (and
 /// q L), exactly.
 #[test]
 fn forces_are_the_bodies_forces_and_the_coefficients_their_normalisation() {
@@ -201,7 +201,7 @@ fn forces_are_the_bodies_forces_and_the_coefficients_their_normalisation() {
         let k = t.index(name).unwrap();
         t.rows.iter().map(|r| r[k].to_string()).collect()
     };
-    for c in ["step", "time", "fx", "fy", "torque"] {
+    for c in ["step", "time", "fx", "fy", "torque", "fx_pressure", "fy_pressure", "fx_viscous", "fy_viscous"] {
         assert_eq!(text(&drag, c), text(&bodies, c), "column {c}");
     }
     let q = 0.5 * rho * u * u * l;
@@ -213,6 +213,7 @@ fn forces_are_the_bodies_forces_and_the_coefficients_their_normalisation() {
         assert_eq!(cm[k].to_bits(), (t[k] / (q * l)).to_bits(), "c_M row {k}");
     }
     assert!(cd[cd.len() - 1] > 1.0, "a drag: c_D = {}", cd[cd.len() - 1]);
+    assert!(column(&drag, "fx_pressure")[cd.len() - 1] > 0.0, "the pressure part is given");
     // every 0.05: rows at t = 0, the first steps at or after 0.05, 0.1, 0.15, and the last
     let all = table(&dir.join("monitors/all.csv"));
     let times = column(&all, "time");
