@@ -4,7 +4,11 @@
 //! - `diagnostics.{png,svg}` from `diagnostics.csv`: kinetic energy, Δt (log), the largest
 //!   divergence (log; steps with none left out) and the pressure iterations, over time;
 //! - `bodies.{png,svg}` from `bodies.csv` (cases with bodies): the trajectories in the
-//!   x–y plane inside the domain's box (from `case.ron`), and vx, vy over time.
+//!   x–y plane inside the domain's box (from `case.ron`), and vx, vy over time;
+//! - `monitor_<name>.{png,svg}` from each `monitors/<name>.csv` (the monitors of
+//!   `case.ron`): a `Line`'s last profile against the distance along the line; a `Forces`
+//!   monitor's forces (and coefficients) over time; the other kinds' columns over time
+//!   (the first eight).
 //!
 //! A missing or empty CSV file gives no chart and no error; a chart that cannot be drawn
 //! is an error that names the file. Long runs are thinned to the smallest and largest
@@ -13,6 +17,7 @@
 use crate::core::case::Case;
 use crate::core::error::Error;
 use crate::core::math::Real;
+use crate::core::monitor::{MonitorSpec, Monitored};
 use crate::plot::{write_figure, Chart, Figure, Series};
 use std::path::Path;
 
@@ -119,7 +124,69 @@ pub fn write(dir: &Path) -> Result<(), Error> {
     if let Some(b) = bodies {
         write_bodies(&out.join("bodies"), &name, case.as_ref().map(|c| (c.domain.origin, c.domain.size)), &b)?;
     }
+    for m in case.as_ref().map(|c| c.monitors.as_slice()).unwrap_or_default() {
+        let file = dir.join(crate::core::monitor::FOLDER).join(format!("{}.csv", m.name));
+        if let Some(t) = Table::read(&file)? {
+            write_monitor(&out.join(format!("monitor_{}", m.name)), &name, m, &t)?;
+        }
+    }
     Ok(())
+}
+
+fn write_monitor(stem: &Path, name: &str, m: &MonitorSpec, t: &Table) -> Result<(), Error> {
+    let time = t.numbers("time");
+    let columns: Vec<String> = t.0.header.iter().skip(2).cloned().collect();
+    let over_time = |title: &str, cols: &[&str]| -> Chart {
+        let series = cols.iter().enumerate().map(|(k, c)| curve(c, k, &time, &t.numbers(c))).collect();
+        chart(title, "value", false, series)
+    };
+    let charts: Vec<Chart> = match &m.of {
+        Monitored::Line { .. } => {
+            let points = m.points();
+            let (a, b) = (points[0], points[points.len() - 1]);
+            let length = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            let s: Vec<Real> = (0..points.len()).map(|k| length * k as Real / (points.len() - 1) as Real).collect();
+            let last = t.0.rows.len() - 1;
+            let vector = columns.first().is_some_and(|c| c.ends_with("_x"));
+            let parts: Vec<(&str, String)> =
+                if vector { vec![("_x", "x".into()), ("_y", "y".into())] } else { vec![("", m.name.clone())] };
+            let series = parts
+                .iter()
+                .enumerate()
+                .map(|(c, (suffix, label))| {
+                    let v: Vec<Real> = (0..points.len()).map(|k| t.numbers(&format!("s{k}{suffix}"))[last]).collect();
+                    curve(label, c, &s, &v)
+                })
+                .collect();
+            let time = time.last().copied().unwrap_or(0.0);
+            vec![Chart {
+                title: format!("{} at t = {time:.6}", m.name),
+                x_label: "distance along the line".into(),
+                y_label: "value".into(),
+                series,
+                log: (false, false),
+            }]
+        }
+        Monitored::Forces { reference, .. } => {
+            let mut v = vec![over_time("force", &["fx", "fy"]), over_time("torque", &["torque"])];
+            if reference.is_some() {
+                v.push(over_time("coefficients", &["c_D", "c_L", "c_M"]));
+            }
+            v
+        }
+        _ => {
+            let cols: Vec<&str> = columns.iter().take(8).map(String::as_str).collect();
+            vec![over_time(&m.name, &cols)]
+        }
+    };
+    write_figure(
+        stem,
+        &Figure {
+            title: format!("{name}: monitor {} ({})", m.name, m.of.kind()),
+            size: (1000, 300 + 250 * charts.len() as u32),
+            columns: vec![(1.0, charts.iter().collect())],
+        },
+    )
 }
 
 fn write_diagnostics(stem: &Path, name: &str, t: &Table) -> Result<(), Error> {

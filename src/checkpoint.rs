@@ -36,7 +36,7 @@
 //! match), of another format version (an older multifield's checkpoint cannot be continued
 //! by this one: run the case again from t = 0, or continue it with the multifield that
 //! wrote it), or written by another case: the case may differ only in `time` (e.g. a later
-//! `time.end`), `output` and `description`. It also refuses, with the field, the array,
+//! `time.end`), `output`, `description`, `monitors` and `stop`. It also refuses, with the field, the array,
 //! the index and the value, a checkpoint whose CRC-32 is right but whose state no run
 //! writes (a damaged file whose checksum was recomputed, or a forged one): arrays of
 //! another length than the grid's or the points', reals that are not finite, volume
@@ -283,7 +283,7 @@ fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
 }
 
 /// Entries of `case` that a restart may change.
-const MAY_CHANGE: [&str; 3] = ["time", "output", "description"];
+const MAY_CHANGE: [&str; 5] = ["time", "output", "description", "monitors", "stop"];
 
 /// The entries in which two cases differ (dotted paths as for `--set`, named list entries
 /// by name), except [`MAY_CHANGE`]; each as "`path` is A in the checkpoint, B here".
@@ -339,7 +339,7 @@ pub fn restore(case: &Case, path: &Path) -> Result<(Simulation, Checkpoint), Err
         let more = if diff.len() > 6 { format!("; and {} more", diff.len() - 6) } else { String::new() };
         return Err(Error::Model(format!(
             "checkpoint {} was written by a different case `{}`: {shown}{more}. A restart may change only \
-             time.*, output.* and description: restart with the case the checkpoint was written with (its \
+             time.*, output.*, description, monitors and stop: restart with the case the checkpoint was written with (its \
              run directory's case.ron, with --set time.end=… to go further), or run the changed case from \
              t = 0 without --restart",
             path.display(),

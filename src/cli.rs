@@ -53,7 +53,7 @@ enum Command {
         quiet: bool,
         /// Continue from a checkpoint (DIR/checkpoints/checkpoint_<step>.bin, written when the
         /// case has `output.checkpoints`) instead of starting at t = 0; the case may differ
-        /// from the checkpoint's only in time.*, output.* and description.
+        /// from the checkpoint's only in time.*, output.*, description, monitors and stop.
         #[arg(long, value_name = "FILE")]
         restart: Option<PathBuf>,
         /// The most memory the run may use, e.g. 8GB or 8GiB [default: $MULTIFIELD_MAX_MEMORY,
@@ -303,7 +303,16 @@ fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions
     if let Some(c) = &s.last_checkpoint {
         println!("  last checkpoint: {c} (continue with --restart {c})");
     }
-    let files = ["case.ron", "diagnostics.csv", "summary.json", "bodies.csv", "snapshots/", "frames/", "checkpoints/"];
+    let files = [
+        "case.ron",
+        "diagnostics.csv",
+        "summary.json",
+        "bodies.csv",
+        "monitors/",
+        "snapshots/",
+        "frames/",
+        "checkpoints/",
+    ];
     let written: Vec<&str> = files.into_iter().chain(["charts/"]).filter(|f| dir.join(f).exists()).collect();
     println!("output: {}/ ({})", dir.display(), written.join(", "));
     match outcome.status {
@@ -441,6 +450,15 @@ fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Fa
     }
     if let Some(k) = &c.output.checkpoints {
         println!("output   a checkpoint every {}", k.interval);
+    }
+    for m in &c.monitors {
+        println!("monitor  {}: {}", m.name, m.describe());
+    }
+    for s in &c.stop {
+        println!("stop     {}", s.describe());
+    }
+    if !c.stop.is_empty() {
+        println!("stop     (the first condition met ends the run as completed; time.end = {} stays the bound)", t.end);
     }
     let parts: Vec<String> =
         estimate.breakdown.iter().map(|(what, b)| format!("{what} {}", limits::bytes_text(*b))).collect();

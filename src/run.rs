@@ -10,6 +10,9 @@
 //! - `diagnostics.csv`: one row every `output.interval` of simulated time (every step when
 //!   it is 0) and always the last step, flushed row by row so a killed run leaves a
 //!   readable file; columns [`CSV_HEADER`];
+//! - with `monitors: [...]` in the case, `monitors/<name>.csv` for each monitor
+//!   ([`crate::core::monitor`]): a row at t = 0, on the monitor's schedule and at the last
+//!   step, flushed row by row; continued by a restart like `diagnostics.csv`;
 //! - `summary.json`: how the run ended ([`Summary`]), written whatever happens once the
 //!   directory exists;
 //! - with `output.checkpoints`, `checkpoints/checkpoint_<step>.bin` ([`crate::checkpoint`]),
@@ -49,6 +52,7 @@ use crate::core::case::Case;
 use crate::core::driver::{BodiesCsv, DiagnosticsCsv, Driver, RunState};
 use crate::core::error::Error;
 use crate::core::math::Real;
+use crate::core::monitor::Monitors;
 use crate::core::simulation::{Simulation, Status};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
@@ -322,11 +326,12 @@ fn run_simulation(
     }
     write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
     let has_bodies = !sim.bodies().is_empty();
-    let (state, csv, bodies) = match &resumed {
+    let (state, csv, bodies, monitors) = match &resumed {
         None => {
+            let monitors = Monitors::create(&sim, dir)?;
             let csv = DiagnosticsCsv::create(dir.join("diagnostics.csv"))?;
             let bodies = if has_bodies { Some(BodiesCsv::create(dir.join("bodies.csv"))?) } else { None };
-            (RunState::new(&sim), csv, bodies)
+            (RunState::new(&sim), csv, bodies, monitors)
         }
         Some(c) => {
             let r = &c.runner;
@@ -355,7 +360,8 @@ fn run_simulation(
             } else {
                 None
             };
-            (state, csv, bodies)
+            let monitors = Monitors::resume(&sim, dir, source_dir)?;
+            (state, csv, bodies, monitors)
         }
     };
     let others = crate::output::writers(&sim, dir)?;
@@ -372,6 +378,9 @@ fn run_simulation(
     }
     if let Some(c) = checkpoints {
         driver.add_writer(c);
+    }
+    if let Some(m) = monitors {
+        driver.set_monitors(m);
     }
     let show_bar = !options.quiet && std::io::stdout().is_terminal();
     let bar = progress_bar(show_bar, end);

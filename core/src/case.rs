@@ -8,6 +8,7 @@
 use crate::boundary::{Boundaries, Side};
 use crate::error::{Error, Result};
 use crate::math::Real;
+use crate::monitor::{MonitorSpec, StopSpec};
 use crate::quantity::Place;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -676,6 +677,14 @@ pub struct Case {
     /// Output options.
     #[serde(default)]
     pub output: OutputSpec,
+    /// Monitors: forces, probes, lines, differences and averages sampled on their own
+    /// schedules into `monitors/<name>.csv` ([`crate::monitor`]); none by default.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub monitors: Vec<MonitorSpec>,
+    /// Conditions that end the run as completed before `time.end` (steady monitor, a body
+    /// reaching a coordinate, wall time, steps; [`crate::monitor`]); none by default.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stop: Vec<StopSpec>,
 }
 
 /// Maximum number of fields in a case (the exchange solves an N×N system per face).
@@ -1104,7 +1113,7 @@ impl Case {
                 }
             }
         }
-        Ok(())
+        crate::monitor::validate(self)
     }
 }
 

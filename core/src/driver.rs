@@ -8,9 +8,11 @@
 //!    run as [`Status::Unstable`] after this step's output);
 //! 3. decides whether a row of the tables is due (every `output.interval` of simulated
 //!    time, every step when it is 0, and always the run's last step);
-//! 4. brings the fields' grid state up to date if a writer needs it, and calls every
+//! 4. samples the case's monitors and evaluates its stop conditions ([`crate::monitor`];
+//!    the first met makes this step the last, and the run completed with its reason);
+//! 5. brings the fields' grid state up to date if a writer needs it, and calls every
 //!    writer in the order they were added;
-//! 5. calls the progress callback.
+//! 6. calls the progress callback.
 //!
 //! The run ends at `time.end` (the last step shortened to land on it), at `time.max_steps`
 //! (completed, with the reason), when a check fires (unstable), when Δt falls below
@@ -41,6 +43,7 @@ use crate::boundary::{Boundary, Side};
 use crate::case::{BodyShape, Region};
 use crate::error::{Error, Result};
 use crate::math::Real;
+use crate::monitor::Monitors;
 use crate::simulation::{Simulation, Status, StepDiagnostics};
 use crate::table::{self, Table};
 use std::fs::File;
@@ -411,7 +414,8 @@ pub fn body_overlap(sim: &Simulation) -> Option<String> {
 pub struct Outcome {
     /// Completed, unstable or failed, with the reason.
     pub status: Status,
-    /// What bounded a completed run short of `time.end` (`time.max_steps`), else empty.
+    /// What bounded a completed run short of `time.end` (`time.max_steps`, or the stop
+    /// condition that was met, with its figures), else empty.
     pub reason: String,
     /// Wall-clock time of the time loop, seconds.
     pub wall_seconds: f64,
@@ -431,6 +435,7 @@ pub struct Driver {
     checks: Vec<Box<dyn StopCheck>>,
     progress: Option<Progress>,
     interrupt: Option<Arc<AtomicBool>>,
+    monitors: Option<Monitors>,
 }
 
 impl Driver {
@@ -445,7 +450,7 @@ impl Driver {
     /// (a restart).
     pub fn resume(sim: Simulation, state: RunState) -> Self {
         let checks = default_checks(&sim);
-        Self { sim, state, writers: Vec::new(), checks, progress: None, interrupt: None }
+        Self { sim, state, writers: Vec::new(), checks, progress: None, interrupt: None, monitors: None }
     }
 
     /// Adds a writer, called after the ones added before it.
@@ -480,6 +485,18 @@ impl Driver {
         self
     }
 
+    /// Samples `monitors` and evaluates their stop conditions after every step, before the
+    /// writers ([`crate::monitor`]): a stop condition that is met makes the step the last.
+    pub fn set_monitors(&mut self, monitors: Monitors) -> &mut Self {
+        self.monitors = Some(monitors);
+        self
+    }
+
+    /// The monitors, if set.
+    pub fn monitors(&self) -> Option<&Monitors> {
+        self.monitors.as_ref()
+    }
+
     /// Calls `progress` after every step.
     pub fn on_progress(&mut self, progress: impl FnMut(&Simulation, f64) + 'static) -> &mut Self {
         self.progress = Some(Box::new(progress));
@@ -495,7 +512,7 @@ impl Driver {
     /// writer fails (a file that cannot be written); instabilities and failed steps end in
     /// an [`Outcome`] that says so.
     pub fn run(&mut self) -> Result<Outcome> {
-        let Self { sim, state, writers, checks, progress, interrupt } = self;
+        let Self { sim, state, writers, checks, progress, interrupt, monitors } = self;
         let interrupted = || interrupt.as_ref().is_some_and(|f| f.load(Ordering::SeqCst));
         let stop = |sim: &Simulation| {
             Status::Interrupted(format!("interrupted by a signal after step {}, t = {}", sim.steps, sim.time))
@@ -505,6 +522,9 @@ impl Driver {
         }
         for w in writers.iter_mut() {
             w.start(sim)?;
+        }
+        if let Some(m) = monitors.as_mut() {
+            m.start(sim)?;
         }
         let time = sim.case.time.clone();
         let interval = sim.case.output.interval;
@@ -572,8 +592,16 @@ impl Driver {
             }
             state.last_row_written = row;
             let signalled = interrupted();
-            let last =
+            let mut last =
                 unstable.is_some() || signalled || done(d.time) || time.max_steps.is_some_and(|m| sim.steps >= m);
+            // the monitors sample this step before the stop conditions are evaluated on it
+            let stopped = match monitors.as_mut() {
+                Some(m) => m.after_step(sim, last, unstable.is_some())?,
+                None => None,
+            };
+            if stopped.is_some() {
+                last = true;
+            }
             let needs_grid = {
                 let step = Step { sim, diagnostics: &d, last, unstable: unstable.is_some(), row, state };
                 writers.iter().any(|w| w.needs_grid_state(&step))
@@ -587,6 +615,10 @@ impl Driver {
             }
             if let Some(reason) = unstable {
                 status = Status::Unstable(reason);
+                break;
+            }
+            if let Some(why) = stopped {
+                reason = why;
                 break;
             }
             if signalled {
@@ -787,7 +819,7 @@ impl Writer for BodiesCsv {
     }
 }
 
-fn csv_error(path: &Path, e: csv::Error) -> Error {
+pub(crate) fn csv_error(path: &Path, e: csv::Error) -> Error {
     match e.into_kind() {
         csv::ErrorKind::Io(source) => Error::Io { path: path.to_path_buf(), source },
         other => Error::Model(format!("{}: {other:?}", path.display())),
@@ -802,7 +834,7 @@ fn flush(file: &mut csv::Writer<File>, path: &Path) -> Result<()> {
     file.flush().map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }
 
-fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
+pub(crate) fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
     let mut file = table::writer(File::create(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?);
     write_row(&mut file, path, &header.split(',').collect::<Vec<_>>())?;
     flush(&mut file, path)?;

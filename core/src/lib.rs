@@ -21,6 +21,7 @@ pub mod immersed;
 pub mod input;
 pub mod limits;
 pub mod math;
+pub mod monitor;
 pub mod plugin;
 pub mod poisson;
 pub mod quantity;

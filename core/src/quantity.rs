@@ -322,7 +322,7 @@ fn deposit_velocity(grid: &Grid, points: &PointSet) -> FaceVelocity {
 
 /// The fields' θ and face velocities: the grid state after a step, reconstructed from the
 /// initial condition before the first one ([`Sample`]).
-fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
+pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
     if sim.steps > 0 {
         return sim.fields.iter().map(|f| (f.state.theta.clone(), f.state.velocity.clone())).collect();
     }
@@ -481,7 +481,7 @@ fn speed(v: &[Vec<Real>; 2]) -> Vec<Real> {
 }
 
 /// θ of a cell's face: the mean of the two cells beside it (the one cell at a domain edge).
-fn face_theta(grid: &Grid, theta: &[Real], lattice: Lattice, i: usize, j: usize) -> Real {
+pub(crate) fn face_theta(grid: &Grid, theta: &[Real], lattice: Lattice, i: usize, j: usize) -> Real {
     let (a, b) = match lattice {
         Lattice::XFace => (i.checked_sub(1).map(|i| (i, j)), (i < grid.nx).then_some((i, j))),
         _ => (j.checked_sub(1).map(|j| (i, j)), (j < grid.ny).then_some((i, j))),

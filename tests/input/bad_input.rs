@@ -306,3 +306,82 @@ fn from_inflow_without_an_inflow_side_is_refused_with_the_field_entry() {
     assert_eq!(code, 2, "{stderr}");
     assert_contains(&stderr, &["fields.water.velocity", "no side is an inflow"]);
 }
+
+/// A case with bodies, monitors and stop conditions (issue 22): `GOOD` with a fixed disk
+/// and the lists given.
+fn with_monitors(monitors: &str, stop: &str) -> String {
+    let disk = r#"
+        (
+            name: "disks",
+            density: 2.0,
+            frame: (model: "lagrangian"),
+            region: Bodies([(name: "disk", shape: Disk(center: (0.5, 0.5), radius: 0.2), motion: Fixed)]),
+            stress: [(model: "rigid")],
+        ),
+    ],"#;
+    GOOD.replace("region: All", "region: Rest")
+        .replacen("    ],", disk, 1)
+        .replace(
+            "    pressure:",
+            "    exchange: [(between: (\"water\", \"disks\"), model: \"direct_forcing\")],\n    pressure:",
+        )
+        .replace("\n)\n", &format!("\n    monitors: [{monitors}],\n    stop: [{stop}],\n)\n"))
+}
+
+#[test]
+fn monitors_and_stop_conditions_are_accepted() {
+    multifield::link_all();
+    let text = with_monitors(
+        r#"(name: "drag", of: Forces(bodies: ["disk"], reference: Some((velocity: 1.0, length: 0.4, density: 1.0)))),
+           (name: "p", every: Time(0.01), of: Probes(quantity: "pressure", points: [(0.1, 0.1), (0.9, 0.9)]))"#,
+        r#"Steady(monitor: "drag", column: "c_D", tolerance: 1e-4, window: 0.5), Steps(10)"#,
+    );
+    let case = Case::load(&case_file("monitors_good.ron", &text), &[]).unwrap();
+    Simulation::new(&case).unwrap();
+}
+
+#[test]
+fn monitors_naming_what_does_not_exist_are_refused_with_the_choices() {
+    let m = error_of("monitor_body.ron", &with_monitors(r#"(name: "drag", of: Forces(bodies: ["dsk"]))"#, ""), &[]);
+    assert_contains(&m, &["monitors.drag.of.bodies", "no body `dsk`", "the choices are: disk"]);
+    let probe = r#"(name: "p", of: Probes(quantity: "presure", points: [(0.5, 0.1)]))"#;
+    let m = error_of("monitor_quantity.ron", &with_monitors(probe, ""), &[]);
+    assert_contains(&m, &["monitors.p.of.quantity", "no quantity `presure`", "pressure"]);
+    let probe = r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.5, 0.1)]))"#;
+    let steady = r#"Steady(monitor: "q", column: "p0", tolerance: 1e-3, window: 1.0)"#;
+    let m = error_of("stop_monitor.ron", &with_monitors(probe, steady), &[]);
+    assert_contains(&m, &["stop.0.monitor", "no monitor `q`", "the choices are: p"]);
+    let steady = r#"Steady(monitor: "p", column: "p1", tolerance: 1e-3, window: 1.0)"#;
+    let m = error_of("stop_column.ron", &with_monitors(probe, steady), &[]);
+    assert_contains(&m, &["stop.0.column", "monitor `p` has no column `p1`", "the choices are: p0"]);
+    let reaches = r#"Reaches(body: "disc", coordinate: Y, value: 0.1, direction: Below)"#;
+    let m = error_of("stop_body.ron", &with_monitors("", reaches), &[]);
+    assert_contains(&m, &["stop.0.body", "no body `disc`", "disk"]);
+}
+
+#[test]
+fn a_probe_outside_the_domain_and_a_tolerance_not_positive_are_refused() {
+    let probe = r#"(name: "p", of: Probes(quantity: "velocity", points: [(0.5, 0.5), (1.25, 0.5)]))"#;
+    let m = error_of("probe_outside.ron", &with_monitors(probe, ""), &[]);
+    assert_contains(&m, &["monitors.p.of.points", "(1.25, 0.5) lies outside the domain [0, 1] × [0, 1]"]);
+    let line = r#"(name: "l", of: Line(quantity: "pressure", from: (0.0, -0.1), to: (1.0, 0.5), points: 3))"#;
+    let m = error_of("line_outside.ron", &with_monitors(line, ""), &[]);
+    assert_contains(&m, &["monitors.l.of", "(0, -0.1) lies outside the domain"]);
+    let probe = r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.5, 0.1)]))"#;
+    for (k, (tolerance, shown)) in [("0.0", "0"), ("-1e-3", "-0.001")].iter().enumerate() {
+        let steady = format!(r#"Steady(monitor: "p", column: "p0", tolerance: {tolerance}, window: 1.0)"#);
+        let m = error_of(&format!("tolerance{k}.ron"), &with_monitors(probe, &steady), &[]);
+        assert_contains(&m, &["stop.0.tolerance", &format!("{shown}: a relative tolerance must be positive")]);
+    }
+    // the binary: exit code 2 and the entry, before step 0
+    let outside = with_monitors(r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.5, 1.5)]))"#, "");
+    let path = case_file("probe_outside_binary.ron", &outside);
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_input").join("probe_outside_out");
+    for args in
+        [vec!["check", path.to_str().unwrap()], vec!["run", path.to_str().unwrap(), "--out", out.to_str().unwrap()]]
+    {
+        let (code, _, stderr) = multifield(&args);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert_contains(&stderr, &["monitors.p.of.points", "(0.5, 1.5) lies outside the domain"]);
+    }
+}

@@ -5,6 +5,7 @@
 
 mod driver;
 mod examples;
+mod monitors;
 mod output_contract;
 mod pictures;
 mod restart;
