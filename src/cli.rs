@@ -523,16 +523,16 @@ fn run_study(
     }
     let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
     let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
+    // interrupted and pending runs (after an interrupt) only when there are any
+    let rest: String =
+        ["interrupted", "pending"].iter().filter(|s| count(s) > 0).map(|s| format!(", {} {s}", count(s))).collect();
     println!(
-        "study {}: {} runs: {} completed, {} unstable, {} failed, {} interrupted, {} pending ({} run now, {} skipped as \
-         finished)",
+        "study {}: {} runs: {} completed, {} unstable, {} failed{rest} ({} run now, {} skipped as finished)",
         plan.study.name,
         report.statuses.len(),
         count("completed"),
         count("unstable"),
         count("failed"),
-        count("interrupted"),
-        count("pending"),
         report.ran,
         report.skipped
     );

@@ -57,7 +57,7 @@ fn the_header_has_the_documented_columns() {
     assert_eq!(
         CSV_HEADER,
         "step,time,dt,dt_limit,kinetic_energy,momentum_x,momentum_y,mass,max_speed,max_divergence,\
-         volume_fraction_error,pressure_iterations,pressure_residual"
+         volume_fraction_error,pressure_iterations,pressure_residual,strain_energy,max_volume_fraction"
     );
 }
 
@@ -78,13 +78,16 @@ fn a_short_run_writes_case_diagnostics_and_summary() {
     let rows = rows(dir);
     assert_eq!(rows.len(), 5, "{rows:?}");
     for (k, r) in rows.iter().enumerate() {
-        assert_eq!(r.len(), 13);
+        assert_eq!(r.len(), 15);
         assert_eq!(r[0], (2 * k + 2).to_string());
         let t: f64 = r[1].parse().unwrap();
         assert!((t - 0.02 * (k + 1) as f64).abs() < 1e-12, "row {k} at t = {t}");
         assert_eq!(r[2].parse::<f64>().unwrap(), 0.01);
         assert_eq!(r[3], "fixed");
-        for c in (4..13).filter(|&c| c != 3) {
+        // a fluid stores no strain energy; one field that fills the box has Σθ = 1
+        assert_eq!(r[13], "0");
+        assert_eq!(r[14], "1");
+        for c in (4..15).filter(|&c| c != 3) {
             assert!(r[c].parse::<f64>().unwrap().is_finite(), "column {c} of row {k}: {}", r[c]);
         }
         assert!((r[7].parse::<f64>().unwrap() - 4.0 * std::f64::consts::PI.powi(2)).abs() < 1e-9, "mass = (2π)²");

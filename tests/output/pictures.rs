@@ -268,7 +268,7 @@ fn charts_skip_missing_data_and_name_the_file_they_cannot_write() {
     assert!(!dir.join("charts").exists(), "no chart without data");
     std::fs::write(
         dir.join("diagnostics.csv"),
-        format!("{}\n1,0.1,0.1,cfl,1,0,0,1,1,1e-9,0,5,1e-11\n", multifield::run::CSV_HEADER),
+        format!("{}\n1,0.1,0.1,cfl,1,0,0,1,1,1e-9,0,5,1e-11,0,1\n", multifield::run::CSV_HEADER),
     )
     .unwrap();
     // a folder where the chart should go: the rename fails, and the error says which file

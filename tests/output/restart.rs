@@ -466,7 +466,7 @@ fn a_foreign_corrupt_or_older_checkpoint_is_refused() {
         checkpoint::VERSION
     );
     assert!(e.contains(&message), "{e}");
-    assert_eq!(checkpoint::VERSION, 4, "version 4: the points carry the stress models' state");
+    assert_eq!(checkpoint::VERSION, 5, "version 5: the step's figures carry the strain energy and max Σθ");
     assert!(e.contains("run the case from t = 0 without --restart, or continue it with the multifield that"), "{e}");
     assert!(!e.contains("restart from another checkpoint"), "{e}");
 }

@@ -156,7 +156,7 @@ fn a_small_study_runs_end_to_end_resumes_and_draws_its_charts() {
     let bad = row("Explicit", "10");
     assert_eq!(bad["status"], "unstable");
     assert!(
-        bad["reason"].contains("kinetic energy") && bad["reason"].contains("exceeds the bound"),
+        bad["reason"].contains("mechanical energy") && bad["reason"].contains("exceeds the bound"),
         "{}",
         bad["reason"]
     );
