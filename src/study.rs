@@ -145,6 +145,37 @@ pub enum Metric {
         #[serde(default)]
         scale: Option<Real>,
     },
+    /// A column of a monitor's `monitors/<monitor>.csv` (docs/monitors.md), reduced over its
+    /// rows by `of` (default `Final`): column `<monitor>_<column>` for `Final`,
+    /// `mean_<monitor>_<column>`, `max_…`, `min_…` for the others.
+    Monitor {
+        /// The monitor's name, as in the case's `monitors`.
+        monitor: String,
+        /// One of its columns (e.g. `c_D`), or `time`.
+        column: String,
+        /// How the rows are reduced.
+        #[serde(default)]
+        of: Reduce,
+    },
+    /// The simulated time at which a stop condition of the case (`stop: [...]`) ended the
+    /// run: column `stop_time`, empty when no condition fired (the run reached `time.end`,
+    /// or ended otherwise). Which condition fired is the `reason` column.
+    Stopped,
+}
+
+/// How a [`Metric::Monitor`] reduces a monitor's rows to one number.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+pub enum Reduce {
+    /// The last row.
+    #[default]
+    Final,
+    /// The time-weighted mean over the rows: the trapezoidal integral over the `time`
+    /// column divided by the time spanned (the value itself for a single row).
+    Mean,
+    /// The largest value.
+    Max,
+    /// The smallest value.
+    Min,
 }
 
 /// Columns of `bodies.csv` a [`Metric::Body`] can name.
@@ -667,6 +698,44 @@ impl Study {
         Ok(())
     }
 
+    /// Checks the [`Metric::Monitor`] entries against the monitors of `case`.
+    fn check_monitor_metrics(&self, file: &Path, case: &Case) -> Result<(), Error> {
+        for (k, m) in self.metrics.iter().enumerate() {
+            let Metric::Monitor { monitor, column, .. } = m else { continue };
+            let names = case.monitors.iter().map(|m| m.name.as_str());
+            let Some(spec) = case.monitors.iter().find(|m| &m.name == monitor) else {
+                let list: Vec<&str> = names.clone().collect();
+                return Err(bad(
+                    file,
+                    &format!("metrics.{k}.monitor"),
+                    format!(
+                        "the case has no monitor named `{monitor}`; its monitors: {}{}",
+                        if list.is_empty() {
+                            "none (add `monitors: [...]` to the case)".to_string()
+                        } else {
+                            list.join(", ")
+                        },
+                        crate::core::error::did_you_mean(monitor, names)
+                    ),
+                ));
+            };
+            let mut columns = vec!["time".to_string()];
+            columns.extend(spec.columns().map_err(|e| bad(file, &format!("metrics.{k}.monitor"), e))?);
+            if !columns.contains(column) {
+                return Err(bad(
+                    file,
+                    &format!("metrics.{k}.column"),
+                    format!(
+                        "`{column}` is not a column of monitors/{monitor}.csv; columns: {}{}",
+                        columns.join(", "),
+                        crate::core::error::did_you_mean(column, columns.iter().map(String::as_str))
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     fn relative(&self, file: &Path, p: &Path) -> PathBuf {
         if p.is_absolute() {
             p.to_path_buf()
@@ -730,6 +799,7 @@ pub fn plan_to(
     let base_file = study.relative(file, &study.base);
     let base_text = crate::core::input::read_text(&base_file)?;
     let base = Case::from_ron(&base_text, &base_file)?;
+    study.check_monitor_metrics(file, &base)?;
     let out = out.unwrap_or_else(|| Path::new("out/studies").join(run::directory_name(&study.name)));
     let mut wanted: Vec<(usize, String)> = Vec::new();
     for o in only {
@@ -800,6 +870,8 @@ pub fn plan_to(
         let mut case = base.with_overrides(&combination.overrides).map_err(context)?;
         case.validate().map_err(|e| context(e.in_file(&base_file)))?;
         case.name = format!("{}: {what}", study.name);
+        // the overrides may change the monitors: their metrics are checked again
+        study.check_monitor_metrics(file, &case).map_err(context)?;
         // the memory before anything is allocated, then the plugins: unknown models and
         // bad parameters are found now, not mid-study
         case.check_resources(&limits.memory).map_err(|e| context(e.in_file(&base_file)))?;
@@ -960,6 +1032,13 @@ pub fn metric_columns(metrics: &[Metric]) -> Vec<String> {
             Metric::Summary(s) => vec![s.clone()],
             Metric::Dkt => vec!["kiss_time".into(), "tumble_time".into(), "min_gap_over_d".into()],
             Metric::Body { body, column, .. } => vec![format!("{body}_{column}")],
+            Metric::Monitor { monitor, column, of } => vec![match of {
+                Reduce::Final => format!("{monitor}_{column}"),
+                Reduce::Mean => format!("mean_{monitor}_{column}"),
+                Reduce::Max => format!("max_{monitor}_{column}"),
+                Reduce::Min => format!("min_{monitor}_{column}"),
+            }],
+            Metric::Stopped => vec!["stop_time".into()],
         })
         .collect()
 }
@@ -1020,6 +1099,13 @@ fn row_of(dir: &Path, study: &Study) -> Row {
             },
             Metric::Body { body, column, scale } => metrics
                 .push(body_last(&bodies, body, column).map(|v| v * scale.unwrap_or(1.0)).filter(|v| v.is_finite())),
+            Metric::Monitor { monitor, column, of } => metrics.push(monitor_value(dir, monitor, column, *of)),
+            Metric::Stopped => metrics.push(
+                (s["status"].as_str() == Some("completed")
+                    && crate::core::monitor::is_stop_reason(s["reason"].as_str().unwrap_or_default()))
+                .then(|| num("simulated_time"))
+                .flatten(),
+            ),
         }
     }
     Row {
@@ -1033,6 +1119,32 @@ fn row_of(dir: &Path, study: &Study) -> Row {
         energy_drift,
         metrics,
     }
+}
+
+/// A column of the run's `monitors/<monitor>.csv` reduced over its rows ([`Reduce`]);
+/// `None` when the file, the column or a value in it is missing or not finite.
+pub fn monitor_value(dir: &Path, monitor: &str, column: &str, of: Reduce) -> Option<Real> {
+    let csv = Csv::read(&dir.join(crate::core::monitor::FOLDER).join(format!("{monitor}.csv")))?;
+    let v = csv.column(column)?;
+    if v.is_empty() || v.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let value = match of {
+        Reduce::Final => v[v.len() - 1],
+        Reduce::Max => v.iter().copied().fold(Real::NEG_INFINITY, Real::max),
+        Reduce::Min => v.iter().copied().fold(Real::INFINITY, Real::min),
+        Reduce::Mean => {
+            let t = csv.column("time")?;
+            let span = t[t.len() - 1] - t[0];
+            if v.len() == 1 || span <= 0.0 {
+                v[v.len() - 1]
+            } else {
+                let area: Real = (1..v.len()).map(|k| 0.5 * (v[k] + v[k - 1]) * (t[k] - t[k - 1])).sum();
+                area / span
+            }
+        }
+    };
+    Some(value).filter(|x| x.is_finite())
 }
 
 /// The last row of `column` in `bodies.csv` (read as `bodies`) for `body`.

@@ -391,6 +391,15 @@ impl StopSpec {
     }
 }
 
+/// The beginnings of the reasons a stop condition gives (`summary.json`'s `reason`), one
+/// per kind of [`StopSpec`].
+pub const STOP_REASONS: [&str; 4] = ["steady: ", "reaches: ", "wall time: ", "steps: "];
+
+/// Whether `reason` (of a completed run) is a stop condition's.
+pub fn is_stop_reason(reason: &str) -> bool {
+    STOP_REASONS.iter().any(|p| reason.starts_with(p))
+}
+
 /// The names of the case's bodies, field by field.
 fn bodies_of(case: &Case) -> Vec<(&str, Vec<&str>)> {
     case.fields

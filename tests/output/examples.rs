@@ -39,6 +39,8 @@ fn every_example_runs_five_steps_with_finite_energy() {
         assert_eq!(s.status, "completed", "{}: {}", file.display(), s.reason);
         assert_eq!(s.steps, 5, "{}", file.display());
         assert!(s.reason.contains("time.max_steps = 5"), "{}: {}", file.display(), s.reason);
+        // time.max_steps is not a stop condition: a study's `stop_time` stays empty
+        assert!(!multifield::core::monitor::is_stop_reason(&s.reason), "{}", s.reason);
         assert!(s.final_kinetic_energy.is_finite() && s.final_kinetic_energy >= 0.0, "{}", file.display());
         assert!(s.max_divergence < 1e-6, "{}: max divergence {}", file.display(), s.max_divergence);
     }

@@ -297,6 +297,8 @@ fn a_reaches_stop_ends_a_falling_disk_at_the_step_it_crosses() {
     );
     assert_eq!(short.summary.steps, steps[crossing] as u64);
     assert!(short.summary.reason.starts_with("reaches: body `disk` has y = "), "{}", short.summary.reason);
+    // what a study's `Stopped` metric reads as a stop condition's
+    assert!(multifield::core::monitor::is_stop_reason(&short.summary.reason));
 }
 
 /// `Steps(n)` and `WallTime` end runs as completed, with the reason.
@@ -308,10 +310,12 @@ fn steps_and_wall_time_stops_end_the_run_as_completed() {
     let o = run_into(&case, &out_dir("steps"));
     assert_eq!(o.summary.steps, 7);
     assert!(o.summary.reason.starts_with("steps: 7 steps reached"), "{}", o.summary.reason);
+    assert!(multifield::core::monitor::is_stop_reason(&o.summary.reason));
     let case = case_of("wall", &text, "", "WallTime(seconds: 1e-9)", &overrides);
     let o = run_into(&case, &out_dir("wall"));
     assert_eq!(o.summary.steps, 1);
     assert!(o.summary.reason.starts_with("wall time: "), "{}", o.summary.reason);
+    assert!(multifield::core::monitor::is_stop_reason(&o.summary.reason));
 }
 
 /// The cost of the monitors (issue 22's benchmark): the Uhlmann DKT at 16 cells per

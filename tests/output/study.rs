@@ -201,6 +201,7 @@ fn a_small_study_runs_end_to_end_resumes_and_draws_its_charts() {
 fn study_error(name: &str, text_of_study: &str) -> String {
     let dir = scratch(name);
     std::fs::write(dir.join("box.ron"), BOX).unwrap();
+    std::fs::write(dir.join("channel.ron"), CHANNEL).unwrap();
     let file = dir.join("s.ron");
     std::fs::write(&file, text_of_study).unwrap();
     let o = multifield(&["study", file.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()]);
@@ -383,4 +384,136 @@ fn a_baseline_reference_compares_columns_at_the_baselines_times() {
     let want = (sum / count).sqrt() / scale;
     let got = num(&rows[1], "error");
     assert!((got - want).abs() < 1e-6 * want, "error {got} vs {want}");
+}
+
+/// A fixed disk in a short channel at Re 2 (U = 1, D = 0.2, ν = 0.1): a Forces monitor with
+/// coefficients and a Steady stop on its c_D.
+const CHANNEL: &str = r#"(
+    name: "channel", domain: (size: (1.0, 0.5), cells: (32, 16)),
+    boundaries: (left: Velocity(velocity: (1.0, 0.0)), right: Outflow(pressure: 0.0), bottom: NoSlip, top: NoSlip),
+    time: (end: 5.0, cfl: 0.4, max_dt: 0.05),
+    fields: [
+        (name: "water", density: 1.0, frame: (model: "eulerian"), region: Rest,
+         stress: [(model: "newtonian", params: (viscosity: 0.1))]),
+        (name: "cylinder", density: 1.0, frame: (model: "lagrangian"), stress: [(model: "rigid")],
+         region: Bodies([(name: "cylinder", shape: Disk(center: (0.3, 0.25), radius: 0.1), motion: Fixed)])),
+    ],
+    exchange: [(between: ("water", "cylinder"), model: "direct_forcing")],
+    pressure: Some((model: "pcg", params: (tolerance: 1e-10))),
+    output: (interval: 0.5, charts: false),
+    monitors: [(name: "drag", of: Forces(bodies: ["cylinder"], reference: Some((velocity: 1.0, length: 0.2, density: 1.0))))],
+    stop: [Steady(monitor: "drag", column: "c_D", tolerance: 1e-3, window: 0.2)],
+)
+"#;
+
+/// The numbers of column `name` of a CSV file.
+fn csv_column(path: &Path, name: &str) -> Vec<f64> {
+    let t = std::fs::read_to_string(path).unwrap();
+    let mut lines = t.lines();
+    let k = lines.next().unwrap().split(',').position(|h| h == name).unwrap();
+    lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
+}
+
+/// Monitor metrics are the monitor's CSV reduced as documented, and `stop_time` is the
+/// simulated time of a run a stop condition ended (empty for the run that reached its end).
+#[test]
+fn monitor_metrics_and_the_stop_time_are_read_from_each_run() {
+    let dir = scratch("monitor_metrics");
+    std::fs::write(dir.join("channel.ron"), CHANNEL).unwrap();
+    let study = dir.join("s.ron");
+    std::fs::write(
+        &study,
+        r#"(name: "s", base: "channel.ron",
+            axes: [(name: "end", values: List(path: "time.end", values: [0.3, 5.0]))],
+            metrics: [
+                Monitor(monitor: "drag", column: "c_D"),
+                Monitor(monitor: "drag", column: "c_D", of: Mean),
+                Monitor(monitor: "drag", column: "fx", of: Max),
+                Monitor(monitor: "drag", column: "c_L", of: Min),
+                Stopped,
+            ],
+            charts: [AccuracyCost(series: [])])"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = multifield(&["study", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rows = table(&out.join("results.csv"));
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        let run = out.join(&row["directory"]);
+        let csv = run.join("monitors").join("drag.csv");
+        let (t, cd, fx, cl) =
+            (csv_column(&csv, "time"), csv_column(&csv, "c_D"), csv_column(&csv, "fx"), csv_column(&csv, "c_L"));
+        assert!(cd.len() > 3, "{} rows", cd.len());
+        assert_eq!(num(row, "drag_c_D"), *cd.last().unwrap(), "{row:?}");
+        let mut area = 0.0;
+        for k in 1..t.len() {
+            area += (t[k] - t[k - 1]) * (cd[k] + cd[k - 1]) / 2.0;
+        }
+        let mean = area / (t[t.len() - 1] - t[0]);
+        let got = num(row, "mean_drag_c_D");
+        assert!((got - mean).abs() <= 1e-12 * mean.abs(), "mean {got} vs {mean}");
+        // a time-weighted mean, not the mean of the rows
+        let rows_mean = cd.iter().sum::<f64>() / cd.len() as f64;
+        assert!((got - rows_mean).abs() > 1e-9, "mean {got} vs the rows' {rows_mean}");
+        assert_eq!(num(row, "max_drag_fx"), fx.iter().copied().fold(f64::MIN, f64::max));
+        assert_eq!(num(row, "min_drag_c_L"), cl.iter().copied().fold(f64::MAX, f64::min));
+        let summary: String = std::fs::read_to_string(run.join("summary.json")).unwrap();
+        let simulated: f64 = summary
+            .split("\"simulated_time\":")
+            .nth(1)
+            .unwrap()
+            .split([',', '\n', '}'])
+            .next()
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        if row["end"] == "5" {
+            assert!(row["reason"].starts_with("steady: drag.c_D changed"), "{row:?}");
+            assert!(simulated < 5.0 && simulated > 0.3, "stopped at {simulated}");
+            assert_eq!(num(row, "stop_time"), simulated);
+        } else {
+            assert!((simulated - 0.3).abs() < 1e-9, "the short run reaches its end: {simulated}");
+            assert_eq!(row["stop_time"], "", "no stop condition fired: {row:?}");
+        }
+    }
+}
+
+#[test]
+fn a_monitor_metric_of_an_unknown_monitor_or_column_is_refused() {
+    let e = study_error(
+        "unknown_monitor",
+        r#"(name: "s", base: "channel.ron",
+            axes: [(name: "end", values: List(path: "time.end", values: [1.0]))],
+            metrics: [Monitor(monitor: "drg", column: "c_D", of: Final)])"#,
+    );
+    assert!(
+        e.contains("metrics.0.monitor")
+            && e.contains("no monitor named `drg`; its monitors: drag")
+            && e.contains("did you mean `drag`?"),
+        "{e}"
+    );
+    let e = study_error(
+        "unknown_monitor_column",
+        r#"(name: "s", base: "channel.ron",
+            axes: [(name: "end", values: List(path: "time.end", values: [1.0]))],
+            metrics: [Stopped, Monitor(monitor: "drag", column: "cD", of: Mean)])"#,
+    );
+    assert!(
+        e.contains("metrics.1.column")
+            && e.contains("`cD` is not a column of monitors/drag.csv")
+            && e.contains("c_D, c_L, c_M"),
+        "{e}"
+    );
+    // a combination whose overrides drop the coefficients: named with its combination
+    let e = study_error(
+        "monitor_column_of_a_combination",
+        r#"(name: "s", base: "channel.ron",
+            axes: [(name: "reference", values: List(path: "monitors.0.of.Forces.reference", values: ["Some((velocity: 1.0, length: 0.2, density: 1.0))", "None"]))],
+            set: ["stop=[]"],
+            metrics: [Monitor(monitor: "drag", column: "c_D")])"#,
+    );
+    assert!(e.contains("run 2 of 2") && e.contains("`c_D` is not a column of monitors/drag.csv"), "{e}");
 }
