@@ -115,7 +115,7 @@ fn at_end_writes_one_snapshot_at_the_last_step() {
     }
 }
 
-/// The fixed cylinder of the Schäfer–Turek channel (5 cells per diameter), its wake
+/// The fixed cylinder of the Schäfer–Turek channel (10 cells per diameter), its wake
 /// established by t = 2: a step landed on t = 2.5013 (a fraction of the normal Δt) reports
 /// a force in line with its neighbours. The deviation of the landed row from the mean of
 /// the rows either side is below the change between consecutive rows around it.
@@ -124,13 +124,7 @@ fn a_landed_step_reports_the_fixed_bodys_force_in_line_with_its_neighbours() {
     let landing = 2.5013;
     let case = load(
         "examples/cylinder_channel.ron",
-        &[
-            "domain.cells=(110, 21)",
-            "time.end=2.6",
-            "output.interval=0",
-            "output.snapshots=Some((times: [2.5013]))",
-            "output.charts=false",
-        ],
+        &["time.end=2.55", "output.interval=0", "output.snapshots=Some((times: [2.5013]))", "output.charts=false"],
     );
     let dir = out_dir("cylinder");
     run_into(&case, &dir);
