@@ -434,10 +434,25 @@ fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Fa
         if c.output.interval > 0.0 { format!("{} of simulated time", c.output.interval) } else { "step".into() }
     );
     let names = |v: &[crate::core::case::QuantityName]| v.iter().map(|q| q.as_str()).collect::<Vec<_>>().join(", ");
+    // "every 0.1", "at t = 0.5, 1, at the end", …
+    let when = |interval: crate::core::math::Real, times: &[crate::core::math::Real], at_end: bool| {
+        let mut parts = Vec::new();
+        if interval > 0.0 {
+            parts.push(format!("every {interval}"));
+        }
+        if !times.is_empty() {
+            let list: Vec<String> = times.iter().map(|t| t.to_string()).collect();
+            parts.push(format!("at t = {}", list.join(", ")));
+        }
+        if at_end && interval == 0.0 {
+            parts.push("at the end".to_string());
+        }
+        parts.join(", ")
+    };
     if let Some(s) = &c.output.snapshots {
         println!(
-            "output   a snapshot every {} (mixture: {}; each field: {}; points: {})",
-            s.interval,
+            "output   a snapshot {} (mixture: {}; each field: {}; points: {})",
+            when(s.interval, &s.times, s.at_end),
             names(&s.mixture),
             names(&s.fields),
             names(&s.points)
@@ -446,7 +461,8 @@ fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Fa
     if let Some(p) = &c.output.pictures {
         let (q, field) = crate::picture::picked(&sim, p).map_err(|e| Failure::Input(e.in_file(file)))?;
         let of = field.map_or("the mixture".to_string(), |k| format!("field {}", sim.fields[k].name));
-        println!("output   a picture of the {} of {of} every {}, {} pixels wide", q.name, p.interval, p.width);
+        let w = when(p.interval, &p.times, p.at_end);
+        println!("output   a picture of the {} of {of} {w}, {} pixels wide", q.name, p.width);
     }
     if let Some(k) = &c.output.checkpoints {
         println!("output   a checkpoint every {}", k.interval);

@@ -56,6 +56,51 @@ impl Due {
     }
 }
 
+/// When a writer with an optional interval, exact times and `at_end` writes
+/// (`output.snapshots`, `output.pictures`): on its interval schedule ([`Due`]), at the
+/// first step that reaches each of its `times` (the step lands on it, see
+/// [`crate::core::case::OutputSpec::next_moment`]), and at the run's last step when it has
+/// an interval or `at_end`. The times still to come are derived from the simulated time,
+/// so a run continued from a checkpoint needs no state of this schedule.
+#[derive(Clone, Debug)]
+pub struct Moments {
+    due: Option<Due>,
+    times: Vec<Real>,
+    pending: usize,
+    at_end: bool,
+}
+
+impl Moments {
+    /// The schedule of `due` (none without an interval), `times` and `at_end` for a run at
+    /// simulated time `t`: the times reached by `t` are past.
+    pub fn new(due: Option<Due>, times: &[Real], at_end: bool, t: Real) -> Self {
+        let pending = crate::core::case::first_pending(times, t);
+        let at_end = at_end || due.is_some();
+        Self { due, times: times.to_vec(), pending, at_end }
+    }
+    /// Whether a write is due at time `t` on the `last` step, without moving the schedule.
+    pub fn peek(&self, t: Real, last: bool) -> bool {
+        self.due.is_some_and(|d| d.peek(t))
+            || self.times.get(self.pending).is_some_and(|&m| crate::core::case::moment_reached(m, t))
+            || (last && self.at_end)
+    }
+    /// Whether a write is due at time `t` on the `last` step; moves the schedule past `t`.
+    pub fn check(&mut self, t: Real, last: bool) -> bool {
+        let interval = self.due.as_mut().is_some_and(|d| d.check(t));
+        let before = self.pending;
+        self.pending = before + crate::core::case::first_pending(&self.times[before..], t);
+        interval || self.pending > before || (last && self.at_end)
+    }
+    /// Whether it has an interval (whose schedule starts with a write at t = 0).
+    pub fn has_interval(&self) -> bool {
+        self.due.is_some()
+    }
+    /// Whether `t` is one of the exact times, to round-off.
+    pub fn is_exact_time(&self, t: Real) -> bool {
+        self.times.iter().any(|&m| (t - m).abs() <= 1e-12 * m)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -66,6 +111,17 @@ mod tests {
         let fired: Vec<Real> = (0..=25).map(|k| k as Real * 0.02).filter(|&t| d.check(t)).collect();
         assert_eq!(fired.len(), 6, "{fired:?}");
         assert!((fired[1] - 0.1).abs() < 1e-12 && (fired[5] - 0.5).abs() < 1e-12, "{fired:?}");
+    }
+
+    #[test]
+    fn moments_fire_at_each_time_once_and_at_the_end() {
+        let mut m = Moments::new(None, &[0.25, 0.5], true, 0.0);
+        let steps = [0.1, 0.2, 0.25 - 1e-15, 0.3, 0.5, 0.6];
+        let fired: Vec<bool> = steps.iter().enumerate().map(|(k, &t)| m.check(t, k == steps.len() - 1)).collect();
+        assert_eq!(fired, [false, false, true, false, true, true]);
+        // continued at t = 0.25: only 0.5 is to come
+        let m = Moments::new(None, &[0.25, 0.5], false, 0.25);
+        assert!(!m.peek(0.3, true) && m.peek(0.5, false));
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //!
 //! The run writes `frames/frame_000000.png`, `frame_000001.png`, … numbered by frame: the
 //! first at t = 0, then every `output.pictures.interval` of simulated time, and always the
-//! last step of the run. Each picture is `width` pixels wide: the domain with its aspect
+//! last step of the run; or, as for snapshots, at exact `times: [...]` (the step lands on
+//! each) and `at_end: true`, with or without an interval. Each picture is `width` pixels wide: the domain with its aspect
 //! (y up), a band above it with the case name and the time, and a band below with the
 //! colour bar and its numeric range. What the colours show is a cell quantity of the
 //! registry ([`crate::core::quantity`]; `multifield quantities` lists them, plugins add
@@ -50,7 +51,7 @@ use crate::core::grid::Grid;
 use crate::core::math::Real;
 use crate::core::quantity::{self, Colours, Place, PointSet, Quantity, Sample};
 use crate::core::simulation::Simulation;
-use crate::output::Due;
+use crate::output::{Due, Moments};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use rayon::prelude::*;
@@ -468,6 +469,16 @@ fn time_label(t: Real, interval: Real) -> String {
     format!("t = {t:.decimals$}")
 }
 
+/// The number of frames an uninterrupted run has drawn by a step at time `t` > 0 (when
+/// every interval holds a step of its own): ⌊t/Δ⌋ + 1 on the interval, and one per exact
+/// time reached by `t` that is not a multiple of the interval.
+fn kept_frames(spec: &PictureSpec, t: Real) -> usize {
+    let on_interval = if spec.interval > 0.0 { (t / spec.interval + 1e-9).floor() as usize + 1 } else { 0 };
+    let multiple = |m: Real| spec.interval > 0.0 && ((m / spec.interval).round() * spec.interval - m).abs() <= 1e-9 * m;
+    let exact = spec.times.iter().filter(|&&m| crate::core::case::moment_reached(m, t) && !multiple(m)).count();
+    on_interval + exact
+}
+
 /// Name of frame `k`.
 pub fn frame_name(k: usize) -> String {
     format!("frame_{k:06}.png")
@@ -478,7 +489,7 @@ pub struct Pictures {
     dir: PathBuf,
     spec: PictureSpec,
     layout: Layout,
-    due: Due,
+    due: Moments,
     next: usize,
     last_step: Option<u64>,
     resumed: bool,
@@ -492,10 +503,12 @@ impl Pictures {
     /// draws on from frame K: the frames of the continued run are those of an
     /// uninterrupted one (when every interval holds a step, i.e. Δt ≤ Δ).
     pub fn create(sim: &Simulation, dir: &Path, spec: PictureSpec) -> Result<Self, Error> {
-        if !(spec.interval > 0.0 && spec.interval.is_finite()) {
+        if !(spec.interval >= 0.0 && spec.interval.is_finite())
+            || (spec.interval == 0.0 && spec.times.is_empty() && !spec.at_end)
+        {
             return Err(Error::invalid(
                 "output.pictures.interval",
-                format!("{}: must be a positive time", spec.interval),
+                format!("{}: must be a positive time (or give times or at_end)", spec.interval),
             ));
         }
         picked(sim, &spec)?;
@@ -527,14 +540,15 @@ impl Pictures {
                 Some((k.parse().ok()?, e.path()))
             })
             .collect();
-        let keep = if sim.steps == 0 { 0 } else { (sim.time / spec.interval + 1e-9).floor() as usize + 1 };
+        let keep = if sim.steps == 0 { 0 } else { kept_frames(&spec, sim.time) };
         for (_, p) in existing.iter().filter(|(k, _)| *k >= keep) {
             std::fs::remove_file(p).map_err(|source| Error::Io { path: p.clone(), source })?;
         }
         let next = keep;
         // a continued run's state at T is that of a step drawn (or not due) before
         let resumed = sim.steps > 0;
-        let due = Due::new(0.0, spec.interval);
+        let due =
+            Moments::new((spec.interval > 0.0).then(|| Due::new(0.0, spec.interval)), &spec.times, spec.at_end, 0.0);
         Ok(Self { dir: frames, spec, layout, due, next, last_step: None, resumed })
     }
 
@@ -562,18 +576,18 @@ impl Writer for Pictures {
         true
     }
     fn needs_grid_state(&self, step: &Step) -> bool {
-        (self.due.peek(step.sim.time) || step.last) && self.last_step != Some(step.sim.steps)
+        self.due.peek(step.sim.time, step.last) && self.last_step != Some(step.sim.steps)
     }
     fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
-        if self.due.check(sim.time) && !self.resumed {
+        if self.due.check(sim.time, false) && !self.resumed {
             self.draw(sim)?;
         }
         Ok(())
     }
     fn after_step(&mut self, step: &Step) -> Result<(), Error> {
         let (sim, last) = (step.sim, step.last);
-        let due = self.due.check(sim.time);
-        if (due || last) && self.last_step != Some(sim.steps) {
+        let due = self.due.check(sim.time, last);
+        if due && self.last_step != Some(sim.steps) {
             self.draw(sim)?;
         }
         Ok(())

@@ -5,7 +5,11 @@
 //!
 //! - `snapshot_000000.h5`, `snapshot_000001.h5`, …: one file per output time, numbered by
 //!   output index: t = 0, then every `interval` of simulated time (the first step at or past
-//!   each multiple), and always the last step of the run, whatever ended it;
+//!   each multiple), and always the last step of the run, whatever ended it; with `times:
+//!   [...]`, also at each of those times (the step lands on it, so the snapshot's `time` is
+//!   the requested one to round-off); with `at_end: true`, the last step (`interval` may be
+//!   left out: `Some((at_end: true))` writes one snapshot, at the end, and `Some((times:
+//!   [0.5, 1.0]))` two, with none at t = 0);
 //! - `<case name>.xdmf`: a temporal collection of every snapshot written so far, rewritten
 //!   after each one, which ParaView ("Xdmf Reader") and VisIt open as a time series.
 //!
@@ -96,7 +100,7 @@ use crate::core::grid::Grid;
 use crate::core::math::Real;
 use crate::core::quantity::{self, Compute, Place, Quantity, Sample};
 use crate::core::simulation::Simulation;
-use crate::output::{write_atomically, Due};
+use crate::output::{write_atomically, Due, Moments};
 use hdf5_pure::{AttrValue, FileBuilder, GroupBuilder, LibVer};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -549,7 +553,7 @@ pub struct Snapshots {
     dir: PathBuf,
     xdmf: PathBuf,
     case: String,
-    due: Due,
+    due: Moments,
     grid: Grid,
     written: Vec<Entry>,
     next_index: usize,
@@ -562,10 +566,10 @@ impl Snapshots {
     /// before it, which stay in the XDMF and keep their numbers.
     pub fn create(sim: &Simulation, dir: &Path, spec: SnapshotSpec) -> Result<Self, Error> {
         let interval = spec.interval;
-        if !(interval.is_finite() && interval > 0.0) {
+        if !(interval.is_finite() && interval >= 0.0) || (interval == 0.0 && spec.times.is_empty() && !spec.at_end) {
             return Err(Error::invalid(
                 "output.snapshots.interval",
-                format!("{interval}: must be a positive time between snapshots"),
+                format!("{interval}: must be a positive time between snapshots (or give times or at_end)"),
             ));
         }
         let folder = dir.join(FOLDER);
@@ -595,13 +599,16 @@ impl Snapshots {
         kept.sort_by(|a, b| a.file.cmp(&b.file));
         // numbered on: a gap in the numbers (a file removed by hand) is kept, never overwritten
         let next_index = kept.iter().filter_map(|e| e.index()).max().map_or(0, |k| k + 1);
-        // the schedule continues on the multiples of the interval
-        let first = (sim.time / interval - 1e-9).ceil().max(0.0) * interval;
+        // the schedule continues on the multiples of the interval, and the exact times after now
+        let due = (interval > 0.0).then(|| {
+            let first = (sim.time / interval - 1e-9).ceil().max(0.0) * interval;
+            Due::new(first, interval)
+        });
         Ok(Self {
             dir: folder.clone(),
             xdmf: folder.join(xdmf_name(&sim.case.name)),
             case: sim.case.name.clone(),
-            due: Due::new(first, interval),
+            due: Moments::new(due, &spec.times, spec.at_end, sim.time),
             grid: sim.grid.clone(),
             written: kept,
             next_index,
@@ -634,18 +641,25 @@ impl Snapshots {
     /// Whether [`Snapshots::after_step`] writes now.
     pub fn due(&self, sim: &Simulation, last: bool) -> bool {
         let done = self.written.last().is_some_and(|e| e.step == sim.steps);
-        (self.due.peek(sim.time) || last) && !done
+        self.due.peek(sim.time, last) && !done
     }
-    /// The snapshot at the start (t = 0, or the restart time).
+    /// The snapshot at the start (t = 0, or the restart time) with an interval; without
+    /// one, only a run continued from a step that landed on one of the `times` writes it
+    /// again (its file from before the checkpoint's step was removed).
     pub fn start(&mut self, sim: &Simulation) -> Result<(), Error> {
-        self.due.check(sim.time);
-        self.write(sim)
+        let interval = self.due.has_interval();
+        self.due.check(sim.time, false);
+        if interval || (sim.steps > 0 && self.due.is_exact_time(sim.time)) {
+            self.write(sim)?;
+        }
+        Ok(())
     }
-    /// After a step: a snapshot when one is due, and at the run's `last` step (once).
+    /// After a step: a snapshot when one is due, and at the run's `last` step (once) with
+    /// an interval or `at_end`.
     pub fn after_step(&mut self, sim: &Simulation, last: bool) -> Result<(), Error> {
-        let due = self.due.check(sim.time);
+        let due = self.due.check(sim.time, last);
         let done = self.written.last().is_some_and(|e| e.step == sim.steps);
-        if (due || last) && !done {
+        if due && !done {
             self.write(sim)?;
         }
         Ok(())

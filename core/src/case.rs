@@ -495,6 +495,35 @@ fn yes() -> bool {
     true
 }
 
+fn is_zero(x: &Real) -> bool {
+    *x == 0.0
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// Whether the output time `moment` has been reached at simulated time `t` (to round-off:
+/// a step that landed on it may stop a few ulps short).
+pub fn moment_reached(moment: Real, t: Real) -> bool {
+    t >= moment - 1e-12 * moment.abs()
+}
+
+/// The first of the increasing `times` not yet reached at `t` ([`moment_reached`]).
+pub fn first_pending(times: &[Real], t: Real) -> usize {
+    times.partition_point(|&m| moment_reached(m, t))
+}
+
+impl OutputSpec {
+    /// The next exact output time (`times` of the snapshots or pictures) not yet reached at
+    /// `t`, on which the time step lands.
+    pub fn next_moment(&self, t: Real) -> Option<Real> {
+        let s = self.snapshots.as_ref().map(|s| s.times.as_slice()).unwrap_or_default();
+        let p = self.pictures.as_ref().map(|p| p.times.as_slice()).unwrap_or_default();
+        [s, p].into_iter().filter_map(|v| v.get(first_pending(v, t)).copied()).reduce(Real::min)
+    }
+}
+
 impl Default for OutputSpec {
     fn default() -> Self {
         Self { interval: 0.0, snapshots: None, pictures: None, checkpoints: None, charts: true }
@@ -515,8 +544,17 @@ pub struct Schedule {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SnapshotSpec {
-    /// Simulated time between snapshots (time).
+    /// Simulated time between snapshots (time): the first at t = 0, then every `interval`,
+    /// and always the run's last step. 0 (or left out): none on an interval.
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub interval: Real,
+    /// Exact simulated times of further snapshots, increasing, in (0, `time.end`]: the step
+    /// is shortened to land on each ([`OutputSpec::next_moment`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub times: Vec<Real>,
+    /// A snapshot of the run's last step, whatever ended it (implied by an `interval`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub at_end: bool,
     /// Cell quantities of the mixture (`/<name>`). Default: pressure, velocity, vorticity.
     #[serde(default = "default_mixture_quantities", skip_serializing_if = "is_default_mixture")]
     pub mixture: Vec<QuantityName>,
@@ -564,6 +602,8 @@ impl SnapshotSpec {
     pub fn every(interval: Real) -> Self {
         Self {
             interval,
+            times: Vec::new(),
+            at_end: false,
             mixture: default_mixture_quantities(),
             fields: default_field_quantities(),
             points: default_point_quantities(),
@@ -622,8 +662,17 @@ fn default_picture_quantity() -> QuantityName {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PictureSpec {
-    /// Simulated time between pictures (time).
+    /// Simulated time between pictures (time): the first at t = 0, then every `interval`,
+    /// and always the run's last step. 0 (or left out): none on an interval.
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub interval: Real,
+    /// Exact simulated times of further pictures, increasing, in (0, `time.end`]: the step
+    /// is shortened to land on each ([`OutputSpec::next_moment`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub times: Vec<Real>,
+    /// A picture of the run's last step, whatever ended it (implied by an `interval`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub at_end: bool,
     /// What the colours show: a cell quantity ([`crate::quantity`]). Default: vorticity.
     #[serde(default = "default_picture_quantity")]
     pub quantity: QuantityName,
@@ -1059,14 +1108,51 @@ impl Case {
         if !(self.output.interval >= 0.0) {
             return bad("output.interval", format!("{}: must be zero (every step) or positive", self.output.interval));
         }
-        for (path, interval) in [
-            ("output.snapshots.interval", self.output.snapshots.as_ref().map(|s| s.interval)),
-            ("output.pictures.interval", self.output.pictures.as_ref().map(|s| s.interval)),
-            ("output.checkpoints.interval", self.output.checkpoints.map(|s| s.interval)),
-        ] {
-            if let Some(interval) = interval {
-                if !(interval > 0.0 && interval.is_finite()) {
-                    return bad(path, format!("{interval}: must be a positive time (or leave the entry out)"));
+        if let Some(c) = self.output.checkpoints {
+            if !(c.interval > 0.0 && c.interval.is_finite()) {
+                return bad(
+                    "output.checkpoints.interval",
+                    format!("{}: must be a positive time (or leave the entry out)", c.interval),
+                );
+            }
+        }
+        let moments = [
+            ("output.snapshots", self.output.snapshots.as_ref().map(|s| (s.interval, &s.times, s.at_end))),
+            ("output.pictures", self.output.pictures.as_ref().map(|p| (p.interval, &p.times, p.at_end))),
+        ];
+        for (path, spec) in moments {
+            let Some((interval, times, at_end)) = spec else { continue };
+            if !(interval >= 0.0 && interval.is_finite()) {
+                return bad(
+                    &format!("{path}.interval"),
+                    format!("{interval}: must be a positive time (or 0 / left out for none on an interval)"),
+                );
+            }
+            if interval == 0.0 && times.is_empty() && !at_end {
+                return bad(
+                    path,
+                    "nothing to write: give an `interval`, `times: [...]` or `at_end: true` (or leave the entry out)"
+                        .into(),
+                );
+            }
+            if times.len() > crate::limits::MAX_LIST {
+                return bad(
+                    &format!("{path}.times"),
+                    format!("{} times; at most {}", times.len(), crate::limits::MAX_LIST),
+                );
+            }
+            for (k, &t) in times.iter().enumerate() {
+                if !(t > 0.0 && t.is_finite() && t <= self.time.end) {
+                    return bad(
+                        &format!("{path}.times.{k}"),
+                        format!("{t}: must be a finite time in (0, time.end = {}]", self.time.end),
+                    );
+                }
+                if k > 0 && !(t > times[k - 1]) {
+                    return bad(
+                        &format!("{path}.times.{k}"),
+                        format!("{t}: the times must increase (the one before is {})", times[k - 1]),
+                    );
                 }
             }
         }

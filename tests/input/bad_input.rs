@@ -385,3 +385,35 @@ fn a_probe_outside_the_domain_and_a_tolerance_not_positive_are_refused() {
         assert_contains(&stderr, &["monitors.p.of.points", "(0.5, 1.5) lies outside the domain"]);
     }
 }
+
+#[test]
+fn output_times_beyond_the_end_negative_nan_or_unordered_are_refused_with_the_entry() {
+    let with = |output: &str| GOOD.replace("    pressure:", &format!("    output: ({output}),\n    pressure:"));
+    // good: increasing times in (0, time.end], and at_end alone
+    multifield::link_all();
+    for good in ["snapshots: Some((times: [0.05, 0.1]))", "pictures: Some((at_end: true))"] {
+        let path = case_file("times_good.ron", &with(good));
+        Simulation::new(&Case::load(&path, &[]).unwrap()).unwrap();
+    }
+    let cases = [
+        (
+            "snapshots: Some((times: [0.05, 0.2]))",
+            "output.snapshots.times.1",
+            "0.2: must be a finite time in (0, time.end = 0.1]",
+        ),
+        ("snapshots: Some((times: [-0.05]))", "output.snapshots.times.0", "-0.05"),
+        ("pictures: Some((times: [0.01, NaN]))", "output.pictures.times", "NaN"),
+        ("pictures: Some((times: [0.05, 0.02]))", "output.pictures.times.1", "the times must increase"),
+        ("snapshots: Some(())", "output.snapshots", "nothing to write"),
+    ];
+    for (k, (output, entry, what)) in cases.iter().enumerate() {
+        let path = case_file(&format!("times{k}.ron"), &with(output));
+        let (code, _, stderr) = multifield(&["run", path.to_str().unwrap(), "--out", env!("CARGO_TARGET_TMPDIR")]);
+        assert_eq!(code, 2, "{output}: {stderr}");
+        assert_contains(&stderr, &[entry, what]);
+    }
+    // more times than the list cap
+    let many: Vec<String> = (1..=65).map(|k| format!("{}", k as f64 * 0.001)).collect();
+    let m = error_of("times_many.ron", &with(&format!("snapshots: Some((times: [{}]))", many.join(", "))), &[]);
+    assert_contains(&m, &["output.snapshots.times", "65 times; at most 64"]);
+}

@@ -5,6 +5,7 @@
 
 mod driver;
 mod examples;
+mod moments;
 mod monitors;
 mod output_contract;
 mod pictures;

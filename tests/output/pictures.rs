@@ -525,5 +525,12 @@ fn inflate(data: &[u8]) -> Vec<u8> {
 
 /// A picture of `quantity` (the mixture's, or the field that fills the rest) every 0.1.
 fn picture(quantity: &str, width: u32) -> PictureSpec {
-    PictureSpec { interval: 0.1, quantity: QuantityName(quantity.into()), field: None, width }
+    PictureSpec {
+        interval: 0.1,
+        times: Vec::new(),
+        at_end: false,
+        quantity: QuantityName(quantity.into()),
+        field: None,
+        width,
+    }
 }

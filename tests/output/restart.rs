@@ -555,3 +555,54 @@ fn a_killed_process_leaves_readable_checkpoints_and_continues_from_them() {
     let (a, b) = (reference.join("checkpoints").join(&name), out.join("checkpoints").join(&name));
     assert!(std::fs::read(a).unwrap() == std::fs::read(b).unwrap(), "final checkpoints differ");
 }
+
+/// Snapshots at exact times (the steps land on them) and at the end, continued from a
+/// checkpoint between two of the times: the restarted run lands on the same times and
+/// writes the same snapshots (same steps, times and arrays, bit for bit) as the
+/// uninterrupted one after the checkpoint.
+#[test]
+fn a_restarted_run_writes_the_same_snapshots_at_the_requested_times() {
+    multifield::link_all();
+    let case = taylor_green(&[
+        "time.end=0.2",
+        "output.snapshots=Some((times: [0.033, 0.077, 0.15], at_end: true))",
+        "output.pictures=Some((times: [0.077, 0.15], width: 64))",
+        "output.checkpoints=Some((interval: 0.1))",
+    ]);
+    restart_reproduces_the_run("moments", &case);
+    let read_all = |dir: &Path| -> Vec<multifield::snapshot::Snapshot> {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(dir.join("snapshots"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "h5"))
+            .collect();
+        files.sort();
+        files.iter().map(|p| multifield::snapshot::Snapshot::read(p).unwrap()).collect()
+    };
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join("moments");
+    let (full, restarted) = (read_all(&root.join("full")), read_all(&root.join("restarted")));
+    let times: Vec<Real> = full.iter().map(|s| s.time).collect();
+    assert_eq!(times.len(), 4, "three times and the end: {times:?}");
+    for (t, want) in times.iter().zip([0.033, 0.077, 0.15, 0.2]) {
+        assert!((t - want).abs() <= 1e-12 * want, "{times:?}");
+    }
+    // the checkpoint is at the first step at or past 0.1: the restarted run writes the last two
+    let after: Vec<_> = full.iter().filter(|s| s.time > 0.1).collect();
+    assert_eq!(after.len(), 2);
+    assert_eq!(restarted.len(), after.len(), "{:?}", restarted.iter().map(|s| s.time).collect::<Vec<_>>());
+    for (a, b) in after.iter().zip(&restarted) {
+        assert_eq!((a.step, a.time.to_bits()), (b.step, b.time.to_bits()));
+        assert!(**a == *b, "the snapshot of step {} differs", a.step);
+    }
+    // the pictures: two in the full run; the restarted one draws the second, numbered on
+    let names = |d: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d.join("frames"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(names(&root.join("full")), ["frame_000000.png", "frame_000001.png"]);
+    assert_eq!(names(&root.join("restarted")), ["frame_000001.png"]);
+}

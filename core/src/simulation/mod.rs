@@ -25,6 +25,7 @@ mod checks;
 mod momentum_exchange;
 mod projection;
 mod step;
+pub use step::OUTPUT_TIME;
 
 pub use checks::MASS_POINT_FRAME;
 use checks::*;

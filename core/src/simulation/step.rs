@@ -5,9 +5,33 @@
 use super::*;
 use crate::grid::FaceVelocity;
 
+/// The limit of a step shortened to land on an exact output time ([`Simulation::choose_dt`]).
+pub const OUTPUT_TIME: &str = "output time";
+
 impl Simulation {
-    /// The next time step and what limits it.
+    /// The next time step and what limits it: the stable Δt (or `time.fixed_dt`), cut to
+    /// land on `time.end` ("end") and on the next exact output time
+    /// ([`crate::case::OutputSpec::next_moment`], [`OUTPUT_TIME`]); the steps after go on
+    /// with the normal Δt.
     pub fn choose_dt(&self) -> (Real, String) {
+        let (dt, label) = self.choose_dt_to_end();
+        // shortened to land on the next exact output time (`output.snapshots.times`, …)
+        match self.case.output.next_moment(self.time) {
+            Some(m) => {
+                let r = m - self.time;
+                let lands_at_end = label == "end" && r >= dt * (1.0 - 1e-12);
+                if r > 0.0 && r < dt * (1.0 + 1e-9) && !lands_at_end {
+                    (r, OUTPUT_TIME.to_string())
+                } else {
+                    (dt, label)
+                }
+            }
+            None => (dt, label),
+        }
+    }
+
+    /// The Δt of [`Simulation::choose_dt`] before it lands on an output time.
+    fn choose_dt_to_end(&self) -> (Real, String) {
         let t = &self.case.time;
         let remaining = t.end - self.time;
         if let Some(dt) = t.fixed_dt {
