@@ -187,11 +187,12 @@ pub trait StopCheck {
 pub struct FiniteSolution;
 
 impl StopCheck for FiniteSolution {
-    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
-        (!d.kinetic_energy.is_finite() || !d.max_speed.is_finite()).then(|| {
+    fn check(&mut self, sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        let strain = !sim.steps_alone() && !d.strain_energy.is_finite();
+        (!d.kinetic_energy.is_finite() || !d.max_speed.is_finite() || strain).then(|| {
             format!(
-                "non-finite solution at step {}, t = {}: kinetic energy {}, largest speed {}",
-                d.step, d.time, d.kinetic_energy, d.max_speed
+                "non-finite solution at step {}, t = {}: kinetic energy {}, strain energy {}, largest speed {}",
+                d.step, d.time, d.kinetic_energy, d.strain_energy, d.max_speed
             )
         })
     }
@@ -202,9 +203,9 @@ impl StopCheck for FiniteSolution {
 pub struct EnergyBound(pub Real);
 
 impl StopCheck for EnergyBound {
-    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+    fn check(&mut self, sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
         let bound = self.0;
-        let energy = d.kinetic_energy + d.strain_energy;
+        let energy = mechanical_energy(sim, d);
         (energy > bound).then(|| {
             format!(
                 "mechanical energy {energy:e} (kinetic {:e}, strain {:e}) at step {}, t = {} exceeds the bound \
@@ -232,15 +233,14 @@ impl EnergyCollapse {
     /// The check of `sim` from its current state, judging energies above 10⁻¹² × the
     /// [`reference_energy`].
     pub fn of(sim: &Simulation) -> Self {
-        let previous =
-            if sim.steps > 0 { sim.last.kinetic_energy + sim.last.strain_energy } else { sim.initial_energy };
+        let previous = if sim.steps > 0 { mechanical_energy(sim, &sim.last) } else { sim.initial_energy };
         Self { previous, floor: 1e-12 * reference_energy(sim) }
     }
 }
 
 impl StopCheck for EnergyCollapse {
-    fn check(&mut self, _sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
-        let (before, energy) = (self.previous, d.kinetic_energy + d.strain_energy);
+    fn check(&mut self, sim: &Simulation, d: &StepDiagnostics) -> Option<String> {
+        let (before, energy) = (self.previous, mechanical_energy(sim, d));
         self.previous = energy;
         (before > self.floor && energy * ENERGY_COLLAPSE < before).then(|| {
             format!(
@@ -250,6 +250,16 @@ impl StopCheck for EnergyCollapse {
                 d.step, d.time, d.dt, d.dt_limit
             )
         })
+    }
+}
+
+/// Kinetic + strain energy of the step `d` of `sim` (kinetic only where the only field
+/// steps alone and computes no strain energy).
+pub fn mechanical_energy(sim: &Simulation, d: &StepDiagnostics) -> Real {
+    if sim.steps_alone() {
+        d.kinetic_energy
+    } else {
+        d.kinetic_energy + d.strain_energy
     }
 }
 

@@ -106,7 +106,8 @@ pub struct StepDiagnostics {
     /// Total kinetic energy.
     pub kinetic_energy: Real,
     /// Elastic energy stored in the material points, Σ_p V⁰_p ψ(F_p), of the stress models
-    /// that define a strain-energy density ψ (0 when none does).
+    /// that define a strain-energy density ψ (0 when none does; NaN when the only field
+    /// steps alone: its fast path does not compute it, as it computes no Σθ).
     pub strain_energy: Real,
     /// Total linear momentum.
     pub momentum: Vector,
@@ -295,6 +296,12 @@ impl Simulation {
     /// Total kinetic energy.
     pub fn kinetic_energy(&self) -> Real {
         self.fields.iter().map(|f| f.frame.kinetic_energy()).sum()
+    }
+
+    /// Whether the only field steps alone (the collocated fast path): none of the
+    /// multifield phases runs, and neither Σθ nor the strain energy is computed per step.
+    pub fn steps_alone(&self) -> bool {
+        self.alone
     }
 
     /// Elastic energy stored in the fields' material points ([`Frame::strain_energy`]).
