@@ -23,7 +23,7 @@
 //! | position | step, simulated time |
 //! | case | the case as run, RON text as in `case.ron` (every default filled in) |
 //! | runner | [`RunnerState`]: next diagnostics time, whether the last step has its row, rows written, the summary's running figures, next checkpoint time |
-//! | simulation | [`Simulation::save_state`]: time, steps, pressure (the warm start of the next solve), last step's figures, initial energy, contact forces, every field's grid state and its frame's own state, each the frame's derived struct in postcard (Eulerian: θ, face velocities, steps taken; Lagrangian: every point array including the APIC matrices, and each body's state; mass points: each point's state), and the lagged marker forces of each direct forcing |
+//! | simulation | [`Simulation::save_state`]: time, steps, pressure (the warm start of the next solve), last step's figures, initial energy, contact forces, every field's grid state and its frame's own state, each the frame's derived struct in postcard (Eulerian: θ, face velocities, steps taken; Lagrangian: every point array including the APIC matrices, and each body's state; mass points: each point's state), the lagged marker forces of each direct forcing, and the running time averages of the `TimeAverage` monitors |
 //!
 //! The pressure solvers keep only caches that every solve rebuilds from its problem (the
 //! multigrid hierarchy, the Cholesky factorizations), so a solve depends only on the
@@ -63,8 +63,9 @@ pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
 /// hand-written encoding with a 64-bit checksum; version 3 is derived structs encoded
 /// with postcard, with a CRC-32; version 4 adds the stress models' per-point state to the
 /// Lagrangian frame's points (`StressModel::point_state`); version 5 adds the strain energy
-/// and max Σθ to the last step's figures.
-pub const VERSION: u32 = 5;
+/// and max Σθ to the last step's figures; version 6 adds the running time averages of the
+/// `TimeAverage` monitors.
+pub const VERSION: u32 = 6;
 /// Length of the [`Header`]: signature, version, payload length, CRC-32.
 const HEADER: usize = 8 + 4 + 8 + 4;
 /// Folder of the checkpoints in a run directory.

@@ -302,7 +302,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
 /// The run of `sim` once it is built (or restored): the writers, the time loop and the
 /// summary. On `Err`, `summary` holds what the run reached.
 fn run_simulation(
-    sim: Simulation,
+    mut sim: Simulation,
     resumed: Option<crate::checkpoint::Checkpoint>,
     dir: &Path,
     options: &RunOptions,
@@ -328,7 +328,7 @@ fn run_simulation(
     let has_bodies = !sim.bodies().is_empty();
     let (state, csv, bodies, monitors) = match &resumed {
         None => {
-            let monitors = Monitors::create(&sim, dir)?;
+            let monitors = Monitors::create(&mut sim, dir)?;
             let csv = DiagnosticsCsv::create(dir.join("diagnostics.csv"))?;
             let bodies = if has_bodies { Some(BodiesCsv::create(dir.join("bodies.csv"))?) } else { None };
             (RunState::new(&sim), csv, bodies, monitors)
@@ -360,7 +360,7 @@ fn run_simulation(
             } else {
                 None
             };
-            let monitors = Monitors::resume(&sim, dir, source_dir)?;
+            let monitors = Monitors::resume(&mut sim, dir, source_dir)?;
             (state, csv, bodies, monitors)
         }
     };

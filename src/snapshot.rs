@@ -68,6 +68,7 @@
 //! | `/fields/<f>/points/volume` | (N) | volume | current volume det F · V⁰ (area × unit depth) |
 //! | `/fields/<f>/points/stress` | (N, 3) | force/area | Cauchy stress σxx, σyy, σxy |
 //! | `/fields/<f>/points/body` | (N) | - | index of the point's body in `bodies`, −1 for none (i64) |
+//! | `/averages/<name>` | (NY, NX) or (NY, NX, 3) | the quantity's | running time average of a `TimeAverage` monitor (docs/monitors.md), with the attributes `quantity`, `field`, `from`, `to`, `samples`; only once it has a sample |
 //!
 //! The files are in the HDF5 1.8 format (version 2 superblock, contiguous uncompressed
 //! datasets), which every HDF5 library since 1.8 reads. Every dataset has the attributes
@@ -177,6 +178,25 @@ impl FieldData {
     }
 }
 
+/// A running time average in a snapshot (a `TimeAverage` monitor's, `/averages/<name>`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AverageData {
+    /// The monitor's name.
+    pub name: String,
+    /// The quantity averaged.
+    pub quantity: String,
+    /// Its field (empty: the mixture's).
+    pub field: String,
+    /// The first and the last time averaged over.
+    pub from: Real,
+    /// The last time averaged over.
+    pub to: Real,
+    /// Samples averaged.
+    pub samples: u64,
+    /// The average, (NY, NX) or (NY, NX, 3).
+    pub values: Vec<Real>,
+}
+
 /// Everything one snapshot file holds, as [`Snapshot::of`] computes it and
 /// [`Snapshot::read`] reads it back.
 #[derive(Clone, Debug, PartialEq)]
@@ -201,6 +221,8 @@ pub struct Snapshot {
     pub cells: Arrays,
     /// The fields, in the case's order.
     pub fields: Vec<FieldData>,
+    /// The running time averages that have a sample, in the case's order of monitors.
+    pub averages: Vec<AverageData>,
 }
 
 const UNITS: &str = "case units: length, time and mass as in the case file (CGS by convention: cm, s, g)";
@@ -285,6 +307,22 @@ impl Snapshot {
         for q in &spec.mixture {
             cells.insert(q.to_string(), sample.cells(quantity(q.as_str(), Place::Mixture)?, None).unwrap_or_default());
         }
+        // by name, as the file lists them
+        let mut averages: Vec<AverageData> = sim
+            .averages
+            .iter()
+            .filter(|a| a.samples > 0)
+            .map(|a| AverageData {
+                name: a.name.clone(),
+                quantity: a.quantity.clone(),
+                field: a.field.clone().unwrap_or_default(),
+                from: a.first,
+                to: a.last_time,
+                samples: a.samples,
+                values: a.mean(),
+            })
+            .collect();
+        averages.sort_by(|a, b| a.name.cmp(&b.name));
         Ok(Snapshot {
             case: sim.case.name.clone(),
             program: program(),
@@ -296,7 +334,13 @@ impl Snapshot {
             spacing: g.h,
             cells,
             fields,
+            averages,
         })
+    }
+
+    /// The running time average of the monitor `name`, if written.
+    pub fn average(&self, name: &str) -> Option<&AverageData> {
+        self.averages.iter().find(|a| a.name == name)
     }
 
     /// The mixture's cell array of quantity `name`, if written.
@@ -374,6 +418,28 @@ impl Snapshot {
             fields.add_group(g.finish());
         }
         b.add_group(fields.finish());
+        if !self.averages.is_empty() {
+            let mut g = b.create_group("averages");
+            for a in &self.averages {
+                let place = if a.field.is_empty() { Place::Mixture } else { Place::Field };
+                let d = g.create_dataset(&a.name);
+                d.with_f64_data(&a.values).with_shape(&cell_shape(a.values.len()));
+                let of = if a.field.is_empty() { "the mixture".to_string() } else { format!("field `{}`", a.field) };
+                let what = format!(
+                    "time average of `{}` of {of} over t in [{}, {}], {} samples (trapezoid rule)",
+                    a.quantity, a.from, a.to, a.samples
+                );
+                for (k, v) in attrs((describe(&a.quantity, place).0, &what)) {
+                    d.set_attr(k, v);
+                }
+                d.set_attr("quantity", AttrValue::String(a.quantity.clone()));
+                d.set_attr("field", AttrValue::String(a.field.clone()));
+                d.set_attr("from", AttrValue::F64(a.from));
+                d.set_attr("to", AttrValue::F64(a.to));
+                d.set_attr("samples", AttrValue::I64(a.samples as i64));
+            }
+            b.add_group(g.finish());
+        }
         b.finish().map_err(|e| Error::Model(format!("cannot build the HDF5 snapshot: {e}")))
     }
 
@@ -450,6 +516,28 @@ impl Snapshot {
             spacing: real(&root, "spacing")?,
             cells: arrays("", file.root().datasets().map_err(err)?, &[])?,
             fields,
+            averages: match file.group("averages") {
+                Ok(g) => {
+                    let mut out = Vec::new();
+                    for name in g.datasets().map_err(err)? {
+                        let d = file.dataset(&format!("averages/{name}")).map_err(err)?;
+                        let a = d.attrs().map_err(err)?;
+                        out.push(AverageData {
+                            quantity: string(&a, "quantity")?,
+                            field: string(&a, "field")?,
+                            from: real(&a, "from")?,
+                            to: real(&a, "to")?,
+                            samples: a.get("samples").and_then(AttrValue::as_i64).ok_or_else(|| missing("samples"))?
+                                as u64,
+                            values: d.read_f64().map_err(err)?,
+                            name,
+                        });
+                    }
+                    out.sort_by(|a: &AverageData, b| a.name.cmp(&b.name));
+                    out
+                }
+                Err(_) => Vec::new(),
+            },
         })
     }
 }
@@ -474,6 +562,8 @@ struct Entry {
     step: u64,
     cells: Listed,
     fields: Vec<FieldEntry>,
+    /// The running time averages (`/averages/<name>`).
+    averages: Listed,
 }
 
 impl Entry {
@@ -502,6 +592,7 @@ impl Entry {
                     points: f.points.as_ref().map(|p| (p.len(), listed(&p.values, p.len()))),
                 })
                 .collect(),
+            averages: snap.averages.iter().map(|a| (a.name.clone(), a.values.len() == 3 * n && n > 0)).collect(),
         }
     }
 
@@ -543,8 +634,12 @@ impl Entry {
             fields.push(FieldEntry { group: g.clone(), cells: listed(&format!("{base}/"), names, 2)?, points });
         }
         let cells = listed("", file.root().datasets().map_err(err)?, 2)?;
+        let averages = match file.group("averages") {
+            Ok(g) => listed("averages/", g.datasets().map_err(err)?, 2)?,
+            Err(_) => Listed::new(),
+        };
         let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        Ok(Entry { file, time, step: step as u64, cells, fields })
+        Ok(Entry { file, time, step: step as u64, cells, fields, averages })
     }
 }
 
@@ -740,6 +835,9 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
                 cells.push((format!("{}_{q}", f.group), *v, format!("/fields/{}/{q}", f.group)));
             }
         }
+        for (a, v) in &e.averages {
+            cells.push((format!("average_{a}"), *v, format!("/averages/{a}")));
+        }
         for (name, v, path) in cells {
             let (kind, dims) = if v { ("Vector", &vector) } else { ("Scalar", &scalar) };
             s.push_str(&attribute(&name, kind, "Cell", hdf(dims, "Float", &path)));
@@ -832,6 +930,27 @@ mod tests {
                 ("vorticity", vec![0.0, 1e300]),
             ]),
             fields: vec![field],
+            // by name, as they are written and read
+            averages: vec![
+                AverageData {
+                    name: "p_mean".into(),
+                    quantity: "pressure".into(),
+                    field: String::new(),
+                    from: 0.0,
+                    to: 0.25,
+                    samples: 8,
+                    values: vec![0.5, -2.0],
+                },
+                AverageData {
+                    name: "u_mean".into(),
+                    quantity: "velocity".into(),
+                    field: "sand grains".into(),
+                    from: 0.125,
+                    to: 0.25,
+                    samples: 3,
+                    values: vec![0.25, 1.0, 0.0, 2.5, -3.0, 0.0],
+                },
+            ],
         };
         let path = std::env::temp_dir().join(format!("multifield-snapshot-{}.h5", std::process::id()));
         snap.write(&path).unwrap();
@@ -841,12 +960,15 @@ mod tests {
         assert_eq!(entry.fields, Entry::of(&snap, file_name(0)).fields, "the vectors found from the datasets' shapes");
         assert_eq!((entry.step, entry.time, &entry.fields[0].points), (7, 0.25, &Some((0, Vec::new()))));
         assert!(entry.cells.contains(&("velocity".into(), true)) && entry.cells.contains(&("pressure".into(), false)));
+        assert_eq!(entry.averages, [("p_mean".to_string(), false), ("u_mean".to_string(), true)]);
         std::fs::remove_file(&path).unwrap();
         // no grid of zero points in the XDMF
         let text = xdmf("tiny", &Grid::new(2, 1, 0.1, Vector::new(-1.0, 0.5)), &[entry]);
         assert!(!text.contains("Polyvertex") && text.contains("Dimensions=\"2 2 3\""), "{text}");
         assert!(text.contains(">0 0.5 -1</DataItem>"), "origin in z, y, x order: {text}");
         assert!(text.contains("Name=\"sand_grains_velocity\" AttributeType=\"Vector\""), "{text}");
+        assert!(text.contains("Name=\"average_u_mean\" AttributeType=\"Vector\""), "{text}");
+        assert!(text.contains(":/averages/p_mean</DataItem>"), "{text}");
     }
 
     #[test]

@@ -156,6 +156,20 @@ impl BodyShape {
             }
         }
     }
+    /// How far `(x, y)` lies inside the shape, from its nearest edge: positive inside,
+    /// zero on the edge, negative outside (the distance to the edge for disks and annuli;
+    /// for a rectangle inside, the distance to its nearest side).
+    pub fn depth(&self, x: Real, y: Real) -> Real {
+        match self {
+            BodyShape::Disk { center, radius } => radius - (x - center[0]).hypot(y - center[1]),
+            BodyShape::Rectangle { min, max } => (x - min[0]).min(max[0] - x).min(y - min[1]).min(max[1] - y),
+            BodyShape::Annulus { center, inner_radius, outer_radius } => {
+                let r = (x - center[0]).hypot(y - center[1]);
+                (r - inner_radius).min(outer_radius - r)
+            }
+        }
+    }
+
     /// Bounding box (min, max).
     pub fn bounds(&self) -> ([Real; 2], [Real; 2]) {
         match self {

@@ -530,11 +530,12 @@ impl Driver {
         if writers.iter().any(|w| w.needs_grid_state_at_start()) {
             sim.refresh_grid_state()?;
         }
-        for w in writers.iter_mut() {
-            w.start(sim)?;
-        }
+        // the monitors first: a time average from t = 0 is in the first snapshot
         if let Some(m) = monitors.as_mut() {
             m.start(sim)?;
+        }
+        for w in writers.iter_mut() {
+            w.start(sim)?;
         }
         let time = sim.case.time.clone();
         let interval = sim.case.output.interval;

@@ -55,7 +55,7 @@
 //! conditions' history back from them, so the restarted run stops where the uninterrupted
 //! one does.
 
-use crate::case::{Case, QuantityName, Region};
+use crate::case::{BodyShape, Case, QuantityName, Region, Representation};
 use crate::driver::{number, resume_csv};
 use crate::error::{Error, Result};
 use crate::grid::{FaceVelocity, Grid, Lattice};
@@ -194,6 +194,20 @@ pub enum Monitored {
         /// Upper-right corner.
         max: [Real; 2],
     },
+    /// The running time average of a cell quantity over the whole grid, from `start` on,
+    /// written into every snapshot as `/averages/<monitor name>` (the trapezoid rule over
+    /// the monitor's samples, so `every` sets its resolution in time).
+    TimeAverage {
+        /// A cell quantity of the registry.
+        quantity: QuantityName,
+        /// The field whose quantity it is (default: the mixture's).
+        #[serde(default)]
+        field: Option<String>,
+        /// Simulated time from which to average (the first sample at or after it opens the
+        /// window).
+        #[serde(default)]
+        start: Real,
+    },
 }
 
 /// A coordinate of a body.
@@ -257,7 +271,8 @@ impl Monitored {
             Monitored::Probes { quantity, field, .. }
             | Monitored::Line { quantity, field, .. }
             | Monitored::Difference { quantity, field, .. }
-            | Monitored::Average { quantity, field, .. } => Some((quantity, field)),
+            | Monitored::Average { quantity, field, .. }
+            | Monitored::TimeAverage { quantity, field, .. } => Some((quantity, field)),
         }
     }
     /// The kind's name.
@@ -268,6 +283,7 @@ impl Monitored {
             Monitored::Line { .. } => "Line",
             Monitored::Difference { .. } => "Difference",
             Monitored::Average { .. } => "Average",
+            Monitored::TimeAverage { .. } => "TimeAverage",
         }
     }
 }
@@ -313,6 +329,9 @@ impl MonitorSpec {
                 ["from", "to", "difference"].iter().flat_map(|b| components(b, n)).collect()
             }
             Monitored::Average { .. } => components("mean", n),
+            Monitored::TimeAverage { .. } => {
+                ["window".to_string(), "samples".to_string()].into_iter().chain(components("mean", n)).collect()
+            }
         })
     }
 
@@ -358,6 +377,11 @@ impl MonitorSpec {
             }
             Monitored::Difference { quantity, from, to, .. } => format!("{quantity} at {from:?} minus at {to:?}"),
             Monitored::Average { quantity, min, max, .. } => format!("mean {quantity} over {min:?}–{max:?}"),
+            Monitored::TimeAverage { quantity, start, .. } => format!(
+                "running time average of {quantity} from t = {start} into the snapshots as /averages/{} \
+                 (its columns: the window, the samples and the average's mean over the grid)",
+                self.name
+            ),
         };
         let field = match self.of.quantity() {
             Some((_, Some(f))) => format!(" of field `{f}`"),
@@ -409,6 +433,56 @@ fn bodies_of(case: &Case) -> Vec<(&str, Vec<&str>)> {
             _ => None,
         })
         .collect()
+}
+
+/// Why a point of a `Probes` or `Difference` monitor cannot sample its quantity: it lies
+/// inside a resolved body at t = 0, where the quantity of any field but the body's own is
+/// not the fluid's (no_slip coupling leaves no fluid there; direct forcing leaves a
+/// fictitious one, and the mixture's value there is the body's). `None` when the point may
+/// be sampled. Points on a body's edge (within 10⁻⁶ of a cell) are the fluid's; a `Line` may
+/// cross bodies (docs/monitors.md).
+fn inside_a_body(case: &Case, m: &MonitorSpec, q: [Real; 2]) -> Option<String> {
+    if !matches!(m.of, Monitored::Probes { .. } | Monitored::Difference { .. }) {
+        return None;
+    }
+    let (quantity, field) = m.of.quantity()?;
+    let h = case.domain.size[0] / case.domain.cells[0] as Real;
+    for f in &case.fields {
+        let Region::Bodies(bodies) = &f.region else { continue };
+        if f.representation == Representation::MassPoint || field.as_deref() == Some(f.name.as_str()) {
+            continue;
+        }
+        let Some(b) = bodies.iter().find(|b| b.shape.depth(q[0], q[1]) > 1e-6 * h) else { continue };
+        let of = field.as_ref().map_or("the mixture".to_string(), |f| format!("field `{f}`"));
+        let hint = match b.shape {
+            BodyShape::Disk { center, radius } => {
+                let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
+                let r = dx.hypot(dy);
+                if r > 0.0 {
+                    let s = (radius + 0.5 * h) / r;
+                    format!(
+                        "move it into the fluid, e.g. to ({}, {}) half a cell off the edge",
+                        center[0] + s * dx,
+                        center[1] + s * dy
+                    )
+                } else {
+                    "move it into the fluid".to_string()
+                }
+            }
+            _ => "move it into the fluid".to_string(),
+        };
+        return Some(format!(
+            "the point ({}, {}) lies inside body `{}` (field `{}`) at t = 0, where `{}` of {of} is not the fluid's; \
+             {hint}, or sample the body's own field with `field: Some(\"{}\")`",
+            q[0],
+            q[1],
+            b.name,
+            f.name,
+            quantity.as_str(),
+            f.name
+        ));
+    }
+    None
 }
 
 fn choices<'a>(name: &str, names: impl Iterator<Item = &'a str> + Clone) -> String {
@@ -502,6 +576,11 @@ pub fn validate(case: &Case) -> Result<()> {
                 }
             }
             Monitored::Difference { .. } => {}
+            Monitored::TimeAverage { start, .. } => {
+                if !(start.is_finite() && *start >= 0.0) {
+                    return bad(p("of.start"), format!("{start}: the start must be a time ≥ 0"));
+                }
+            }
             Monitored::Average { min, max, .. } => {
                 if !(min[0] < max[0] && min[1] < max[1]) {
                     return bad(p("of"), format!("rectangle min {min:?} must lie below and left of max {max:?}"));
@@ -529,6 +608,10 @@ pub fn validate(case: &Case) -> Result<()> {
                         q[0], q[1]
                     ),
                 );
+            }
+            if let Some(message) = inside_a_body(case, m, q) {
+                let what = if matches!(m.of, Monitored::Probes { .. }) { "of.points" } else { "of" };
+                return bad(p(what), message);
             }
         }
     }
@@ -735,6 +818,8 @@ struct Running {
     path: PathBuf,
     /// Sampled at the current step already.
     written: bool,
+    /// Index into [`Simulation::averages`] of a `TimeAverage`.
+    average: Option<usize>,
 }
 
 impl Running {
@@ -771,6 +856,7 @@ impl Running {
                 v.extend([px, py, fx - px, fy - py]);
                 v
             }
+            Monitored::TimeAverage { .. } => Vec::new(),
             Monitored::Average { .. } => {
                 let s = self.source.expect("a quantity");
                 let n = s.components();
@@ -814,6 +900,127 @@ fn cell(x: Real) -> String {
     }
 }
 
+/// The running time average of a `TimeAverage` monitor. The [`Simulation`] carries it
+/// ([`Simulation::averages`]) so that snapshots write it and checkpoints keep it: a
+/// restarted run continues the average bit for bit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeAverage {
+    /// The monitor's name (`/averages/<name>` in the snapshots).
+    pub name: String,
+    /// The quantity averaged.
+    pub quantity: String,
+    /// Its field (None: the mixture's).
+    pub field: Option<String>,
+    /// Values per cell (1, or 3 for a vector with z = 0, as the registry gives them).
+    pub components: usize,
+    /// The requested start.
+    pub start: Real,
+    /// Time of the first sample (NaN before it).
+    pub first: Real,
+    /// Time of the last sample (NaN before the first).
+    pub last_time: Real,
+    /// Samples taken.
+    pub samples: u64,
+    /// The last sample, cell by cell (the cell's components together).
+    pub last: Vec<Real>,
+    /// ∫ q dt from the first sample to the last, by the trapezoid rule over the samples.
+    pub integral: Vec<Real>,
+}
+
+impl TimeAverage {
+    fn new(name: &str, quantity: &str, field: &Option<String>, components: usize, start: Real) -> Self {
+        Self {
+            name: name.into(),
+            quantity: quantity.into(),
+            field: field.clone(),
+            components,
+            start,
+            first: Real::NAN,
+            last_time: Real::NAN,
+            samples: 0,
+            last: Vec::new(),
+            integral: Vec::new(),
+        }
+    }
+
+    /// Whether `saved` (from a checkpoint) continues this average: the same monitor
+    /// name, quantity, field and start.
+    fn continued_by(&self, saved: &TimeAverage) -> bool {
+        (&self.name, &self.quantity, &self.field, self.components, self.start.to_bits())
+            == (&saved.name, &saved.quantity, &saved.field, saved.components, saved.start.to_bits())
+    }
+
+    /// The length of simulated time averaged over (0 with one sample or none).
+    pub fn window(&self) -> Real {
+        if self.samples > 1 {
+            self.last_time - self.first
+        } else {
+            0.0
+        }
+    }
+
+    /// The average, ∫ q dt / window (the only sample while the window is empty); empty
+    /// before the first sample.
+    pub fn mean(&self) -> Vec<Real> {
+        let w = self.window();
+        if w > 0.0 {
+            self.integral.iter().map(|x| x / w).collect()
+        } else {
+            self.last.clone()
+        }
+    }
+
+    /// Adds the sample `q` at time `t` (ignored before the start; a time short of it by
+    /// round-off, 10⁻⁹ of it, counts as the start, as the monitors' schedules do).
+    fn add(&mut self, t: Real, q: Vec<Real>) {
+        if t < self.start * (1.0 - 1e-9) {
+            return;
+        }
+        if self.samples == 0 {
+            self.first = t;
+            self.integral = vec![0.0; q.len()];
+        } else {
+            let half = 0.5 * (t - self.last_time);
+            for ((s, a), b) in self.integral.iter_mut().zip(&self.last).zip(&q) {
+                *s += half * (a + b);
+            }
+        }
+        self.last = q;
+        self.last_time = t;
+        self.samples += 1;
+    }
+
+    /// The monitor's row: the window, the samples, and the average's mean over the cells
+    /// (per component, at most two); NaN before the first sample.
+    fn row(&self) -> Vec<Real> {
+        let n = self.components.min(2);
+        let mean = self.mean();
+        let cells = mean.len() / self.components.max(1);
+        let mut row = vec![self.window(), self.samples as Real];
+        for c in 0..n {
+            let sum: Real = (0..cells).map(|k| mean[k * self.components + c]).sum();
+            row.push(if cells > 0 { sum / cells as Real } else { Real::NAN });
+        }
+        row
+    }
+
+    /// Checks a saved average against the grid of `n_cells` cells (a checkpoint's).
+    pub fn check(&self, n_cells: usize) -> std::result::Result<(), String> {
+        let n = if self.samples == 0 { 0 } else { n_cells * self.components };
+        if self.last.len() != n || self.integral.len() != n || !(1..=3).contains(&self.components) {
+            return Err(format!(
+                "time average `{}`: {} and {} values for {} samples of {} component(s) on {n_cells} cells",
+                self.name,
+                self.last.len(),
+                self.integral.len(),
+                self.samples,
+                self.components
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// The `Steady` history of one stop condition.
 struct Steady {
     monitor: usize,
@@ -841,21 +1048,25 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
 impl Monitors {
     /// The monitors of `sim`'s case writing into `dir/monitors/` (new files), or None when
     /// the case has neither monitors nor stop conditions.
-    pub fn create(sim: &Simulation, dir: &Path) -> Result<Option<Self>> {
+    pub fn create(sim: &mut Simulation, dir: &Path) -> Result<Option<Self>> {
         Self::open(sim, dir, None)
     }
 
     /// The monitors of a run restarted at `sim`'s step: each file keeps its rows up to that
     /// step (taken from `source_dir`'s file when it exists, [`resume_csv`]).
-    pub fn resume(sim: &Simulation, dir: &Path, source_dir: Option<&Path>) -> Result<Option<Self>> {
+    /// The running time averages continue from the checkpoint's
+    /// ([`Simulation::averages`]) where the monitor is the same; others start anew.
+    pub fn resume(sim: &mut Simulation, dir: &Path, source_dir: Option<&Path>) -> Result<Option<Self>> {
         Self::open(sim, dir, Some(source_dir))
     }
 
-    fn open(sim: &Simulation, dir: &Path, resume: Option<Option<&Path>>) -> Result<Option<Self>> {
+    fn open(sim: &mut Simulation, dir: &Path, resume: Option<Option<&Path>>) -> Result<Option<Self>> {
+        let saved = std::mem::take(&mut sim.averages);
         let case = &sim.case;
         if case.monitors.is_empty() && case.stop.is_empty() {
             return Ok(None);
         }
+        let mut averages = Vec::new();
         let folder = dir.join(FOLDER);
         if !case.monitors.is_empty() {
             std::fs::create_dir_all(&folder).map_err(io(&folder))?;
@@ -873,9 +1084,10 @@ impl Monitors {
                 Some((q, f)) => {
                     let k = field(f)?;
                     let quantity = crate::quantity::find(q.as_str(), place(f)).map_err(bad)?;
+                    let whole = matches!(m.of, Monitored::TimeAverage { .. });
                     Some(match (q.as_str(), k) {
-                        ("pressure", None) => Source::Pressure,
-                        ("velocity", k) => Source::Faces(k),
+                        ("pressure", None) if !whole => Source::Pressure,
+                        ("velocity", k) if !whole => Source::Faces(k),
                         (_, field) => {
                             keys += 1;
                             Source::Cells { quantity, field, key: keys - 1 }
@@ -914,6 +1126,15 @@ impl Monitors {
                     resume_csv(&path, from.as_deref(), &header, |s| s <= step)?.0
                 }
             };
+            let average = match (&m.of, source) {
+                (Monitored::TimeAverage { quantity, field, start }, Some(Source::Cells { quantity: q, .. })) => {
+                    let fresh = TimeAverage::new(&m.name, quantity.as_str(), field, q.components, *start);
+                    let kept = saved.iter().find(|s| resume.is_some() && fresh.continued_by(s)).cloned();
+                    averages.push(kept.unwrap_or(fresh));
+                    Some(averages.len() - 1)
+                }
+                _ => None,
+            };
             running.push(Running {
                 spec: m.clone(),
                 source,
@@ -923,6 +1144,7 @@ impl Monitors {
                 file,
                 path,
                 written: false,
+                average,
             });
         }
         let mut steady = Vec::new();
@@ -942,9 +1164,11 @@ impl Monitors {
                 _ => None,
             });
         }
+        let stops = case.stop.clone();
+        sim.averages = averages;
         let mut out = Self {
             running,
-            stops: case.stop.clone(),
+            stops,
             steady,
             keys,
             before: sim.time,
@@ -972,7 +1196,7 @@ impl Monitors {
     }
 
     /// Before the first step: the rows at t = 0 of a new run.
-    pub fn start(&mut self, sim: &Simulation) -> Result<()> {
+    pub fn start(&mut self, sim: &mut Simulation) -> Result<()> {
         self.started = Instant::now();
         self.before = sim.time;
         if !self.resumed {
@@ -1027,15 +1251,31 @@ impl Monitors {
         Ok(())
     }
 
-    fn sample(&mut self, sim: &Simulation, which: &[usize]) -> Result<()> {
+    fn sample(&mut self, sim: &mut Simulation, which: &[usize]) -> Result<()> {
         if which.is_empty() {
             return Ok(());
         }
-        let mut view = View::new(sim, self.keys);
-        let forces = which.iter().any(|&k| !self.running[k].bodies.is_empty());
-        let (bodies, pressure) = if forces { (sim.bodies(), sim.pressure_forces()) } else { (Vec::new(), Vec::new()) };
-        for &k in which {
-            let values = self.running[k].values(&mut view, &bodies, &pressure);
+        let mut rows = Vec::with_capacity(which.len());
+        let mut fresh = Vec::new();
+        {
+            let mut view = View::new(sim, self.keys);
+            let forces = which.iter().any(|&k| !self.running[k].bodies.is_empty());
+            let (bodies, pressure) =
+                if forces { (sim.bodies(), sim.pressure_forces()) } else { (Vec::new(), Vec::new()) };
+            for &k in which {
+                let r = &self.running[k];
+                if let (Some(a), Some(s)) = (r.average, r.source) {
+                    fresh.push((a, view.array(s).to_vec()));
+                }
+                rows.push(r.values(&mut view, &bodies, &pressure));
+            }
+        }
+        let t = sim.time;
+        for (a, q) in fresh {
+            sim.averages[a].add(t, q);
+        }
+        for (&k, values) in which.iter().zip(rows) {
+            let values = self.running[k].average.map_or(values, |a| sim.averages[a].row());
             let mut row = Vec::with_capacity(values.len() + 2);
             row.push(sim.steps as Real);
             row.push(sim.time);

@@ -361,7 +361,7 @@ fn monitors_naming_what_does_not_exist_are_refused_with_the_choices() {
 
 #[test]
 fn a_probe_outside_the_domain_and_a_tolerance_not_positive_are_refused() {
-    let probe = r#"(name: "p", of: Probes(quantity: "velocity", points: [(0.5, 0.5), (1.25, 0.5)]))"#;
+    let probe = r#"(name: "p", of: Probes(quantity: "velocity", points: [(0.1, 0.5), (1.25, 0.5)]))"#;
     let m = error_of("probe_outside.ron", &with_monitors(probe, ""), &[]);
     assert_contains(&m, &["monitors.p.of.points", "(1.25, 0.5) lies outside the domain [0, 1] × [0, 1]"]);
     let line = r#"(name: "l", of: Line(quantity: "pressure", from: (0.0, -0.1), to: (1.0, 0.5), points: 3))"#;
@@ -383,6 +383,37 @@ fn a_probe_outside_the_domain_and_a_tolerance_not_positive_are_refused() {
         let (code, _, stderr) = multifield(&args);
         assert_eq!(code, 2, "{args:?}: {stderr}");
         assert_contains(&stderr, &["monitors.p.of.points", "(0.5, 1.5) lies outside the domain"]);
+    }
+}
+
+#[test]
+fn a_probe_inside_a_body_is_refused_unless_it_samples_the_body_s_own_field() {
+    // the disk: centre (0.5, 0.5), radius 0.2, on 8 cells of 1/8
+    let probe = r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.1, 0.5), (0.6, 0.5)]))"#;
+    let m = error_of("probe_inside.ron", &with_monitors(probe, ""), &[]);
+    assert_contains(
+        &m,
+        &[
+            "monitors.p.of.points",
+            "(0.6, 0.5) lies inside body `disk` (field `disks`) at t = 0",
+            "`pressure` of the mixture is not the fluid's",
+            // radially out to r = 0.2 + h/2 = 0.2625
+            "e.g. to (0.7625, 0.5) half a cell off the edge",
+            "field: Some(\"disks\")",
+        ],
+    );
+    let diff = r#"(name: "dp", of: Difference(quantity: "velocity", field: Some("water"), from: (0.5, 0.45), to: (0.95, 0.5)))"#;
+    let m = error_of("difference_inside.ron", &with_monitors(diff, ""), &[]);
+    assert_contains(&m, &["monitors.dp.of", "(0.5, 0.45) lies inside body `disk`", "of field `water`"]);
+    // the body's own field, a point on the edge, and a line across the body are sampled
+    multifield::link_all();
+    for good in [
+        r#"(name: "p", of: Probes(quantity: "velocity", field: Some("disks"), points: [(0.5, 0.5)]))"#,
+        r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.3, 0.5), (0.5, 0.7)]))"#,
+        r#"(name: "l", of: Line(quantity: "pressure", from: (0.0, 0.5), to: (1.0, 0.5), points: 11))"#,
+    ] {
+        let case = Case::load(&case_file("probe_good.ron", &with_monitors(good, "")), &[]);
+        assert!(case.is_ok(), "{good}: {:?}", case.err());
     }
 }
 

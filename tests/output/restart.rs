@@ -281,7 +281,8 @@ fn taylor_green(overrides: &[&str]) -> Case {
 }
 
 /// Taylor–Green with monitors of every kind but forces (velocity probes every step, a line
-/// of vorticity, the difference of the pressure, the mean speed) and a `Steady` stop
+/// of vorticity, the difference of the pressure, the mean speed, the running time average
+/// of the velocity) and a `Steady` stop
 /// that fires after the restart: the restarted run writes the same monitor files, byte
 /// for byte, and stops at the same step (the stop's history is read back from them).
 #[test]
@@ -294,6 +295,7 @@ fn a_restarted_run_with_monitors_writes_the_same_monitor_files() {
         (name: "line", every: Time(0.03), of: Line(quantity: "vorticity", from: (0.0, 1.0), to: (6.2, 5.0), points: 25)),
         (name: "dp", every: Time(0.02), of: Difference(quantity: "pressure", from: (1.0, 1.0), to: (2.0, 3.0))),
         (name: "mean", of: Average(quantity: "speed", min: (1.0, 1.0), max: (3.0, 2.5))),
+        (name: "u_mean", every: Time(0.02), of: TimeAverage(quantity: "velocity", start: 0.03)),
     ],
     stop: [Steady(monitor: "mean", column: "mean", tolerance: 0.01, window: 0.15)],
 )
@@ -315,6 +317,11 @@ fn a_restarted_run_with_monitors_writes_the_same_monitor_files() {
         ],
     );
     let (end, _) = restart_reproduces_the_run("monitors", &case);
+    // the time average went through the checkpoint of step 10 (the final checkpoints are
+    // byte-identical): samples at t = 0.04, 0.06, …, 0.14 and the last step's
+    let sim = checkpoint::restore(&case, &end.path).unwrap().0;
+    assert_eq!(sim.averages.len(), 1);
+    assert_eq!((sim.averages[0].samples, sim.averages[0].first), (7, 0.04));
     // the mean speed decays by about 2ν = 2% per unit of time, 0.3% over the window: the
     // stop fires once the window is spanned (step 15), after the restart from step 10,
     // which read the window's first rows back from the files

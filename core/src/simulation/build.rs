@@ -236,6 +236,7 @@ impl Simulation {
             steps: 0,
             last: StepDiagnostics::default(),
             initial_energy,
+            averages: Vec::new(),
             alone,
             grid_state_stale: false,
         };

@@ -16,6 +16,8 @@ struct SimulationState<'a> {
     fields: Vec<FieldCheckpoint<'a>>,
     /// Per direct forcing, the lagged marker forces ([`ForcedPair::lag`]).
     marker_forces: Vec<Cow<'a, [Vec<Vector>]>>,
+    /// The running time averages of the monitors ([`Simulation::averages`]).
+    averages: Cow<'a, [crate::monitor::TimeAverage]>,
 }
 
 /// One field in a [`SimulationState`]: its name and frame (checked on loading), its grid
@@ -57,6 +59,7 @@ impl Simulation {
             body_forces: Cow::Borrowed(&self.body_forces),
             fields,
             marker_forces: self.forcings.iter().map(|p| Cow::Borrowed(&p.lag[..])).collect(),
+            averages: Cow::Borrowed(&self.averages),
         };
         state::encode(&saved).map_err(Error::Model)
     }
@@ -155,6 +158,10 @@ impl Simulation {
         for (p, lag) in self.forcings.iter_mut().zip(saved.marker_forces) {
             p.lag = lag.into_owned();
         }
+        for a in saved.averages.iter() {
+            a.check(self.grid.n_cells())?;
+        }
+        self.averages = saved.averages.into_owned();
         self.time = saved.time;
         self.steps = saved.steps;
         self.initial_energy = saved.initial_energy;

@@ -198,6 +198,10 @@ pub struct Simulation {
     pub last: StepDiagnostics,
     /// Kinetic energy at the start.
     pub initial_energy: Real,
+    /// The running time averages of the case's `TimeAverage` monitors, which the monitors
+    /// update ([`crate::monitor::Monitors`]), snapshots write and checkpoints keep (empty
+    /// without such monitors).
+    pub averages: Vec<crate::monitor::TimeAverage>,
     /// The case's only field steps alone ([`Frame::steps_alone`]).
     alone: bool,
     /// The fields' grid state is older than their frames' (a field that steps alone does
