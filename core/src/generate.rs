@@ -114,7 +114,8 @@ pub struct GeneratorSpec {
     #[serde(default)]
     pub arrangement: Arrangement,
     /// Lattice only: distance between neighbouring sites; default the largest diameter
-    /// plus `min_gap` (and 10⁻⁹ of that, so that rounding never makes neighbours overlap).
+    /// plus `min_gap`, and 10⁻⁹ of that, so that rounding never makes neighbours overlap (a
+    /// row of width w then holds ⌊(w − 2 min_gap − d_max) / spacing⌋ + 1 disks).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spacing: Option<Real>,
     /// Smallest gap between two disks' surfaces, and between a disk and the region's sides
