@@ -266,22 +266,22 @@ fn generated_disks_avoid_the_listed_bodies() {
     let listed = "(name: \"big\", shape: Disk(center: (5.0, 5.0), radius: 2.0)), \
                   (name: \"wall\", shape: Rectangle(min: (0.5, 0.5), max: (9.5, 1.0)), motion: Fixed)";
     let (bodies, _) = expand(
-        "name: \"p\", region: (min: (0.0, 0.0), max: (10.0, 10.0)), solid_fraction: Some(0.3), \
-         diameter: Fixed(0.2), min_gap: 0.05, seed: 5",
+        "name: \"p\", region: (min: (0.0, 0.0), max: (10.0, 10.0)), solid_fraction: Some(0.2), \
+         diameter: Fixed(0.2), min_gap: 0.02, seed: 5",
         listed,
     );
     assert_eq!((bodies[0].name.as_str(), bodies[1].name.as_str(), bodies[2].name.as_str()), ("big", "wall", "p0"));
     for b in &bodies[2..] {
         let BodyShape::Disk { center: c, radius: r } = b.shape else { panic!() };
         let to_big = ((c[0] - 5.0).powi(2) + (c[1] - 5.0).powi(2)).sqrt() - 2.0 - r;
-        assert!(to_big >= 0.05 - 1e-12, "{}: {to_big}", b.name);
+        assert!(to_big >= 0.02 - 1e-12, "{}: {to_big}", b.name);
         let dy = (0.5 - c[1]).max(c[1] - 1.0).max(0.0);
         let dx = (0.5 - c[0]).max(c[0] - 9.5).max(0.0);
-        assert!((dx * dx + dy * dy).sqrt() - r >= 0.05 - 1e-12, "{}", b.name);
+        assert!((dx * dx + dy * dy).sqrt() - r >= 0.02 - 1e-12, "{}", b.name);
     }
-    // 0.3 of the whole box, less half a disk at most: (0.3 × 100 − a/2) / a disks at least
+    // 0.2 of the whole box, less half a disk at most: (0.2 × 100 − a/2) / a disks at least
     let a = std::f64::consts::PI * 0.04 / 4.0;
-    assert!((bodies.len() - 2) as f64 >= (30.0 - a / 2.0) / a - 1.0);
+    assert!((bodies.len() - 2) as f64 >= (20.0 - a / 2.0) / a - 1.0);
 }
 
 fn file(name: &str, text: &str) -> PathBuf {

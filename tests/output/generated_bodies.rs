@@ -87,7 +87,7 @@ fn a_generated_case_runs_as_its_bodies_written_by_hand() {
     assert_eq!(a, c, "2 threads and 1");
     // the run's case.ron lists the bodies (no generator), and reads back as the expanded case
     let written = read(&root.join("generated").join("case.ron"));
-    assert!(!written.contains("generate") && written.contains("\"p4\""), "{written}");
+    assert!(!written.contains("generate:") && written.contains("\"p4\""), "{written}");
     assert_eq!(Case::from_ron(&written, Path::new("case.ron")).unwrap(), expanded);
 }
 
