@@ -389,15 +389,7 @@ fn check_prints_the_figures_of_the_generated_bodies() {
     let line =
         out.lines().find(|l| l.starts_with("bodies   fields.disks.generate.0:")).unwrap_or_else(|| panic!("{out}"));
     let number = |after: &str| -> f64 {
-        line.split(after)
-            .nth(1)
-            .unwrap()
-            .trim_start()
-            .split(|c: char| c == ' ' || c == ',' || c == ';')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap()
+        line.split(after).nth(1).unwrap().trim_start().split([' ', ',', ';']).next().unwrap().parse().unwrap()
     };
     let (bodies, _) = expand(entry, "");
     let d = disks(&bodies);
