@@ -1,7 +1,8 @@
 //! Generated bodies (issue 15) downstream: a run of a generated case writes the same
 //! `bodies.csv`, byte for byte, as a run of the same bodies written out by hand, on 1 and
 //! 2 threads; its `case.ron` lists the bodies (the same bits); and a restart from its checkpoint, with the
-//! generator file or with the run's `case.ron`, reproduces the uninterrupted run.
+//! generator file or with the run's `case.ron`, reproduces the uninterrupted run (and one
+//! with a changed generator is refused).
 
 use multifield::core::case::{BodyShape, Case, Region};
 use multifield::run::{run, RunOptions};
@@ -121,4 +122,13 @@ fn a_restart_of_a_generated_run_reproduces_it() {
         let last = |d: &Path| std::fs::read(d.join("checkpoints").join(checkpoints[1].file_name().unwrap())).unwrap();
         assert!(last(&out) == last(&full), "{name}: the final checkpoints differ");
     }
+    // a changed generator makes other bodies: the restart is refused, the moved bodies named
+    let out = Command::new(env!("CARGO_BIN_EXE_multifield"))
+        .args(["run", &s(&file), "--set", "fields.disks.generate.0.min_gap=0.01", "--restart", &mid, "--quiet"])
+        .args(["--out", &s(&root.join("changed"))])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("was written by a different case") && err.contains("fields.disks.region.Bodies.p0"), "{err}");
 }
