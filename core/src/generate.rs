@@ -633,8 +633,9 @@ struct Obstacles {
 impl Obstacles {
     fn new(region: Rect, r_max: Real, gap: Real, count: usize) -> Obstacles {
         let size = [region.max[0] - region.min[0], region.max[1] - region.min[1]];
-        // no more cells than about 4 per disk (a region far larger than its disks)
-        let floor = (size[0] * size[1] / (4 * count.max(1)) as Real).sqrt();
+        // no more cells than about 4 per disk (a region far larger than its disks), nor
+        // 65,536 along a side (a long thin region)
+        let floor = (size[0] * size[1] / (4 * count.max(1)) as Real).sqrt().max(size[0].max(size[1]) / 65536.0);
         let cell = (2.0 * r_max + gap).max(floor);
         let n = [((size[0] / cell).ceil() as usize).max(1), ((size[1] / cell).ceil() as usize).max(1)];
         Obstacles {
