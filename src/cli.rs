@@ -15,6 +15,7 @@
 
 use crate::core::case::{Case, Region, Representation};
 use crate::core::error::Error;
+use crate::core::generate::Generated;
 use crate::core::limits::{self, MemoryEstimate, MemoryLimit};
 use crate::core::registry::{self, Role};
 use crate::core::simulation::{Simulation, Status};
@@ -210,14 +211,13 @@ pub fn main() -> ExitCode {
                     dkt(&[dir], None, None)
                 })
         }
-        Some(Command::Run { case, out, threads, overrides, quiet, restart, max_memory }) => {
-            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
+        Some(Command::Run { case, out, threads, overrides, quiet, restart, max_memory }) => load(&case, &overrides)
+            .and_then(|(c, _)| {
                 resources(&c, &case, &max_memory)?;
                 run_case(&c, &case, out, &RunOptions { threads, quiet, restart, case_file: Some(case.clone()) })
-            })
-        }
+            }),
         Some(Command::Check { case, overrides, max_memory }) => {
-            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| check(&c, &case, &max_memory))
+            load(&case, &overrides).and_then(|(c, generated)| check(&c, &generated, &case, &max_memory))
         }
         Some(Command::Plugins) => {
             plugins();
@@ -229,7 +229,7 @@ pub fn main() -> ExitCode {
         }
         Some(Command::Dkt { runs, reference, out }) => dkt(&runs, reference, out),
         Some(Command::Compare { case, overrides, point_overrides, out, threads, reference, max_memory }) => {
-            Case::load(&case, &overrides).map_err(Failure::from).and_then(|c| {
+            load(&case, &overrides).and_then(|(c, _)| {
                 resources(&c, &case, &max_memory)?;
                 let options = RunOptions { threads, quiet: true, restart: None, case_file: Some(case.clone()) };
                 compare(&c, &case, &point_overrides, out, &options, reference)
@@ -256,6 +256,17 @@ pub fn main() -> ExitCode {
             ExitCode::from(130)
         }
     }
+}
+
+/// Reads, overrides and validates a case file, and turns its `generate` entries into
+/// bodies (once: the run, its `case.ron` and its checkpoints hold the bodies).
+fn load(file: &Path, overrides: &[String]) -> Result<(Case, Vec<Generated>), Failure> {
+    let case = Case::load(file, overrides)?;
+    if !case.has_generators() {
+        return Ok((case, Vec::new()));
+    }
+    let (expanded, generated) = case.expand_generators().map_err(|e| Failure::Input(e.in_file(file)))?;
+    Ok((expanded, generated))
 }
 
 /// The memory a case may use: `--max-memory`, else `MULTIFIELD_MAX_MEMORY`, else what the
@@ -363,7 +374,7 @@ fn params_text(v: &serde_json::Value) -> String {
 /// Bodies named in `check`'s description of a region.
 const SHOWN_BODIES: usize = 8;
 
-fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Failure> {
+fn check(case: &Case, generated: &[Generated], file: &Path, max_memory: &Option<String>) -> Result<(), Failure> {
     // the estimate and the caps before anything is allocated
     let (estimate, allowed) = resources(case, file, max_memory)?;
     let sim = Simulation::new(case).map_err(|e| Failure::Input(e.in_file(file)))?;
@@ -405,6 +416,20 @@ fn check(case: &Case, file: &Path, max_memory: &Option<String>) -> Result<(), Fa
         for s in &spec.stress {
             println!("           stress {} {}", s.model, params_text(&s.params));
         }
+    }
+    for g in generated {
+        let [lo, mean, hi] = g.diameters;
+        println!(
+            "bodies   {}: {} disks `{}0`…, diameters {lo:.6}–{hi:.6} (mean {mean:.6}); solid fraction {:.6} of \
+             its region, {:.6} of the domain; smallest gap {} between its disks, {:.6} to the domain's sides",
+            g.path,
+            g.count,
+            g.name,
+            g.region_fraction,
+            g.domain_fraction,
+            g.smallest_gap.map_or("none (one disk)".to_string(), |x| format!("{x:.6}")),
+            g.wall_gap
+        );
     }
     for e in &c.exchange {
         let points = c.fields.iter().any(|f| f.name == e.between[1] && f.representation == Representation::MassPoint);

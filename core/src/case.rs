@@ -403,6 +403,11 @@ pub struct FieldSpec {
     /// `mass_point` model).
     #[serde(default)]
     pub representation: Representation,
+    /// Disks generated from a seed (random packing or lattice; [`crate::generate`]),
+    /// appended to the field's `region: Bodies([...])` before the run is built; none by
+    /// default.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub generate: Vec<crate::generate::GeneratorSpec>,
 }
 
 /// How a field of bodies is represented.
@@ -982,7 +987,7 @@ impl Case {
                     }
                 }
                 Region::Bodies(bodies) => {
-                    if bodies.is_empty() {
+                    if bodies.is_empty() && f.generate.is_empty() {
                         return bad(&p("region"), "an empty list of bodies: give at least one".into());
                     }
                     // the pairwise checks in O(n log n), found in the order of the plain loops
@@ -1061,6 +1066,28 @@ impl Case {
                         ));
                     }
                 }
+            }
+        }
+        for f in &self.fields {
+            if f.generate.is_empty() {
+                continue;
+            }
+            if !matches!(f.region, Region::Bodies(_)) {
+                return bad(
+                    &format!("fields.{}.region", f.name),
+                    "generated bodies go into a list of bodies: write `region: Bodies([])` (or list bodies there \
+                     to place beside the generated ones)"
+                        .into(),
+                );
+            }
+            if f.generate.len() > crate::limits::MAX_LIST {
+                return bad(
+                    &format!("fields.{}.generate", f.name),
+                    format!("{} entries; at most {}", f.generate.len(), crate::limits::MAX_LIST),
+                );
+            }
+            for (k, g) in f.generate.iter().enumerate() {
+                g.check(&format!("fields.{}.generate.{k}", f.name), &self.domain)?;
             }
         }
         if rest > 1 {

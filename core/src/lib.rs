@@ -15,6 +15,7 @@ pub mod error;
 pub mod exchange;
 pub mod field;
 pub mod finite;
+pub mod generate;
 pub mod geometry;
 pub mod grid;
 pub mod immersed;

@@ -7,5 +7,6 @@
 
 mod bad_input;
 mod fuzzing;
+mod generators;
 mod registry;
 mod self_contained;

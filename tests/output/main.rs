@@ -5,6 +5,7 @@
 
 mod driver;
 mod examples;
+mod generated_bodies;
 mod moments;
 mod monitors;
 mod output_contract;

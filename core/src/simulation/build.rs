@@ -7,9 +7,16 @@ impl Simulation {
     /// Builds every model from the registries and seeds the initial state.
     pub fn new(case: &Case) -> Result<Simulation> {
         case.validate()?;
+        // generated bodies become listed ones once, here, and are checked as those are
+        let mut case = if case.has_generators() {
+            let (expanded, _) = case.expand_generators()?;
+            expanded.validate()?;
+            expanded
+        } else {
+            case.clone()
+        };
         // the caps on cells, points, bodies and lists before the grid is allocated
         case.check_counts()?;
-        let mut case = case.clone();
         let d = &case.domain;
         let h = d.size[0] / d.cells[0] as Real;
         let grid = Grid::new(d.cells[0], d.cells[1], h, vector(d.origin));
