@@ -847,7 +847,17 @@ fn flush(file: &mut csv::Writer<File>, path: &Path) -> Result<()> {
     file.flush().map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }
 
-pub(crate) fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
+/// A CSV file open for writing, row by row.
+pub type CsvWriter = csv::Writer<File>;
+
+/// Writes `row` to the CSV file `path` and flushes it (a killed run keeps the row).
+pub fn append_row<S: AsRef<[u8]>>(file: &mut csv::Writer<File>, path: &Path, row: &[S]) -> Result<()> {
+    write_row(file, path, row)?;
+    flush(file, path)
+}
+
+/// Creates the CSV file `path` with its `header` (comma-separated).
+pub fn create_csv(path: &Path, header: &str) -> Result<csv::Writer<File>> {
     let mut file = table::writer(File::create(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?);
     write_row(&mut file, path, &header.split(',').collect::<Vec<_>>())?;
     flush(&mut file, path)?;

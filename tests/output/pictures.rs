@@ -29,6 +29,7 @@ fn frames(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir.join("frames"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png"))
         .collect();
     names.sort();
     names
@@ -236,6 +237,40 @@ fn a_continued_run_draws_the_frames_of_an_uninterrupted_one() {
     assert_eq!(read("frame_000002.png"), b"kept");
     for k in [0, 1, 3, 4] {
         assert!(read(&names[k]) == before[k], "{} differs from the uninterrupted run's", names[k]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Steps longer than the pictures' interval (Δt = 0.05, a frame every 0.02): a frame per
+/// step, not per interval, and a continued run keeps the frames `frames/frames.csv` lists
+/// up to the checkpoint's step (three, not ⌊0.1/0.02⌋ + 1 = 6), then draws the rest as the
+/// uninterrupted run did.
+#[test]
+fn a_continued_run_keeps_the_frames_drawn_when_steps_are_longer_than_the_interval() {
+    let case = load(
+        "examples/taylor_green.ron",
+        &[
+            "time.end=0.2",
+            "time.fixed_dt=Some(0.05)",
+            "output.checkpoints=Some((interval: 0.1))",
+            "output.pictures=Some((interval: 0.02, width: 64))",
+        ],
+    );
+    let dir = fresh_dir("restart_long_steps");
+    run(&case, &dir, &RunOptions::quiet()).unwrap();
+    let names = frames(&dir);
+    assert_eq!(names.len(), 5, "steps 0 to 4: {names:?}");
+    let index = std::fs::read_to_string(dir.join("frames/frames.csv")).unwrap();
+    assert_eq!(index.lines().nth(3), Some("2,0.1,2"), "{index}");
+    let before: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(dir.join("frames").join(n)).unwrap()).collect();
+    let (step, checkpoint) = multifield::checkpoint::list(&dir).into_iter().min_by_key(|c| c.0).unwrap();
+    assert_eq!(step, 2);
+    let options = RunOptions { restart: Some(checkpoint), ..RunOptions::quiet() };
+    run(&case, &dir, &options).unwrap();
+    assert_eq!(frames(&dir), names);
+    assert_eq!(std::fs::read_to_string(dir.join("frames/frames.csv")).unwrap(), index);
+    for (k, n) in names.iter().enumerate() {
+        assert!(std::fs::read(dir.join("frames").join(n)).unwrap() == before[k], "{n} differs");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -473,7 +473,7 @@ fn a_foreign_corrupt_or_older_checkpoint_is_refused() {
         checkpoint::VERSION
     );
     assert!(e.contains(&message), "{e}");
-    assert_eq!(checkpoint::VERSION, 5, "version 5: the step's figures carry the strain energy and max Σθ");
+    assert_eq!(checkpoint::VERSION, 6, "version 6: the running time averages of the monitors");
     assert!(e.contains("run the case from t = 0 without --restart, or continue it with the multifield that"), "{e}");
     assert!(!e.contains("restart from another checkpoint"), "{e}");
 }
