@@ -224,7 +224,7 @@ fn a_restart_mid_collision_carries_the_dem_history_bit_for_bit() {
         domain: (size: (1.0, 1.0), cells: (10, 10)),
         boundaries: (left: Periodic, right: Periodic, bottom: NoSlip, top: NoSlip),
         gravity: (0.0, 0.0),
-        time: (end: 0.05, cfl: 0.4),
+        time: (end: 0.05, cfl: 0.4, max_dt: 1.0),
         fields: [(
             name: "disks",
             density: 2.0,
