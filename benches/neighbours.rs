@@ -86,11 +86,17 @@ fn bench(c: &mut Criterion) {
         let (bodies, l) = packing(n);
         let grid = Grid::new(64, 64, l / 64.0, Vector::zeros());
         let bc = Boundaries::default();
-        let ctx =
-            ContactContext { grid: &grid, boundaries: &bc, gravity: Vector::new(0.0, -1.0), fluid_density: 0.0, bodies: &bodies };
+        let ctx = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: Vector::new(0.0, -1.0),
+            fluid_density: 0.0,
+            bodies: &bodies,
+        };
         let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
         let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
-        let domain = SearchDomain { origin: Vector::zeros(), size: Vector::new(l, l), periodic_x: false, periodic_y: false };
+        let domain =
+            SearchDomain { origin: Vector::zeros(), size: Vector::new(l, l), periodic_x: false, periodic_y: false };
         let search = 0.1;
         let mut dem = build_contact("dem", &params, "contact").expect("dem");
         let mut repulsion =
@@ -117,7 +123,8 @@ fn bench(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("search", n), |bch| {
             bch.iter(|| black_box(pairs_within(&centres, &radii, search, &domain)))
         });
-        group.bench_function(BenchmarkId::new("dem", n), |bch| bch.iter(|| dem.forces(&ctx, 1e-5, black_box(&mut out))));
+        group
+            .bench_function(BenchmarkId::new("dem", n), |bch| bch.iter(|| dem.forces(&ctx, 1e-5, black_box(&mut out))));
         group.bench_function(BenchmarkId::new("brute", n), |bch| {
             bch.iter(|| black_box(brute(&centres, &radii, search, &domain)))
         });

@@ -259,11 +259,14 @@ mod tests {
             let n = 400;
             let r = (0.3 / (std::f64::consts::PI * 7.0 / 3.0 * n as Real)).sqrt();
             let (c, radii) = packing(seed, n, 1.0, r);
-            let domain = SearchDomain { origin: Vector::zeros(), size: Vector::new(1.0, 1.0), periodic_x: true, periodic_y: true };
-            wrapped += pairs_within(&c, &radii, 0.5 * r, &domain)
-                .iter()
-                .filter(|p| p.separation != c[p.i] - c[p.j])
-                .count();
+            let domain = SearchDomain {
+                origin: Vector::zeros(),
+                size: Vector::new(1.0, 1.0),
+                periodic_x: true,
+                periodic_y: true,
+            };
+            wrapped +=
+                pairs_within(&c, &radii, 0.5 * r, &domain).iter().filter(|p| p.separation != c[p.i] - c[p.j]).count();
         }
         eprintln!("{found} pairs as brute force finds them, {wrapped} across periodic sides");
         assert!(found > 10_000, "{found} pairs only: the packings are too sparse to test");
@@ -272,7 +275,12 @@ mod tests {
 
     #[test]
     fn a_pair_across_a_periodic_side_comes_with_its_minimum_image() {
-        let domain = SearchDomain { origin: Vector::new(-1.0, 0.0), size: Vector::new(2.0, 1.0), periodic_x: true, periodic_y: false };
+        let domain = SearchDomain {
+            origin: Vector::new(-1.0, 0.0),
+            size: Vector::new(2.0, 1.0),
+            periodic_x: true,
+            periodic_y: false,
+        };
         let c = [Vector::new(0.95, 0.5), Vector::new(-0.97, 0.52), Vector::new(0.0, 0.5)];
         let r = [0.03, 0.03, 0.03];
         let p = pairs_within(&c, &r, 0.03, &domain);

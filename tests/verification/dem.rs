@@ -11,7 +11,14 @@ use std::path::Path;
 /// Two disks (radius 0.1, mass 2π·0.01·2) in a periodic box, their centres `gap` apart
 /// along x and `offset` along y, approaching at ±`speed` along x until `end`; contact
 /// `contact`. Returns the rows of bodies.csv as (time, body, [x, y, vx, vy, ω]).
-fn collide(name: &str, gap: Real, offset: Real, speed: Real, end: Real, contact: &str) -> Vec<(Real, String, [Real; 5])> {
+fn collide(
+    name: &str,
+    gap: Real,
+    offset: Real,
+    speed: Real,
+    end: Real,
+    contact: &str,
+) -> Vec<(Real, String, [Real; 5])> {
     multifield::link_all();
     let text = format!(
         r#"(
@@ -61,9 +68,8 @@ fn collide(name: &str, gap: Real, offset: Real, speed: Real, end: Real, contact:
 #[test]
 fn two_disks_rebound_with_the_prescribed_restitution_in_a_run() {
     for e in [0.9, 0.5, 0.1] {
-        let contact = format!(
-            r#"(model: "dem", params: (restitution: {e}, collision_time: 0.01, steps_per_collision: 1000))"#
-        );
+        let contact =
+            format!(r#"(model: "dem", params: (restitution: {e}, collision_time: 0.01, steps_per_collision: 1000))"#);
         let rows = collide(&format!("head_on_{e}"), 0.204, 0.0, 1.0, 0.015, &contact);
         let last = &rows[rows.len() - 2..];
         let (a, b) = (&last[0].2, &last[1].2);
@@ -104,7 +110,12 @@ fn an_oblique_collision_with_friction_gives_the_sliding_impulse_in_a_run() {
     let vn = a[2] * c + a[3] * s;
     let vt = -a[2] * s + a[3] * c;
     let impulse = mu * (1.0 + e) * vn0; // per unit mass: μ (1 + e) m_eff 2 v_n0 / m
-    eprintln!("oblique: v_n {vn:.5} (expected {:.5}), v_t {vt:.5} (expected {:.5}), ω {:.4}", -e * vn0, vt0 + impulse, a[4]);
+    eprintln!(
+        "oblique: v_n {vn:.5} (expected {:.5}), v_t {vt:.5} (expected {:.5}), ω {:.4}",
+        -e * vn0,
+        vt0 + impulse,
+        a[4]
+    );
     assert!((vn / (-e * vn0) - 1.0).abs() < 1e-2, "normal: {vn}");
     assert!(((vt - vt0) / impulse - 1.0).abs() < 1e-2, "tangential change {} against {impulse}", vt - vt0);
     assert!((a[4] / (2.0 * impulse / 0.1) - 1.0).abs() < 1e-2, "spin {} against {}", a[4], 2.0 * impulse / 0.1);

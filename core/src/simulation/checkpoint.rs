@@ -156,7 +156,9 @@ impl Simulation {
             state::finite(&lag[..], &format!("lagged marker forces of direct forcing {k}, body"))?;
         }
         match &mut self.contact {
-            Some(c) => c.restore_history(&saved.contact_history).map_err(|m| format!("contact `{}`: {m}", c.model()))?,
+            Some(c) => {
+                c.restore_history(&saved.contact_history).map_err(|m| format!("contact `{}`: {m}", c.model()))?
+            }
             None if !saved.contact_history.is_empty() => {
                 return Err("the checkpoint holds a contact model's history, and the case has no contact model".into())
             }

@@ -239,7 +239,12 @@ multifield_core::register!(
     Dem,
     "soft-sphere (DEM) contact: linear spring–dashpot from e and t_c, tangential spring with Coulomb friction",
     &[
-        ParamDoc { name: "restitution", unit: "-", default: "required", doc: "normal restitution coefficient e in (0, 1]" },
+        ParamDoc {
+            name: "restitution",
+            unit: "-",
+            default: "required",
+            doc: "normal restitution coefficient e in (0, 1]"
+        },
         ParamDoc {
             name: "collision_time",
             unit: "time",
@@ -254,7 +259,12 @@ multifield_core::register!(
             doc: "k_t/k_n (1/3: a sticking disk contact's tangential period equals the normal one)",
         },
         ParamDoc { name: "tangential_damping", unit: "-", default: "0.0", doc: "γ_t/γ_n (tangential dashpot)" },
-        ParamDoc { name: "walls", unit: "-", default: "true", doc: "whether walls (non-periodic, non-outflow sides) are contacts" },
+        ParamDoc {
+            name: "walls",
+            unit: "-",
+            default: "true",
+            doc: "whether walls (non-periodic, non-outflow sides) are contacts"
+        },
         ParamDoc {
             name: "steps_per_collision",
             unit: "-",
@@ -369,7 +379,8 @@ mod tests {
         let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
         let (mut steps, mut touched, mut rose) = (0, false, 1.0 as Real);
         for _ in 0..1_000_000 {
-            let ctx = ContactContext { grid: &grid, boundaries: bc, gravity: Vector::zeros(), fluid_density: 0.0, bodies };
+            let ctx =
+                ContactContext { grid: &grid, boundaries: bc, gravity: Vector::zeros(), fluid_density: 0.0, bodies };
             m.forces(&ctx, dt, &mut out);
             let touching = !m.history.is_empty();
             if touched && !touching {
@@ -388,7 +399,12 @@ mod tests {
     }
 
     fn periodic() -> Boundaries {
-        Boundaries { left: Boundary::Periodic, right: Boundary::Periodic, bottom: Boundary::Periodic, top: Boundary::Periodic }
+        Boundaries {
+            left: Boundary::Periodic,
+            right: Boundary::Periodic,
+            bottom: Boundary::Periodic,
+            top: Boundary::Periodic,
+        }
     }
 
     /// Head-on: the separation speed is e times the approach speed and the contact lasts
@@ -478,7 +494,13 @@ mod tests {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let bodies = [disk(0.3, 0.095, 1.0, -1.0), disk(0.49, 0.099, -1.0, 0.0)];
-        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: Vector::zeros(), fluid_density: 0.0, bodies: &bodies };
+        let ctx = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: Vector::zeros(),
+            fluid_density: 0.0,
+            bodies: &bodies,
+        };
         let mut a = dem(0.5, 1e-3, 0.5);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         a.forces(&ctx, 1e-6, &mut out);
@@ -508,7 +530,8 @@ mod tests {
         assert!(err.contains("collision_time -1: must be positive"), "{err}");
         let err = build(serde_json::json!({ "restitution": 0.5 })).unwrap_err();
         assert!(err.contains("missing parameter `collision_time`"), "{err}");
-        let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "friction": -0.1 })).unwrap_err();
+        let err =
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "friction": -0.1 })).unwrap_err();
         assert!(err.contains("friction -0.1"), "{err}");
         let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "steps_per_collision": 0.5 }))
             .unwrap_err();
