@@ -21,7 +21,7 @@ use multifield::core::boundary::Boundaries;
 use multifield::core::grid::Grid;
 use multifield::core::math::{Real, Vector};
 use multifield::core::neighbours::{brute, pairs_within, SearchDomain};
-use multifield::core::plugin::{BodyState, ContactContext, ContactModel};
+use multifield::core::plugin::{BodyState, ContactContext};
 use multifield::core::registry::build_contact;
 use std::hint::black_box;
 use std::time::{Duration, Instant};

@@ -167,8 +167,7 @@ pub fn pairs_within(centres: &[Vector], radii: &[Real], search: Real, domain: &S
     };
     let mut pairs = Vec::new();
     let mut mine: Vec<Pair> = Vec::new();
-    for i in 0..n {
-        let (cx, cy) = cell_of[i];
+    for (i, &(cx, cy)) in cell_of.iter().enumerate() {
         let (xs, mx) = neighbours(cx, nx, domain.periodic_x);
         let (ys, my) = neighbours(cy, ny, domain.periodic_y);
         mine.clear();

@@ -106,7 +106,7 @@ fn an_oblique_collision_with_friction_gives_the_sliding_impulse_in_a_run() {
     // the line of centres at contact: n = (cos 30°, sin 30°) from a to b
     let (c, s) = ((3.0 as Real).sqrt() / 2.0, 0.5);
     let vn0 = 1.0 * c; // each disk's normal speed; relative 2 v_n0
-    let vt0 = -1.0 * s; // a's velocity along t = (−sin, cos)
+    let vt0 = -s; // a's velocity along t = (−sin, cos)
     let vn = a[2] * c + a[3] * s;
     let vt = -a[2] * s + a[3] * c;
     let impulse = mu * (1.0 + e) * vn0; // per unit mass: μ (1 + e) m_eff 2 v_n0 / m

@@ -90,6 +90,12 @@ fn default_steps() -> Real {
 
 /// One contact's figures, for the force law.
 struct Touch {
+    /// Key of its history: (i, j) for bodies, (i, WALL + side) for a wall.
+    key: (u64, u64),
+    /// The first body.
+    i: usize,
+    /// The second body, `None` for a wall.
+    j: Option<usize>,
     /// Overlap δ > 0.
     overlap: Real,
     /// Unit normal, towards the first body.
@@ -165,8 +171,8 @@ impl Dem {
     }
 
     /// Every touching pair and wall contact, in a deterministic order (pairs by (i, j), then
-    /// walls by body and side): (history key, i, Some(j) or None, touch).
-    fn touches(&self, ctx: &ContactContext) -> Vec<((u64, u64), usize, Option<usize>, Touch)> {
+    /// walls by body and side).
+    fn touches(&self, ctx: &ContactContext) -> Vec<Touch> {
         let bodies = ctx.bodies;
         let domain = SearchDomain {
             origin: ctx.grid.origin,
@@ -187,7 +193,7 @@ impl Dem {
             let n = p.separation / p.distance;
             let t = Vector::new(-n.y, n.x);
             let v = a.velocity - b.velocity - (a.radius * a.angular_velocity + b.radius * b.angular_velocity) * t;
-            out.push(((p.i as u64, p.j as u64), p.i, Some(p.j), Touch { overlap, n, v, mass }));
+            out.push(Touch { key: (p.i as u64, p.j as u64), i: p.i, j: Some(p.j), overlap, n, v, mass });
         }
         if !self.walls {
             return out;
@@ -213,7 +219,7 @@ impl Dem {
                 }
                 let t = Vector::new(-n.y, n.x);
                 let v = a.velocity - a.radius * a.angular_velocity * t;
-                out.push(((i as u64, WALL + k as u64), i, None, Touch { overlap, n, v, mass }));
+                out.push(Touch { key: (i as u64, WALL + k as u64), i, j: None, overlap, n, v, mass });
             }
         }
         out
@@ -284,10 +290,11 @@ impl ContactModel for Dem {
     fn forces(&mut self, ctx: &ContactContext, dt: Real, out: &mut [(Vector, Real)]) {
         out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
         let mut history = BTreeMap::new();
-        for (key, i, j, c) in self.touches(ctx) {
-            let xi = self.history.get(&key).copied().unwrap_or(0.0);
+        for c in self.touches(ctx) {
+            let (i, j) = (c.i, c.j);
+            let xi = self.history.get(&c.key).copied().unwrap_or(0.0);
             let (f_n, f_t, xi) = self.law(&c, xi, dt);
-            history.insert(key, xi);
+            history.insert(c.key, xi);
             let t = Vector::new(-c.n.y, c.n.x);
             let f = f_n * c.n + f_t * t;
             out[i].0 += f;
@@ -318,7 +325,7 @@ impl ContactModel for Dem {
             self.history.clear();
             return Ok(());
         }
-        if bytes.len() < 8 || (bytes.len() - 8) % 24 != 0 || word(0) != ((bytes.len() - 8) / 24) as u64 {
+        if bytes.len() < 8 || !(bytes.len() - 8).is_multiple_of(24) || word(0) != ((bytes.len() - 8) / 24) as u64 {
             return Err(format!(
                 "dem contact history of {} bytes: not a count and (i, j, ξ) triples (a checkpoint of another contact model?)",
                 bytes.len()
