@@ -64,7 +64,8 @@ pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
 /// with postcard, with a CRC-32; version 4 adds the stress models' per-point state to the
 /// Lagrangian frame's points (`StressModel::point_state`); version 5 adds the strain energy
 /// and max Σθ to the last step's figures; version 6 adds the running time averages of the
-/// `TimeAverage` monitors.
+/// `TimeAverage` monitors and the contact model's history (`ContactModel::history`: the
+/// `dem` tangential springs).
 pub const VERSION: u32 = 6;
 /// Length of the [`Header`]: signature, version, payload length, CRC-32.
 const HEADER: usize = 8 + 4 + 8 + 4;

@@ -23,6 +23,7 @@ pub mod input;
 pub mod limits;
 pub mod math;
 pub mod monitor;
+pub mod neighbours;
 pub mod plugin;
 pub mod poisson;
 pub mod quantity;

@@ -489,17 +489,28 @@ pub struct ContactContext<'a> {
     pub bodies: &'a [BodyState],
 }
 
-/// Short-range repulsion between bodies and between bodies and walls.
+/// Contact between bodies and between bodies and walls (`repulsion`, `dem`).
 pub trait ContactModel: Send + Sync {
     /// Registered name.
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in.
     fn params(&self) -> serde_json::Value;
-    /// Force and torque on each body (same order as `ctx.bodies`).
-    fn forces(&self, ctx: &ContactContext, out: &mut [(Vector, Real)]);
+    /// Force and torque on each body (same order as `ctx.bodies`) at the given states. `dt` is
+    /// the (sub-)step these forces will act over: a model with history (tangential springs)
+    /// advances it by `dt`.
+    fn forces(&mut self, ctx: &ContactContext, dt: Real, out: &mut [(Vector, Real)]);
     /// Largest stable time step while bodies are in range, `None` otherwise.
     fn stable_dt(&self, _ctx: &ContactContext) -> Option<Real> {
         None
+    }
+    /// The model's history (e.g. tangential spring displacements per touching pair), for
+    /// checkpoints; empty for a model without history.
+    fn history(&self) -> Vec<u8> {
+        Vec::new()
+    }
+    /// Restores `history()` from a checkpoint; refuses (with a message) what it cannot read.
+    fn restore_history(&mut self, _bytes: &[u8]) -> Result<(), String> {
+        Ok(())
     }
 }
 

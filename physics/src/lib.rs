@@ -18,7 +18,7 @@ pub const SHIPPED: &[(&str, &[&str])] = &[
     ("stress", &["linear_elastic", "neo_hookean", "newtonian", "rigid", "weakly_compressible"]),
     ("exchange", &["constant", "cylinder", "direct_forcing", "no_slip", "schiller_naumann", "stokes"]),
     ("pressure", &["cholesky", "multigrid", "pcg"]),
-    ("contact", &["repulsion"]),
+    ("contact", &["dem", "repulsion"]),
 ];
 
 /// Keeps this crate's registrations in the final binary (inventory drops crates that

@@ -91,7 +91,7 @@ fn every_documented_default_is_the_default_the_plugin_takes() {
     // values for the parameters that have no default
     let required = serde_json::json!({
         "young_modulus": 1.0e5, "poisson_ratio": 0.3, "viscosity": 0.01, "diameter": 0.1,
-        "stiffness": 1.0e3, "coefficient": 1.0,
+        "stiffness": 1.0e3, "coefficient": 1.0, "restitution": 0.9, "collision_time": 1.0e-3,
     });
     let mut checked = 0;
     for role in Role::ALL {

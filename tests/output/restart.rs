@@ -213,6 +213,48 @@ fn a_restarted_point_particle_run_is_bit_identical_to_the_uninterrupted_one() {
     assert_eq!(warnings(&full), warnings(&restarted));
 }
 
+/// Two mass-point disks with no fluid colliding off-centre under the `dem` contact with
+/// friction, checkpointed mid-collision (the tangential spring's history ξ non-zero): the
+/// restart reproduces the run bit for bit, as does a run on one thread.
+#[test]
+fn a_restart_mid_collision_carries_the_dem_history_bit_for_bit() {
+    multifield::link_all();
+    let text = r#"(
+        name: "dem_restart",
+        domain: (size: (1.0, 1.0), cells: (10, 10)),
+        boundaries: (left: Periodic, right: Periodic, bottom: NoSlip, top: NoSlip),
+        gravity: (0.0, 0.0),
+        time: (end: 0.05, cfl: 0.4, max_dt: 1.0),
+        fields: [(
+            name: "disks",
+            density: 2.0,
+            representation: MassPoint,
+            frame: (model: "lagrangian"),
+            region: Bodies([
+                (name: "a", shape: Disk(center: (0.37, 0.45), radius: 0.1), velocity: (1.0, 0.0)),
+                (name: "b", shape: Disk(center: (0.63, 0.55), radius: 0.1), velocity: (-1.0, 0.0)),
+            ]),
+        )],
+        contact: Some((model: "dem", params: (restitution: 0.5, collision_time: 0.01, friction: 0.3))),
+        output: (interval: 0.0, charts: false, checkpoints: Some((interval: 0.048))),
+    )"#;
+    let case = Case::from_ron(text, Path::new("dem_restart.ron")).unwrap();
+    let (_, _) = restart_reproduces_the_run("dem", &case);
+    // the first checkpoint (t = 0.048) is mid-collision, with the spring loaded
+    let full = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join("dem").join("full");
+    let (_, mid) = checkpoints(&full)[0].clone();
+    let sim = checkpoint::restore(&case, &mid).unwrap().0;
+    let history = sim.contact.as_ref().unwrap().history();
+    assert_eq!(history.len(), 8 + 24, "one touching pair in the history");
+    let xi = Real::from_bits(u64::from_le_bytes(history[24..32].try_into().unwrap()));
+    assert!(xi.abs() > 1e-4, "ξ = {xi}");
+    // one thread: the same rows
+    let one = out_dir("dem/one_thread");
+    let options = RunOptions { threads: 1, ..RunOptions::quiet() };
+    run(&case, &one, &options).unwrap();
+    assert_eq!(read(&one.join("bodies.csv")), read(&full.join("bodies.csv")));
+}
+
 /// A Lagrangian fluid (APIC, quadratic B-splines: the C matrices carry over), with each
 /// pressure solver (none keeps a state that changes its result but the initial guess).
 #[test]
@@ -473,7 +515,7 @@ fn a_foreign_corrupt_or_older_checkpoint_is_refused() {
         checkpoint::VERSION
     );
     assert!(e.contains(&message), "{e}");
-    assert_eq!(checkpoint::VERSION, 6, "version 6: the running time averages of the monitors");
+    assert_eq!(checkpoint::VERSION, 6, "version 6: the monitors' time averages and the contact model's history");
     assert!(e.contains("run the case from t = 0 without --restart, or continue it with the multifield that"), "{e}");
     assert!(!e.contains("restart from another checkpoint"), "{e}");
 }

@@ -5,6 +5,7 @@
 
 mod body_densities;
 mod collocated;
+mod dem;
 mod drag;
 mod elastic;
 mod eulerian;

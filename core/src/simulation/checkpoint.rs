@@ -18,6 +18,8 @@ struct SimulationState<'a> {
     marker_forces: Vec<Cow<'a, [Vec<Vector>]>>,
     /// The running time averages of the monitors ([`Simulation::averages`]).
     averages: Cow<'a, [crate::monitor::TimeAverage]>,
+    /// The contact model's history ([`ContactModel::history`]; empty without one).
+    contact_history: Cow<'a, [u8]>,
 }
 
 /// One field in a [`SimulationState`]: its name and frame (checked on loading), its grid
@@ -33,7 +35,7 @@ struct FieldCheckpoint<'a> {
 impl Simulation {
     /// Everything the next steps depend on, for a checkpoint: time, steps, the pressure
     /// (the initial guess of the next solve), the last step's figures, the initial energy,
-    /// the contact forces, every field's grid state and its frame's own state
+    /// the contact forces and the contact model's history, every field's grid state and its frame's own state
     /// ([`Frame::save_state`]). [`Simulation::load_state`] on a simulation built from the
     /// same case continues bit for bit. The exchange coefficients are not in it (every step
     /// recomputes them), nor the pressure solvers' caches (multigrid hierarchy, symbolic
@@ -60,6 +62,7 @@ impl Simulation {
             fields,
             marker_forces: self.forcings.iter().map(|p| Cow::Borrowed(&p.lag[..])).collect(),
             averages: Cow::Borrowed(&self.averages),
+            contact_history: Cow::Owned(self.contact.as_ref().map_or_else(Vec::new, |c| c.history())),
         };
         state::encode(&saved).map_err(Error::Model)
     }
@@ -154,6 +157,15 @@ impl Simulation {
         }
         for (k, lag) in saved.marker_forces.iter().enumerate() {
             state::finite(&lag[..], &format!("lagged marker forces of direct forcing {k}, body"))?;
+        }
+        match &mut self.contact {
+            Some(c) => {
+                c.restore_history(&saved.contact_history).map_err(|m| format!("contact `{}`: {m}", c.model()))?
+            }
+            None if !saved.contact_history.is_empty() => {
+                return Err("the checkpoint holds a contact model's history, and the case has no contact model".into())
+            }
+            None => {}
         }
         for (p, lag) in self.forcings.iter_mut().zip(saved.marker_forces) {
             p.lag = lag.into_owned();

@@ -121,7 +121,7 @@ impl Simulation {
         self.carry_immersed_forces();
         self.predictor(dt)?;
         self.exchange(dt);
-        self.contact_forces();
+        self.contact_forces(dt);
         self.immersed_boundaries(dt)?;
         let (iterations, residual) = self.pressure_projection(dt)?;
         let max_divergence = self.max_divergence(dt);
@@ -442,8 +442,9 @@ impl Simulation {
     /// Phase 8a (bodies, right after the exchange): contact forces from the positions at
     /// the start of the step; the frames apply them with the rigid projection in
     /// grid-to-particles (8b).
-    pub(super) fn contact_forces(&mut self) {
-        let Some(c) = &self.contact else {
+    pub(super) fn contact_forces(&mut self, dt: Real) {
+        let fluid_density = self.fluid_density();
+        let Some(c) = &mut self.contact else {
             return;
         };
         let per_field: Vec<Vec<BodyState>> = self.fields.iter().map(|f| f.frame.bodies()).collect();
@@ -456,10 +457,10 @@ impl Simulation {
             grid: &self.grid,
             boundaries: &self.boundaries,
             gravity: self.gravity,
-            fluid_density: self.fluid_density(),
+            fluid_density,
             bodies: &all,
         };
-        c.forces(&ctx, &mut out);
+        c.forces(&ctx, dt, &mut out);
         let mut k = 0;
         for (f, bodies) in per_field.iter().enumerate() {
             self.body_forces[f] = out[k..k + bodies.len()].to_vec();

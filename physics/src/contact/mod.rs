@@ -1,3 +1,4 @@
 //! Contact models between bodies and walls.
 
+pub mod dem;
 pub mod repulsion;

@@ -16,6 +16,7 @@
 
 use multifield_core::boundary::{Boundary, Side};
 use multifield_core::math::{Real, Vector};
+use multifield_core::neighbours::{pairs_within, SearchDomain};
 use multifield_core::plugin::{BodyState, ContactContext, ContactModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
@@ -103,19 +104,39 @@ impl Repulsion {
         }
     }
 
-    /// Every interacting pair: (i, Some(j)) for bodies, (i, None) with the image position
-    /// for walls; returns (i, j, image, centre distance, sum of radii, range ρ).
+    /// Every interacting pair: (i, Some(j)) for bodies, (i, None) for walls (through the
+    /// body's mirror image); returns (i, j, separation x_i − x_other, centre distance, sum of
+    /// radii, range ρ), in the order of the double loop: i ascending, its partners j > i
+    /// ascending, then its walls. The partners come from the cell list of
+    /// `multifield_core::neighbours` (O(N)); across a periodic side a partner is at its
+    /// nearest image (the minimum-image separation).
     fn pairs(&self, ctx: &ContactContext, mut f: impl FnMut(usize, Option<usize>, Vector, Real, Real, Real)) {
         let grid_range = self.range_cells * ctx.grid.h;
         let range = |r: Real| grid_range.min(self.max_range * r);
         let bodies = ctx.bodies;
+        let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
+        let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
+        // 2ρ of any pair is at most 2 min(grid range, max_range · largest radius)
+        let r_max = radii.iter().fold(0.0 as Real, |m, &r| m.max(r));
+        let search = 2.0 * range(r_max);
+        let domain = SearchDomain {
+            origin: ctx.grid.origin,
+            size: ctx.grid.size(),
+            periodic_x: ctx.boundaries.periodic_x(),
+            periodic_y: ctx.boundaries.periodic_y(),
+        };
+        let candidates = pairs_within(&centres, &radii, search, &domain);
+        let mut next = 0;
         for i in 0..bodies.len() {
-            for j in (i + 1)..bodies.len() {
-                let d = (bodies[i].position - bodies[j].position).norm();
+            while next < candidates.len() && candidates[next].i == i {
+                let p = candidates[next];
+                next += 1;
+                let j = p.j;
+                let d = p.distance;
                 let reach = bodies[i].radius + bodies[j].radius;
                 let rho = range(bodies[i].radius.min(bodies[j].radius));
                 if d <= reach + 2.0 * rho {
-                    f(i, Some(j), bodies[j].position, d, reach, rho);
+                    f(i, Some(j), p.separation, d, reach, rho);
                 }
             }
             if !self.walls {
@@ -138,7 +159,7 @@ impl Repulsion {
                 let reach = 2.0 * bodies[i].radius;
                 let rho = range(bodies[i].radius);
                 if d <= reach + 2.0 * rho {
-                    f(i, None, image, d, reach, rho);
+                    f(i, None, x - image, d, reach, rho);
                 }
             }
         }
@@ -174,16 +195,16 @@ impl ContactModel for Repulsion {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
-    fn forces(&self, ctx: &ContactContext, out: &mut [(Vector, Real)]) {
+    fn forces(&mut self, ctx: &ContactContext, _dt: Real, out: &mut [(Vector, Real)]) {
         out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
-        self.pairs(ctx, |i, j, other, d, reach, rho| {
+        self.pairs(ctx, |i, j, separation, d, reach, rho| {
             if d > reach + rho || d <= 0.0 {
                 return;
             }
             let a = &ctx.bodies[i];
             let c = self.scale(ctx, a, j.map(|j| &ctx.bodies[j]));
             let magnitude = c / self.stiffness * ((reach + rho - d) / rho).powi(2);
-            let n = (a.position - other) / d;
+            let n = separation / d;
             out[i].0 += magnitude * n;
             if let Some(j) = j {
                 out[j].0 -= magnitude * n;
@@ -219,7 +240,7 @@ mod tests {
         let bc = Boundaries::default();
         let body =
             |x: Real, y: Real| BodyState { mass: 2.0, radius: 0.1, position: Vector::new(x, y), ..Default::default() };
-        let rep = Repulsion {
+        let mut rep = Repulsion {
             range_cells: 2.0,
             stiffness: 0.5,
             force_scale: 0.0,
@@ -237,14 +258,14 @@ mod tests {
             bodies: &bodies,
         };
         let mut out = vec![(Vector::zeros(), 0.0); 2];
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         let expected = 2.0 * 10.0 / 0.5 * 0.25;
         assert!((out[0].0.x + expected).abs() < 1e-12, "{:?}", out[0]);
         assert!((out[0].0 + out[1].0).norm() < 1e-12);
         // beyond the range: nothing
         let far = [body(0.2, 0.5), body(0.7, 0.5)];
         let ctx = ContactContext { bodies: &far, ..ctx };
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         assert_eq!(out[0].0.norm(), 0.0);
     }
 
@@ -260,7 +281,7 @@ mod tests {
             position: Vector::new(x, 0.5),
             ..Default::default()
         };
-        let rep = Repulsion {
+        let mut rep = Repulsion {
             range_cells: 2.0,
             stiffness: 0.5,
             force_scale: 7.0,
@@ -272,7 +293,7 @@ mod tests {
         let g = Vector::new(0.0, -10.0);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: g, fluid_density: 1.0, bodies: &bodies };
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         let expected = 0.5 * 0.04 * 10.0 / 0.5 * 0.25;
         assert!((out[0].0.x + expected).abs() < 1e-12, "{:?} against {expected}", out[0]);
         let dry = rep.stable_dt(&ContactContext { fluid_density: 0.0, ..ctx }).unwrap();
@@ -280,7 +301,7 @@ mod tests {
         assert!((wet / dry - 3.0_f64.sqrt()).abs() < 1e-12, "step ratio {}", wet / dry);
         // neutrally buoyant: the given force scale
         let ctx = ContactContext { fluid_density: 1.5, ..ctx };
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         assert!((out[0].0.x + 7.0 / 0.5 * 0.25).abs() < 1e-12, "{:?}", out[0]);
     }
 
@@ -289,7 +310,7 @@ mod tests {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let b = [BodyState { mass: 1.0, radius: 0.1, position: Vector::new(0.5, 0.15), ..Default::default() }];
-        let rep = Repulsion {
+        let mut rep = Repulsion {
             range_cells: 2.0,
             stiffness: 1e-2,
             force_scale: 0.0,
@@ -305,7 +326,7 @@ mod tests {
             bodies: &b,
         };
         let mut out = vec![(Vector::zeros(), 0.0)];
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         // image at y = −0.15: d = 0.3, reach 0.2, ρ 0.2 → overlap 0.5
         assert!((out[0].0.y - 10.0 / 1e-2 * 0.25).abs() < 1e-9 && out[0].0.x == 0.0);
         let dt = rep.stable_dt(&ctx).unwrap();

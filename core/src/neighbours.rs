@@ -1,0 +1,298 @@
+//! Neighbour search for contact models: the pairs of disks within reach of each other, by
+//! a cell list, in O(N) for bounded size ratios.
+//!
+//! Given the centres x_i and radii R_i of N disks and a search distance s (how far beyond
+//! contact a model looks), [`pairs_within`] returns every pair (i < j) with
+//! |x_i − x_j| ≤ R_i + R_j + s, with the separation vector x_i − x_j (its minimum image
+//! across periodic sides), sorted by (i, j). The disks are binned in square cells of side
+//! w ≥ 2 R_max + s, so every pair within reach lies in the same or in adjacent cells: each
+//! disk looks at the disks of its 3 × 3 block of cells. With the solid fraction and the
+//! size ratio R_max / R_min bounded, a cell holds a bounded number of disks and the cost is
+//! O(N) (the number of cells is kept at most a few per disk: a large, sparsely filled domain
+//! gets larger cells). The result is deterministic (the same whatever the threads or the
+//! binning) and exactly what the brute-force double loop over all pairs finds with the
+//! same test, since each pair's distance is computed the same way (`(x_i − x_j).norm()`,
+//! with a period added or subtracted only for a pair that wraps).
+//!
+//! Periodic sides: along a periodic axis of period L the separation is the minimum image,
+//! dx − L where dx > L/2, dx + L where dx < −L/2 (one image: the domain must be wider than
+//! twice the reach for no pair to touch through two images). Centres outside a periodic
+//! domain are binned by wrapping; outside a non-periodic one, in the edge cells.
+
+use crate::math::{Real, Vector};
+
+/// The box the disks live in, and which of its axes are periodic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchDomain {
+    /// Lower-left corner.
+    pub origin: Vector,
+    /// Extent along x and y (positive).
+    pub size: Vector,
+    /// Periodic along x (period `size.x`).
+    pub periodic_x: bool,
+    /// Periodic along y (period `size.y`).
+    pub periodic_y: bool,
+}
+
+/// One pair of disks within reach.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pair {
+    /// The lower index.
+    pub i: usize,
+    /// The higher index.
+    pub j: usize,
+    /// x_i − x_j, the minimum image across periodic sides.
+    pub separation: Vector,
+    /// |x_i − x_j| (`separation.norm()`).
+    pub distance: Real,
+}
+
+/// The minimum image of a difference `d` along an axis of period `l` (unchanged, bit for
+/// bit, when |d| ≤ l/2 or the axis is not periodic).
+#[inline]
+pub fn minimum_image(d: Real, l: Real, periodic: bool) -> Real {
+    if !periodic {
+        d
+    } else if d > 0.5 * l {
+        d - l
+    } else if d < -0.5 * l {
+        d + l
+    } else {
+        d
+    }
+}
+
+/// The separation x_i − x_j of two centres in `domain` (minimum image).
+#[inline]
+pub fn separation(a: Vector, b: Vector, domain: &SearchDomain) -> Vector {
+    let d = a - b;
+    Vector::new(
+        minimum_image(d.x, domain.size.x, domain.periodic_x),
+        minimum_image(d.y, domain.size.y, domain.periodic_y),
+    )
+}
+
+/// Every pair (i < j) of disks with |x_i − x_j| ≤ R_i + R_j + `search` (minimum image),
+/// sorted by (i, j); `centres` and `radii` have one entry per disk. O(N) for bounded size
+/// ratios and solid fractions (module docs).
+pub fn pairs_within(centres: &[Vector], radii: &[Real], search: Real, domain: &SearchDomain) -> Vec<Pair> {
+    assert_eq!(centres.len(), radii.len(), "one radius per centre");
+    let n = centres.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let r_max = radii.iter().fold(0.0 as Real, |m, &r| if r > m { r } else { m });
+    // the reach of the widest pair, with a margin for the rounding of the cell indices
+    let reach = 2.0 * r_max + search.max(0.0);
+    let mut w = (reach * (1.0 + 1e-9)).max(Real::MIN_POSITIVE);
+    if !w.is_finite() {
+        return brute(centres, radii, search, domain);
+    }
+    // few cells per disk at most: larger cells in a large, sparse domain
+    let cap = 4 * n + 64;
+    let cells_along = |l: Real, w: Real, periodic: bool| -> usize {
+        let c = if periodic { (l / w).floor() } else { (l / w).ceil() };
+        if c.is_finite() && c >= 1.0 {
+            (c as usize).min(1 << 20)
+        } else {
+            1
+        }
+    };
+    let (mut nx, mut ny);
+    loop {
+        nx = cells_along(domain.size.x, w, domain.periodic_x);
+        ny = cells_along(domain.size.y, w, domain.periodic_y);
+        if nx.saturating_mul(ny) <= cap {
+            break;
+        }
+        w *= 2.0;
+    }
+    // cell widths: a periodic axis is divided evenly (each cell at least w wide)
+    let wx = if domain.periodic_x { domain.size.x / nx as Real } else { w };
+    let wy = if domain.periodic_y { domain.size.y / ny as Real } else { w };
+    let index = |x: Real, o: Real, wc: Real, nc: usize, periodic: bool| -> usize {
+        let c = ((x - o) / wc).floor();
+        if periodic {
+            let c = if c.is_finite() { c.rem_euclid(nc as Real) } else { 0.0 };
+            (c as usize).min(nc - 1)
+        } else if c >= 0.0 {
+            (c as usize).min(nc - 1)
+        } else {
+            0
+        }
+    };
+    let cell_of: Vec<(usize, usize)> = centres
+        .iter()
+        .map(|p| {
+            (
+                index(p.x, domain.origin.x, wx, nx, domain.periodic_x),
+                index(p.y, domain.origin.y, wy, ny, domain.periodic_y),
+            )
+        })
+        .collect();
+    // counting sort of the disks by cell: the disks of cell c are order[start[c]..start[c + 1]]
+    let mut start = vec![0usize; nx * ny + 1];
+    for &(cx, cy) in &cell_of {
+        start[cy * nx + cx + 1] += 1;
+    }
+    for c in 0..nx * ny {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let mut order = vec![0usize; n];
+    for (k, &(cx, cy)) in cell_of.iter().enumerate() {
+        let c = cy * nx + cx;
+        order[fill[c]] = k;
+        fill[c] += 1;
+    }
+    // the distinct neighbour cells along an axis (fewer than 3 where the axis has fewer cells)
+    let neighbours = |c: usize, nc: usize, periodic: bool| -> ([usize; 3], usize) {
+        let mut out = [0usize; 3];
+        let mut m = 0;
+        for d in [-1isize, 0, 1] {
+            let k = c as isize + d;
+            let k = if periodic {
+                k.rem_euclid(nc as isize) as usize
+            } else if k < 0 || k >= nc as isize {
+                continue;
+            } else {
+                k as usize
+            };
+            if !out[..m].contains(&k) {
+                out[m] = k;
+                m += 1;
+            }
+        }
+        (out, m)
+    };
+    let mut pairs = Vec::new();
+    let mut mine: Vec<Pair> = Vec::new();
+    for (i, &(cx, cy)) in cell_of.iter().enumerate() {
+        let (xs, mx) = neighbours(cx, nx, domain.periodic_x);
+        let (ys, my) = neighbours(cy, ny, domain.periodic_y);
+        mine.clear();
+        for &y in &ys[..my] {
+            for &x in &xs[..mx] {
+                let c = y * nx + x;
+                for &j in &order[start[c]..start[c + 1]] {
+                    if j <= i {
+                        continue;
+                    }
+                    if let Some(p) = test(i, j, centres, radii, search, domain) {
+                        mine.push(p);
+                    }
+                }
+            }
+        }
+        mine.sort_unstable_by_key(|p| p.j);
+        pairs.extend_from_slice(&mine);
+    }
+    pairs
+}
+
+/// The pair (i, j) if within reach.
+#[inline]
+fn test(i: usize, j: usize, centres: &[Vector], radii: &[Real], search: Real, domain: &SearchDomain) -> Option<Pair> {
+    let separation = separation(centres[i], centres[j], domain);
+    let distance = separation.norm();
+    (distance <= radii[i] + radii[j] + search).then_some(Pair { i, j, separation, distance })
+}
+
+/// The O(N²) double loop over all pairs with the same test as [`pairs_within`] (for
+/// testing it, and for inputs a cell list cannot bin).
+pub fn brute(centres: &[Vector], radii: &[Real], search: Real, domain: &SearchDomain) -> Vec<Pair> {
+    let mut pairs = Vec::new();
+    for i in 0..centres.len() {
+        for j in (i + 1)..centres.len() {
+            if let Some(p) = test(i, j, centres, radii, search, domain) {
+                pairs.push(p);
+            }
+        }
+    }
+    pairs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `n` random disks of radii in [r, 2r] in a unit-aspect box of side `l`.
+    fn packing(seed: u64, n: usize, l: Real, r: Real) -> (Vec<Vector>, Vec<Real>) {
+        let mut rng = fastrand::Rng::with_seed(seed);
+        let centres = (0..n).map(|_| Vector::new(l * rng.f64(), l * rng.f64())).collect();
+        let radii = (0..n).map(|_| r * (1.0 + rng.f64())).collect();
+        (centres, radii)
+    }
+
+    fn check(seed: u64, n: usize, periodic: (bool, bool)) -> usize {
+        // solid fraction about 0.3 with radii in [r, 2r]: π r² (7/3) n = 0.3 l²
+        let l = 1.0;
+        let r = (0.3 * l * l / (std::f64::consts::PI * 7.0 / 3.0 * n as Real)).sqrt();
+        let (c, radii) = packing(seed, n, l, r);
+        let domain = SearchDomain {
+            origin: Vector::zeros(),
+            size: Vector::new(l, l),
+            periodic_x: periodic.0,
+            periodic_y: periodic.1,
+        };
+        let search = 0.5 * r;
+        let fast = pairs_within(&c, &radii, search, &domain);
+        let slow = brute(&c, &radii, search, &domain);
+        assert_eq!(fast, slow, "seed {seed}, {n} disks, periodic {periodic:?}");
+        fast.len()
+    }
+
+    #[test]
+    fn the_cell_list_finds_the_pairs_of_brute_force() {
+        let mut wrapped = 0;
+        let mut found = 0;
+        for seed in 0..20 {
+            for &n in &[2usize, 7, 100, 800] {
+                for periodic in [(false, false), (true, false), (false, true), (true, true)] {
+                    found += check(seed, n, periodic);
+                }
+            }
+        }
+        // pairs across periodic sides are found too (the minimum image differs from x_i − x_j)
+        for seed in 0..5 {
+            let n = 400;
+            let r = (0.3 / (std::f64::consts::PI * 7.0 / 3.0 * n as Real)).sqrt();
+            let (c, radii) = packing(seed, n, 1.0, r);
+            let domain = SearchDomain {
+                origin: Vector::zeros(),
+                size: Vector::new(1.0, 1.0),
+                periodic_x: true,
+                periodic_y: true,
+            };
+            wrapped +=
+                pairs_within(&c, &radii, 0.5 * r, &domain).iter().filter(|p| p.separation != c[p.i] - c[p.j]).count();
+        }
+        eprintln!("{found} pairs as brute force finds them, {wrapped} across periodic sides");
+        assert!(found > 10_000, "{found} pairs only: the packings are too sparse to test");
+        assert!(wrapped > 20, "{wrapped} wrapped pairs only");
+    }
+
+    #[test]
+    fn a_pair_across_a_periodic_side_comes_with_its_minimum_image() {
+        let domain = SearchDomain {
+            origin: Vector::new(-1.0, 0.0),
+            size: Vector::new(2.0, 1.0),
+            periodic_x: true,
+            periodic_y: false,
+        };
+        let c = [Vector::new(0.95, 0.5), Vector::new(-0.97, 0.52), Vector::new(0.0, 0.5)];
+        let r = [0.03, 0.03, 0.03];
+        let p = pairs_within(&c, &r, 0.03, &domain);
+        assert_eq!(p.len(), 1);
+        assert_eq!((p[0].i, p[0].j), (0, 1));
+        assert!((p[0].separation - Vector::new(-0.08, -0.02)).norm() < 1e-12, "{:?}", p[0]);
+        // not periodic: none
+        let closed = SearchDomain { periodic_x: false, ..domain };
+        assert!(pairs_within(&c, &r, 0.03, &closed).is_empty());
+        // few cells along a periodic axis (a domain narrower than three reaches): no pair twice
+        let narrow = SearchDomain { size: Vector::new(0.1, 1.0), origin: Vector::zeros(), ..domain };
+        let c = [Vector::new(0.01, 0.5), Vector::new(0.09, 0.5), Vector::new(0.05, 0.52)];
+        assert_eq!(pairs_within(&c, &r, 0.03, &narrow), brute(&c, &r, 0.03, &narrow));
+        assert_eq!(pairs_within(&c, &r, 0.03, &narrow).len(), 3);
+    }
+}
