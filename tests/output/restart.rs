@@ -652,6 +652,10 @@ fn a_restarted_run_writes_the_same_snapshots_at_the_requested_times() {
         v.sort();
         v
     };
-    assert_eq!(names(&root.join("full")), ["frame_000000.png", "frame_000001.png"]);
-    assert_eq!(names(&root.join("restarted")), ["frame_000001.png"]);
+    assert_eq!(names(&root.join("full")), ["frame_000000.png", "frame_000001.png", "frames.csv"]);
+    assert_eq!(names(&root.join("restarted")), ["frame_000001.png", "frames.csv"]);
+    // the restarted run's index lists its own frame, numbered on
+    let index = std::fs::read_to_string(root.join("restarted/frames/frames.csv")).unwrap();
+    assert_eq!(index.lines().count(), 2, "{index}");
+    assert!(index.lines().nth(1).unwrap().ends_with(",1"), "{index}");
 }
