@@ -174,7 +174,7 @@ impl ContactModel for Repulsion {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
-    fn forces(&self, ctx: &ContactContext, out: &mut [(Vector, Real)]) {
+    fn forces(&mut self, ctx: &ContactContext, _dt: Real, out: &mut [(Vector, Real)]) {
         out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
         self.pairs(ctx, |i, j, other, d, reach, rho| {
             if d > reach + rho || d <= 0.0 {
@@ -205,6 +205,21 @@ impl ContactModel for Repulsion {
         });
         best
     }
+    /// The step of [`ContactModel::stable_dt`] for the stiffest pair any two bodies (or a
+    /// body and a wall) could form: the smallest mass and range against the largest force
+    /// scale, dt_factor · sqrt(M_min ε ρ_min / (2 c_max)); equal to it for equal bodies.
+    fn substep_dt(&self, ctx: &ContactContext) -> Option<Real> {
+        let bodies = ctx.bodies;
+        if bodies.is_empty() || (bodies.len() == 1 && !self.walls) {
+            return None;
+        }
+        let range = |r: Real| (self.range_cells * ctx.grid.h).min(self.max_range * r);
+        let m = bodies.iter().map(|b| b.mass).fold(Real::INFINITY, Real::min);
+        let rho = bodies.iter().map(|b| range(b.radius)).fold(Real::INFINITY, Real::min);
+        // c_ij is at most the larger of the two bodies' own scales (a mean, or the same fallback)
+        let c = bodies.iter().map(|b| self.scale(ctx, b, None)).fold(0.0, Real::max);
+        (c > 0.0).then(|| self.dt_factor * (m * self.stiffness * rho / (2.0 * c)).sqrt())
+    }
 }
 
 #[cfg(test)]
@@ -219,7 +234,7 @@ mod tests {
         let bc = Boundaries::default();
         let body =
             |x: Real, y: Real| BodyState { mass: 2.0, radius: 0.1, position: Vector::new(x, y), ..Default::default() };
-        let rep = Repulsion {
+        let mut rep = Repulsion {
             range_cells: 2.0,
             stiffness: 0.5,
             force_scale: 0.0,
@@ -237,14 +252,14 @@ mod tests {
             bodies: &bodies,
         };
         let mut out = vec![(Vector::zeros(), 0.0); 2];
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         let expected = 2.0 * 10.0 / 0.5 * 0.25;
         assert!((out[0].0.x + expected).abs() < 1e-12, "{:?}", out[0]);
         assert!((out[0].0 + out[1].0).norm() < 1e-12);
         // beyond the range: nothing
         let far = [body(0.2, 0.5), body(0.7, 0.5)];
         let ctx = ContactContext { bodies: &far, ..ctx };
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         assert_eq!(out[0].0.norm(), 0.0);
     }
 
@@ -260,7 +275,7 @@ mod tests {
             position: Vector::new(x, 0.5),
             ..Default::default()
         };
-        let rep = Repulsion {
+        let mut rep = Repulsion {
             range_cells: 2.0,
             stiffness: 0.5,
             force_scale: 7.0,
@@ -272,7 +287,7 @@ mod tests {
         let g = Vector::new(0.0, -10.0);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: g, fluid_density: 1.0, bodies: &bodies };
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         let expected = 0.5 * 0.04 * 10.0 / 0.5 * 0.25;
         assert!((out[0].0.x + expected).abs() < 1e-12, "{:?} against {expected}", out[0]);
         let dry = rep.stable_dt(&ContactContext { fluid_density: 0.0, ..ctx }).unwrap();
@@ -280,7 +295,7 @@ mod tests {
         assert!((wet / dry - 3.0_f64.sqrt()).abs() < 1e-12, "step ratio {}", wet / dry);
         // neutrally buoyant: the given force scale
         let ctx = ContactContext { fluid_density: 1.5, ..ctx };
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         assert!((out[0].0.x + 7.0 / 0.5 * 0.25).abs() < 1e-12, "{:?}", out[0]);
     }
 
@@ -289,7 +304,7 @@ mod tests {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let b = [BodyState { mass: 1.0, radius: 0.1, position: Vector::new(0.5, 0.15), ..Default::default() }];
-        let rep = Repulsion {
+        let mut rep = Repulsion {
             range_cells: 2.0,
             stiffness: 1e-2,
             force_scale: 0.0,
@@ -305,7 +320,7 @@ mod tests {
             bodies: &b,
         };
         let mut out = vec![(Vector::zeros(), 0.0)];
-        rep.forces(&ctx, &mut out);
+        rep.forces(&ctx, 0.0, &mut out);
         // image at y = −0.15: d = 0.3, reach 0.2, ρ 0.2 → overlap 0.5
         assert!((out[0].0.y - 10.0 / 1e-2 * 0.25).abs() < 1e-9 && out[0].0.x == 0.0);
         let dt = rep.stable_dt(&ctx).unwrap();
