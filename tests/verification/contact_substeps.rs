@@ -271,3 +271,14 @@ fn more_substeps_than_the_cap_is_an_error_naming_the_entry() {
     let e = sim.step().unwrap_err().to_string();
     assert!(e.contains("time.contact_substeps") && e.contains("more than 10000") && e.contains("time.max_dt"), "{e}");
 }
+
+#[test]
+fn the_option_is_off_by_default_left_out_of_the_written_case_and_set_by_override() {
+    let body = "(name: \"d\", shape: Disk(center: (0.5, 0.3), radius: 0.05))";
+    let case = dry_box(body, G, "", 1e-3, false);
+    assert!(!case.time.contact_substeps && !case.to_ron().contains("contact_substeps"));
+    let on = case.with_overrides(&["time.contact_substeps=true".to_string()]).unwrap();
+    assert!(on.time.contact_substeps && on.to_ron().contains("contact_substeps: true"));
+    let e = case.with_overrides(&["time.contact_substep=true".to_string()]).unwrap_err().to_string();
+    assert!(e.contains("contact_substeps") && e.contains("did you mean"), "{e}");
+}
