@@ -393,12 +393,13 @@ fn check(case: &Case, generated: &[Generated], file: &Path, max_memory: &Option<
     println!("gravity  {:?}", c.gravity);
     let t = &c.time;
     println!(
-        "time     end {}, cfl {}, max_dt {}{}{}",
+        "time     end {}, cfl {}, max_dt {}{}{}{}",
         t.end,
         t.cfl,
         t.max_dt,
         t.fixed_dt.map(|d| format!(", fixed_dt {d}")).unwrap_or_default(),
-        t.max_steps.map(|n| format!(", max_steps {n}")).unwrap_or_default()
+        t.max_steps.map(|n| format!(", max_steps {n}")).unwrap_or_default(),
+        if t.contact_substeps { ", contact_substeps (contact in sub-steps; not a Δt limit)" } else { "" }
     );
     for (spec, f) in c.fields.iter().zip(&sim.fields) {
         let frame = if spec.representation == Representation::MassPoint {

@@ -73,6 +73,10 @@ pub struct TimeControl {
     /// Stop after this many steps even if `end` is not reached.
     #[serde(default)]
     pub max_steps: Option<u64>,
+    /// Integrate the bodies' contact in sub-steps inside each fluid step, so that the
+    /// contact's stiffness limits only the sub-steps, not the fluid's Δt (docs/method.md §5).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub contact_substeps: bool,
 }
 
 fn one() -> Real {
@@ -518,6 +522,10 @@ fn is_zero(x: &Real) -> bool {
     *x == 0.0
 }
 
+/// Entries (parent path, key) left out of the written case when they hold their default
+/// (so that cases written before them stay byte-identical), which `--set` may still set.
+const OMITTED_AT_DEFAULT: &[(&str, &str)] = &[("time", "contact_substeps")];
+
 fn is_false(b: &bool) -> bool {
     !*b
 }
@@ -826,11 +834,13 @@ impl Case {
                 node = match node {
                     serde_json::Value::Object(map) => {
                         if !map.contains_key(*key) {
+                            // entries the case leaves out when they hold their default
+                            let omitted = OMITTED_AT_DEFAULT.iter().filter(|(p, _)| *p == here).map(|(_, k)| *k);
                             // plugin params may gain new keys; elsewhere the key must exist
-                            if here.ends_with("params") || here == "params" {
+                            if here.ends_with("params") || here == "params" || omitted.clone().any(|k| k == *key) {
                                 map.insert(key.to_string(), serde_json::Value::Null);
                             } else {
-                                let keys: Vec<&str> = map.keys().map(|s| s.as_str()).collect();
+                                let keys: Vec<&str> = map.keys().map(|s| s.as_str()).chain(omitted).collect();
                                 return Err(err(format!(
                                     "`{key}` is not an entry of `{}`; its entries are: {}{}",
                                     if here.is_empty() { "the case" } else { &here },

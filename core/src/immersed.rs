@@ -518,8 +518,9 @@ pub struct ForcedBody {
     pub angular_velocity: Real,
     /// Material density ρ_b.
     pub density: Real,
-    /// Contact force and torque of the step.
-    pub contact: (Vector, Real),
+    /// Contact force and torque of the step, and the position correction of sub-stepped
+    /// contact ([`crate::plugin::BodyContact`]).
+    pub contact: crate::plugin::BodyContact,
 }
 
 impl ForcedBody {
@@ -559,6 +560,9 @@ impl ForcedBody {
         let u = match self.motion {
             Motion::Fixed => return self.clone(),
             Motion::Prescribed { velocity, .. } => Vector::new(velocity[0], velocity[1]),
+            Motion::Free if self.contact.shift != Vector::zeros() => {
+                return ForcedBody { center: self.center + dt * self.velocity + self.contact.shift, ..self.clone() };
+            }
             Motion::Free => self.velocity,
         };
         ForcedBody { center: self.center + dt * u, ..self.clone() }
@@ -764,7 +768,7 @@ pub fn couple(
                     k * qy - rho_f * ly,
                     j + k * qw - rho_f * lw,
                 );
-                let (fc, tc) = b.contact;
+                let (fc, tc) = (b.contact.force, b.contact.torque);
                 let m_eff = (b.density - rho_f) * vol;
                 let rhs = nalgebra::Vector3::new(
                     m * b.velocity.x + rho_f * (p0.x - before.0.x) + dt * (m_eff * gravity.x + fc.x - rho_f * s0.x),

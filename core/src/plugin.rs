@@ -48,8 +48,9 @@ pub struct FrameContext<'a> {
     pub state: &'a mut FieldState,
     /// The field's stress models.
     pub stress: &'a [Box<dyn StressModel>],
-    /// Contact force and torque on each of the field's bodies (phase 8), by body index.
-    pub body_forces: &'a [(Vector, Real)],
+    /// Contact force and torque on each of the field's bodies (phase 8), by body index,
+    /// with the position correction of sub-stepped contact ([`BodyContact`]).
+    pub body_forces: &'a [BodyContact],
     /// When a direct-forcing coupling ([`ExchangeModel::immersed_boundary`]) moves this
     /// field's bodies: each body's new velocity and the hydrodynamic force of this step, by
     /// body index. The field is then not on the grid (the core does not call
@@ -113,6 +114,35 @@ pub struct ImmersedBoundary {
     pub sweeps: Option<usize>,
     /// Markers this many cells inside the solid from the surface.
     pub retraction: Real,
+}
+
+/// What phase 8a hands a body's frame: the contact force and torque to apply over the
+/// step, and, with `time.contact_substeps`, where the contact's sub-steps put the body
+/// against where moving with its end velocity for the whole step would (docs/method.md §5).
+/// Without sub-steps the shift and the turn are exactly zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BodyContact {
+    /// Contact force (with sub-steps, the mean over the step: impulse/Δt).
+    pub force: Vector,
+    /// Contact torque (with sub-steps, the mean over the step).
+    pub torque: Real,
+    /// Position correction s = X_substepped − (X₀ + Δt V_end): added to the centroid's
+    /// move of the step.
+    pub shift: Vector,
+    /// Rotation correction φ = θ_substepped − Δt ω_end: added to the body's rotation of
+    /// the step.
+    pub turn: Real,
+}
+
+impl BodyContact {
+    /// A force and torque alone, with no position correction.
+    pub fn force(force: Vector, torque: Real) -> Self {
+        Self { force, torque, shift: Vector::zeros(), turn: 0.0 }
+    }
+    /// Whether it corrects the position or the rotation (never without sub-steps).
+    pub fn moves(&self) -> bool {
+        self.shift != Vector::zeros() || self.turn != 0.0
+    }
 }
 
 /// The state of one body of a field, as frames report it (and checkpoint it).
@@ -511,6 +541,13 @@ pub trait ContactModel: Send + Sync {
     /// Restores `history()` from a checkpoint; refuses (with a message) what it cannot read.
     fn restore_history(&mut self, _bytes: &[u8]) -> Result<(), String> {
         Ok(())
+    }
+    /// The contact sub-step (`time.contact_substeps`): the largest stable step of the
+    /// contact integration whenever any bodies may touch (wherever they stand now: a fluid
+    /// step may carry them into range), `None` if none can. The default is
+    /// [`ContactModel::stable_dt`], which sees only the bodies in range now.
+    fn substep_dt(&self, ctx: &ContactContext) -> Option<Real> {
+        self.stable_dt(ctx)
     }
 }
 

@@ -22,7 +22,7 @@ use multifield_core::case::{BodyShape, Motion, Region};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{
-    BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StressModel,
+    BodyContact, BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StressModel,
 };
 use multifield_core::quantity::PointSet;
 use multifield_core::registry::{params_value, ParamDoc};
@@ -391,7 +391,7 @@ impl Lagrangian {
         &mut self,
         dt: Real,
         gravity: Vector,
-        forces: &[(Vector, Real)],
+        forces: &[BodyContact],
         rigid: bool,
         apic: bool,
         forced: Option<&[BodyStep]>,
@@ -404,11 +404,17 @@ impl Lagrangian {
         let centres = self.centres(&x_old);
         let (l, inertia) = self.body_angular(&x_old, &centres);
         let mut motion = vec![(Vector::zeros(), 0.0); self.bodies.len() + 1];
+        // the position correction of sub-stepped contact, by body (zero without)
+        let mut corrections = vec![(Vector::zeros(), 0.0); self.bodies.len() + 1];
         for (k, body) in self.bodies.iter_mut().enumerate() {
             let b = k + 1;
             let s = &sums[b];
             if s.m <= 0.0 {
                 continue;
+            }
+            let contact = forces.get(k).copied().unwrap_or_default();
+            if body.motion == Motion::Free {
+                corrections[b] = (contact.shift, contact.turn);
             }
             if let Some(step) = forced.and_then(|f| f.get(k)) {
                 // a direct forcing decided the motion and measured the force
@@ -417,7 +423,7 @@ impl Lagrangian {
                 motion[b] = (step.velocity, step.angular_velocity);
                 continue;
             }
-            let (fc, tc) = forces.get(k).copied().unwrap_or((Vector::zeros(), 0.0));
+            let (fc, tc) = (contact.force, contact.torque);
             let (v0, w0) = before[k];
             body.state.force = (s.p - s.m * v0) / dt - s.m * gravity;
             body.state.torque = (l[b] - inertia[b] * w0) / dt;
@@ -444,11 +450,20 @@ impl Lagrangian {
             let c = centres[b];
             if rigid {
                 let r = x_old[k] - c;
-                let (sn, cs) = (w * dt).sin_cos();
+                // with sub-stepped contact, moved and turned to where the sub-steps put it
+                let (shift, turn) = corrections[b];
+                let corrected = shift != Vector::zeros() || turn != 0.0;
+                let (sn, cs) = if turn != 0.0 { (w * dt + turn).sin_cos() } else { (w * dt).sin_cos() };
                 let r_new = Vector::new(cs * r.x - sn * r.y, sn * r.x + cs * r.y);
                 // a body at rest keeps its points' positions to the bit (c + (x − c) need
                 // not be x, and c depends on the masses)
-                pts.x[k] = if v == Vector::zeros() && w == 0.0 { x_old[k] } else { c + dt * v + r_new };
+                pts.x[k] = if v == Vector::zeros() && w == 0.0 && !corrected {
+                    x_old[k]
+                } else if corrected {
+                    c + dt * v + shift + r_new
+                } else {
+                    c + dt * v + r_new
+                };
                 pts.v[k] = v + w * Vector::new(-r_new.y, r_new.x);
                 if apic {
                     pts.c_u[k] = Vector::new(0.0, -w);

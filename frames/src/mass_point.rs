@@ -270,7 +270,8 @@ impl Frame for MassPoint {
                     uf[a] = st.velocity[a];
                 }
             }
-            let (fc, tc) = ctx.body_forces.get(k).copied().unwrap_or((Vector::zeros(), 0.0));
+            let contact = ctx.body_forces.get(k).copied().unwrap_or_default();
+            let (fc, tc) = (contact.force, contact.torque);
             st.force = m * gained / dt - m * ctx.gravity;
             let u_grid = st.velocity + gained;
             // rotation: implicit torque 4πμa²(Ω_f − ω) towards the fluid's local rotation
@@ -307,6 +308,10 @@ impl Frame for MassPoint {
             }
             // move; wrap periodic sides, stop the centre at a disk's radius from a wall
             let mut x = st.position + dt * v_new;
+            if contact.shift != Vector::zeros() {
+                // sub-stepped contact: where the sub-steps put the centre (docs/method.md §5)
+                x += contact.shift;
+            }
             for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
                 let len = hi[axis] - lo[axis];
                 if periodic {

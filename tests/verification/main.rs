@@ -5,6 +5,7 @@
 
 mod body_densities;
 mod collocated;
+mod contact_substeps;
 mod dem;
 mod drag;
 mod elastic;

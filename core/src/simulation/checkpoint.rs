@@ -12,6 +12,9 @@ struct SimulationState<'a> {
     initial_energy: Real,
     pressure: Cow<'a, [Real]>,
     last: Cow<'a, StepDiagnostics>,
+    /// The contact force and torque of each body ([`BodyContact`] without the position
+    /// correction of sub-stepped contact, which phase 8a recomputes in every step before a
+    /// frame reads it).
     body_forces: Cow<'a, [Vec<(Vector, Real)>]>,
     fields: Vec<FieldCheckpoint<'a>>,
     /// Per direct forcing, the lagged marker forces ([`ForcedPair::lag`]).
@@ -58,7 +61,9 @@ impl Simulation {
             initial_energy: self.initial_energy,
             pressure: Cow::Borrowed(&self.pressure),
             last: Cow::Borrowed(&self.last),
-            body_forces: Cow::Borrowed(&self.body_forces),
+            body_forces: Cow::Owned(
+                self.body_forces.iter().map(|f| f.iter().map(|c| (c.force, c.torque)).collect()).collect(),
+            ),
             fields,
             marker_forces: self.forcings.iter().map(|p| Cow::Borrowed(&p.lag[..])).collect(),
             averages: Cow::Borrowed(&self.averages),
@@ -179,7 +184,8 @@ impl Simulation {
         self.initial_energy = saved.initial_energy;
         self.pressure = pressure;
         self.last = saved.last.into_owned();
-        self.body_forces = saved.body_forces.into_owned();
+        self.body_forces =
+            saved.body_forces.iter().map(|f| f.iter().map(|&(f, t)| BodyContact::force(f, t)).collect()).collect();
         Ok(())
     }
 }

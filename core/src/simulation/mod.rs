@@ -22,9 +22,11 @@
 mod build;
 mod checkpoint;
 mod checks;
+mod contact;
 mod momentum_exchange;
 mod projection;
 mod step;
+pub use contact::MAX_CONTACT_SUBSTEPS;
 pub use step::OUTPUT_TIME;
 
 pub use checks::MASS_POINT_FRAME;
@@ -39,8 +41,8 @@ use crate::field::FieldState;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector};
 use crate::plugin::{
-    BodyState, BodyStep, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame, FrameContext,
-    FrameFigures, ImmersedBoundary, InitContext, Partner, PressureSolver, StressModel, TimeStepContext,
+    BodyContact, BodyState, BodyStep, ContactContext, ContactModel, DragLaw, ExchangeContext, ExchangeModel, Frame,
+    FrameContext, FrameFigures, ImmersedBoundary, InitContext, Partner, PressureSolver, StressModel, TimeStepContext,
 };
 use crate::poisson::PoissonProblem;
 use crate::registry;
@@ -180,8 +182,9 @@ pub struct Simulation {
     pub pressure_solver: Option<Box<dyn PressureSolver>>,
     /// The contact model, if the case has one.
     pub contact: Option<Box<dyn ContactModel>>,
-    /// Contact force and torque on each body of each field (phase 8).
-    pub body_forces: Vec<Vec<(Vector, Real)>>,
+    /// Contact force and torque on each body of each field, with the position correction
+    /// of sub-stepped contact (phase 8).
+    pub body_forces: Vec<Vec<BodyContact>>,
     /// Per field, the fluid it is coupled to by a drag law, and the law.
     partners: Vec<Option<(usize, DragLaw)>>,
     /// The direct-forcing couplings (exchanges with [`ExchangeModel::immersed_boundary`]).

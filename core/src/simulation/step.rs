@@ -84,7 +84,8 @@ impl Simulation {
                 }
             }
         }
-        if let Some(c) = &self.contact {
+        // with sub-steps the contact limits only its own integration (phase 8a)
+        if let Some(c) = self.contact.as_ref().filter(|_| !self.case.time.contact_substeps) {
             let bodies: Vec<BodyState> = self.fields.iter().flat_map(|f| f.frame.bodies()).collect();
             let ctx = ContactContext {
                 grid: &self.grid,
@@ -121,7 +122,7 @@ impl Simulation {
         self.carry_immersed_forces();
         self.predictor(dt)?;
         self.exchange(dt);
-        self.contact_forces(dt);
+        self.contact_forces(dt)?;
         self.immersed_boundaries(dt)?;
         let (iterations, residual) = self.pressure_projection(dt)?;
         let max_divergence = self.max_divergence(dt);
@@ -378,7 +379,7 @@ impl Simulation {
                 velocity: state.velocity,
                 angular_velocity: state.angular_velocity,
                 density: spec.density_or(self.fields[p.bodies].density),
-                contact: self.body_forces[p.bodies].get(j).copied().unwrap_or((Vector::zeros(), 0.0)),
+                contact: self.body_forces[p.bodies].get(j).copied().unwrap_or_default(),
             })
             .collect()
     }
@@ -441,18 +442,20 @@ impl Simulation {
 
     /// Phase 8a (bodies, right after the exchange): contact forces from the positions at
     /// the start of the step; the frames apply them with the rigid projection in
-    /// grid-to-particles (8b).
-    pub(super) fn contact_forces(&mut self, dt: Real) {
+    /// grid-to-particles (8b). With `time.contact_substeps`, the bodies' contact is
+    /// integrated over the step in sub-steps ([`super::contact::substepped`]), and the
+    /// frames take its mean force and the position correction.
+    pub(super) fn contact_forces(&mut self, dt: Real) -> Result<()> {
         let fluid_density = self.fluid_density();
+        let substeps = self.case.time.contact_substeps;
         let Some(c) = &mut self.contact else {
-            return;
+            return Ok(());
         };
         let per_field: Vec<Vec<BodyState>> = self.fields.iter().map(|f| f.frame.bodies()).collect();
         let all: Vec<BodyState> = per_field.iter().flatten().cloned().collect();
         if all.is_empty() {
-            return;
+            return Ok(());
         }
-        let mut out = vec![(Vector::zeros(), 0.0); all.len()];
         let ctx = ContactContext {
             grid: &self.grid,
             boundaries: &self.boundaries,
@@ -460,12 +463,20 @@ impl Simulation {
             fluid_density,
             bodies: &all,
         };
-        c.forces(&ctx, dt, &mut out);
+        let out = if substeps && dt > 0.0 {
+            super::contact::substepped(c.as_mut(), &ctx, dt)
+                .map_err(|m| Error::Model(format!("time.contact_substeps: {m}")))?
+        } else {
+            let mut out = vec![(Vector::zeros(), 0.0); all.len()];
+            c.forces(&ctx, dt, &mut out);
+            out.into_iter().map(|(f, t)| BodyContact::force(f, t)).collect()
+        };
         let mut k = 0;
         for (f, bodies) in per_field.iter().enumerate() {
             self.body_forces[f] = out[k..k + bodies.len()].to_vec();
             k += bodies.len();
         }
+        Ok(())
     }
 
     /// Phase 7: every frame takes the corrected grid velocity back.

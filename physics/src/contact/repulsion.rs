@@ -226,6 +226,21 @@ impl ContactModel for Repulsion {
         });
         best
     }
+    /// The step of [`ContactModel::stable_dt`] for the stiffest pair any two bodies (or a
+    /// body and a wall) could form: the smallest mass and range against the largest force
+    /// scale, dt_factor · sqrt(M_min ε ρ_min / (2 c_max)); equal to it for equal bodies.
+    fn substep_dt(&self, ctx: &ContactContext) -> Option<Real> {
+        let bodies = ctx.bodies;
+        if bodies.is_empty() || (bodies.len() == 1 && !self.walls) {
+            return None;
+        }
+        let range = |r: Real| (self.range_cells * ctx.grid.h).min(self.max_range * r);
+        let m = bodies.iter().map(|b| b.mass).fold(Real::INFINITY, Real::min);
+        let rho = bodies.iter().map(|b| range(b.radius)).fold(Real::INFINITY, Real::min);
+        // c_ij is at most the larger of the two bodies' own scales (a mean, or the same fallback)
+        let c = bodies.iter().map(|b| self.scale(ctx, b, None)).fold(0.0, Real::max);
+        (c > 0.0).then(|| self.dt_factor * (m * self.stiffness * rho / (2.0 * c)).sqrt())
+    }
 }
 
 #[cfg(test)]
