@@ -15,7 +15,7 @@ fn intervals_below_the_resolution_of_time_end() {
         ("output.interval=1e-13", None, 0),
         ("output.snapshots=Some((interval: 5e-324))", Some("snapshots"), 6 + 1), // t = 0, 5 steps, the XDMF
         ("output.checkpoints=Some((interval: 5e-324))", Some("checkpoints"), 2), // the last two kept
-        ("output.pictures=Some((interval: 1e-300, width: 16))", Some("frames"), 6),
+        ("output.pictures=Some((interval: 1e-300, width: 16))", Some("frames"), 6 + 1), // and frames.csv
     ]
     .into_iter()
     .enumerate()
