@@ -564,9 +564,11 @@ pub fn validate(case: &Case) -> Result<()> {
         if case.monitors[..k].iter().any(|o| o.name == m.name) {
             return bad(p("name"), format!("two monitors are named `{}`; names must be unique", m.name));
         }
-        if let Some(o) = case.monitors.iter().find(|o| {
-            matches!(o.of, Monitored::Suspension { .. }) && m.name == format!("{}_profiles", o.name)
-        }) {
+        if let Some(o) = case
+            .monitors
+            .iter()
+            .find(|o| matches!(o.of, Monitored::Suspension { .. }) && m.name == format!("{}_profiles", o.name))
+        {
             return bad(
                 p("name"),
                 format!("`{}` is the file of the profiles of monitor `{}`; choose another name", m.name, o.name),
@@ -631,9 +633,8 @@ pub fn validate(case: &Case) -> Result<()> {
             }
             Monitored::Difference { .. } => {}
             Monitored::Suspension { field, bins, bed_fraction, contact_gap, .. } => {
-                let of_bodies = || {
-                    case.fields.iter().filter(|f| matches!(f.region, Region::Bodies(_))).map(|f| f.name.as_str())
-                };
+                let of_bodies =
+                    || case.fields.iter().filter(|f| matches!(f.region, Region::Bodies(_))).map(|f| f.name.as_str());
                 let Some(f) = case.fields.iter().find(|f| &f.name == field) else {
                     return bad(p("of.field"), format!("no field `{field}`; {}", choices(field, of_bodies())));
                 };
