@@ -22,6 +22,10 @@
 //!   (e.g. the pressure drop across a body), columns `from, to, difference`.
 //! - `Average(quantity, field, min, max)`: the mean of the quantity over the cells whose
 //!   centres lie in the rectangle `min`–`max`, column `mean`.
+//! - `Suspension(field, axis, bins, bed_fraction, contact_gap)`: statistics of the bodies
+//!   of a field ([`suspension`]: number, solid fraction, mean and settling velocity,
+//!   granular temperature, bed height, contacts), and profiles along `axis` in
+//!   `monitors/<name>_profiles.csv`.
 //!
 //! A quantity is any cell quantity of the registry ([`crate::quantity`]), of the mixture
 //! (`field: None`, the default) or of one field. Point values are interpolated

@@ -393,6 +393,7 @@ mod tests {
                     }
                 }
             }
+            eprintln!("{} bodies, periodic {periodic:?}: {brute} pairs", bodies.len());
             assert!(brute > 150, "{brute} touching pairs");
             assert_eq!(pairs, brute, "periodic {periodic:?}");
         }
