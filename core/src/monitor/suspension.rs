@@ -398,4 +398,45 @@ mod tests {
             assert_eq!(pairs, brute, "periodic {periodic:?}");
         }
     }
+
+    /// The cost of a sample of 10,000 bodies (and 40,000: O(N)), printed:
+    /// `cargo test --release -p multifield-core suspension_cost -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn suspension_cost() {
+        for side in [100usize, 200] {
+            let n = side * side;
+            let h = 1.0 / side as Real;
+            let bodies: Vec<BodyState> = (0..n)
+                .map(|k| {
+                    let (i, j) = (k % side, k / side);
+                    let mut b = body((i as Real + 0.5) * h, (j as Real + 0.5) * h, 0.5 * h);
+                    b.velocity = Vector::new((k % 7) as Real, (k % 5) as Real);
+                    b
+                })
+                .collect();
+            let refs: Vec<&BodyState> = bodies.iter().collect();
+            let g = Geometry {
+                origin: [0.0, 0.0],
+                size: [1.0, 1.0],
+                periodic: [false, false],
+                walls: [true; 4],
+                down: [0.0, -1.0],
+                axis: Axis::Y,
+                bins: 100,
+                bed_fraction: 0.99,
+                contact_gap: 0.0,
+            };
+            let start = std::time::Instant::now();
+            let reps = 10;
+            let mut row = Vec::new();
+            for _ in 0..reps {
+                row = sample(&g, &refs).0;
+            }
+            let each = start.elapsed().as_secs_f64() / reps as Real;
+            eprintln!("{n} bodies: {:.2} ms per sample, {} contacts", 1e3 * each, row[7]);
+            // a square lattice of touching disks: 2 side (side − 1) pairs
+            assert_eq!(row[7], (2 * side * (side - 1)) as Real);
+        }
+    }
 }
