@@ -7,8 +7,9 @@
 //!   x–y plane inside the domain's box (from `case.ron`), and vx, vy over time;
 //! - `monitor_<name>.{png,svg}` from each `monitors/<name>.csv` (the monitors of
 //!   `case.ron`): a `Line`'s last profile against the distance along the line; a `Forces`
-//!   monitor's forces (and coefficients) over time; the other kinds' columns over time
-//!   (the first eight).
+//!   monitor's forces (and coefficients) over time; a `Suspension`'s figures over time and
+//!   its last profile of the solid fraction (`monitors/<name>_profiles.csv`); the other
+//!   kinds' columns over time (the first eight).
 //!
 //! A missing or empty CSV file gives no chart and no error; a chart that cannot be drawn
 //! is an error that names the file. Long runs are thinned to the smallest and largest
@@ -127,13 +128,19 @@ pub fn write(dir: &Path) -> Result<(), Error> {
     for m in case.as_ref().map(|c| c.monitors.as_slice()).unwrap_or_default() {
         let file = dir.join(crate::core::monitor::FOLDER).join(format!("{}.csv", m.name));
         if let Some(t) = Table::read(&file)? {
-            write_monitor(&out.join(format!("monitor_{}", m.name)), &name, m, &t)?;
+            let profiles = match m.of {
+                Monitored::Suspension { .. } => {
+                    Table::read(&dir.join(crate::core::monitor::FOLDER).join(format!("{}_profiles.csv", m.name)))?
+                }
+                _ => None,
+            };
+            write_monitor(&out.join(format!("monitor_{}", m.name)), &name, m, &t, profiles.as_ref())?;
         }
     }
     Ok(())
 }
 
-fn write_monitor(stem: &Path, name: &str, m: &MonitorSpec, t: &Table) -> Result<(), Error> {
+fn write_monitor(stem: &Path, name: &str, m: &MonitorSpec, t: &Table, profiles: Option<&Table>) -> Result<(), Error> {
     let time = t.numbers("time");
     let columns: Vec<String> = t.0.header.iter().skip(2).cloned().collect();
     let over_time = |title: &str, cols: &[&str]| -> Chart {
@@ -166,6 +173,32 @@ fn write_monitor(stem: &Path, name: &str, m: &MonitorSpec, t: &Table) -> Result<
                 series,
                 log: (false, false),
             }]
+        }
+        Monitored::Suspension { axis, .. } => {
+            let mut v = vec![
+                over_time("solid fraction", &["solid_fraction"]),
+                over_time("mean and settling velocity", &["u_x", "u_y", "settling_velocity"]),
+                over_time("granular temperature", &["temperature"]),
+                over_time("bed height", &["bed_height"]),
+                over_time("contacts", &["contacts", "wall_contacts"]),
+            ];
+            if let Some(p) = profiles {
+                // the last sample's profile of the solid fraction
+                let (step, centre, phi) = (p.numbers("step"), p.numbers("centre"), p.numbers("solid_fraction"));
+                let last = step.last().copied().unwrap_or(0.0);
+                let pick = |v: &[Real]| -> Vec<Real> {
+                    step.iter().zip(v).filter(|(s, _)| **s == last).map(|(_, x)| *x).collect()
+                };
+                let time = time.last().copied().unwrap_or(0.0);
+                v.push(Chart {
+                    title: format!("solid fraction across {axis:?} at t = {time:.6}"),
+                    x_label: format!("{axis:?}").to_lowercase(),
+                    y_label: "solid fraction".into(),
+                    series: vec![curve("solid fraction", 0, &pick(&centre), &pick(&phi))],
+                    log: (false, false),
+                });
+            }
+            v
         }
         Monitored::Forces { reference, .. } => {
             let mut v = vec![over_time("force", &["fx", "fy"]), over_time("torque", &["torque"])];

@@ -22,6 +22,10 @@
 //!   (e.g. the pressure drop across a body), columns `from, to, difference`.
 //! - `Average(quantity, field, min, max)`: the mean of the quantity over the cells whose
 //!   centres lie in the rectangle `min`–`max`, column `mean`.
+//! - `Suspension(field, axis, bins, bed_fraction, contact_gap)`: statistics of the bodies
+//!   of a field ([`suspension`]: number, solid fraction, mean and settling velocity,
+//!   granular temperature, bed height, contacts), and profiles along `axis` in
+//!   `monitors/<name>_profiles.csv`.
 //!
 //! A quantity is any cell quantity of the registry ([`crate::quantity`]), of the mixture
 //! (`field: None`, the default) or of one field. Point values are interpolated
@@ -68,6 +72,8 @@ use std::collections::VecDeque;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+pub mod suspension;
 
 /// The folder of the monitors' CSV files in a run directory.
 pub const FOLDER: &str = "monitors";
@@ -208,6 +214,40 @@ pub enum Monitored {
         #[serde(default)]
         start: Real,
     },
+    /// Statistics of the bodies of a field (a suspension, a settling bed): their number,
+    /// solid fraction, mean and settling velocity, granular temperature, bed height and
+    /// contacts; and profiles along `axis` in `monitors/<name>_profiles.csv`
+    /// ([`suspension`] defines each figure).
+    Suspension {
+        /// The field of bodies.
+        field: String,
+        /// The axis of the profiles and of the bed height (default `Y`).
+        #[serde(default = "axis_y")]
+        axis: Axis,
+        /// Number of slabs of the profiles across the domain along `axis` (1 to 10,000).
+        #[serde(default = "default_bins")]
+        bins: usize,
+        /// The bed height is the level below which this fraction of the solid area lies
+        /// (0 < f ≤ 1; default 0.99).
+        #[serde(default = "default_bed_fraction")]
+        bed_fraction: Real,
+        /// Two bodies (a body and a wall) are in contact when their gap is at most this
+        /// length (default 0: touching, to 10⁻⁹ of the sum of the radii).
+        #[serde(default)]
+        contact_gap: Real,
+    },
+}
+
+fn axis_y() -> Axis {
+    Axis::Y
+}
+
+fn default_bins() -> usize {
+    20
+}
+
+fn default_bed_fraction() -> Real {
+    0.99
 }
 
 /// A coordinate of a body.
@@ -267,7 +307,7 @@ impl Monitored {
     /// The quantity, its field and where it is sampled, for the monitors of a quantity.
     fn quantity(&self) -> Option<(&QuantityName, &Option<String>)> {
         match self {
-            Monitored::Forces { .. } => None,
+            Monitored::Forces { .. } | Monitored::Suspension { .. } => None,
             Monitored::Probes { quantity, field, .. }
             | Monitored::Line { quantity, field, .. }
             | Monitored::Difference { quantity, field, .. }
@@ -284,6 +324,7 @@ impl Monitored {
             Monitored::Difference { .. } => "Difference",
             Monitored::Average { .. } => "Average",
             Monitored::TimeAverage { .. } => "TimeAverage",
+            Monitored::Suspension { .. } => "Suspension",
         }
     }
 }
@@ -332,6 +373,7 @@ impl MonitorSpec {
             Monitored::TimeAverage { .. } => {
                 ["window".to_string(), "samples".to_string()].into_iter().chain(components("mean", n)).collect()
             }
+            Monitored::Suspension { .. } => suspension::COLUMNS.map(String::from).to_vec(),
         })
     }
 
@@ -381,6 +423,14 @@ impl MonitorSpec {
                 "running time average of {quantity} from t = {start} into the snapshots as /averages/{} \
                  (its columns: the window, the samples and the average's mean over the grid)",
                 self.name
+            ),
+            Monitored::Suspension { field, axis, bins, bed_fraction, contact_gap } => format!(
+                "statistics of the bodies of field `{field}` (bed height at {} of the solid area along {axis:?}, \
+                 contacts at gaps ≤ {contact_gap}), profiles in {bins} slabs along {axis:?} into {FOLDER}/{}_profiles.csv \
+                 (columns step,time,{})",
+                bed_fraction,
+                self.name,
+                suspension::PROFILE_COLUMNS[2..].join(",")
             ),
         };
         let field = match self.of.quantity() {
@@ -518,6 +568,16 @@ pub fn validate(case: &Case) -> Result<()> {
         if case.monitors[..k].iter().any(|o| o.name == m.name) {
             return bad(p("name"), format!("two monitors are named `{}`; names must be unique", m.name));
         }
+        if let Some(o) = case
+            .monitors
+            .iter()
+            .find(|o| matches!(o.of, Monitored::Suspension { .. }) && m.name == format!("{}_profiles", o.name))
+        {
+            return bad(
+                p("name"),
+                format!("`{}` is the file of the profiles of monitor `{}`; choose another name", m.name, o.name),
+            );
+        }
         if let Every::Time(dt) = m.every {
             if !(dt > 0.0) {
                 return bad(p("every"), format!("Time({dt}): the interval must be a positive time (or `Step`)"));
@@ -576,6 +636,35 @@ pub fn validate(case: &Case) -> Result<()> {
                 }
             }
             Monitored::Difference { .. } => {}
+            Monitored::Suspension { field, bins, bed_fraction, contact_gap, .. } => {
+                let of_bodies =
+                    || case.fields.iter().filter(|f| matches!(f.region, Region::Bodies(_))).map(|f| f.name.as_str());
+                let Some(f) = case.fields.iter().find(|f| &f.name == field) else {
+                    return bad(p("of.field"), format!("no field `{field}`; {}", choices(field, of_bodies())));
+                };
+                let has_bodies = match &f.region {
+                    Region::Bodies(b) => !b.is_empty() || !f.generate.is_empty(),
+                    _ => false,
+                };
+                if !has_bodies {
+                    return bad(
+                        p("of.field"),
+                        format!(
+                            "field `{field}` has no bodies (neither `region: Bodies([...])` nor `generate`); {}",
+                            choices(field, of_bodies())
+                        ),
+                    );
+                }
+                if !(1..=MAX_POINTS).contains(bins) {
+                    return bad(p("of.bins"), format!("{bins}: give 1 to {MAX_POINTS} slabs"));
+                }
+                if !(*bed_fraction > 0.0 && *bed_fraction <= 1.0) {
+                    return bad(p("of.bed_fraction"), format!("{bed_fraction}: a fraction 0 < f ≤ 1, e.g. 0.99"));
+                }
+                if !(contact_gap.is_finite() && *contact_gap >= 0.0) {
+                    return bad(p("of.contact_gap"), format!("{contact_gap}: a length ≥ 0"));
+                }
+            }
             Monitored::TimeAverage { start, .. } => {
                 if !(start.is_finite() && *start >= 0.0) {
                     return bad(p("of.start"), format!("{start}: the start must be a time ≥ 0"));
@@ -820,6 +909,15 @@ struct Running {
     written: bool,
     /// Index into [`Simulation::averages`] of a `TimeAverage`.
     average: Option<usize>,
+    /// A `Suspension`'s geometry and profiles file.
+    stats: Option<Stats>,
+}
+
+/// What a `Suspension` monitor keeps.
+struct Stats {
+    geometry: suspension::Geometry,
+    file: csv::Writer<File>,
+    path: PathBuf,
 }
 
 impl Running {
@@ -856,7 +954,7 @@ impl Running {
                 v.extend([px, py, fx - px, fy - py]);
                 v
             }
-            Monitored::TimeAverage { .. } => Vec::new(),
+            Monitored::TimeAverage { .. } | Monitored::Suspension { .. } => Vec::new(),
             Monitored::Average { .. } => {
                 let s = self.source.expect("a quantity");
                 let n = s.components();
@@ -1103,6 +1201,34 @@ impl Monitors {
                     }
                 }
             }
+            let mut stats = None;
+            if let Monitored::Suspension { field: f, axis, bins, bed_fraction, contact_gap } = &m.of {
+                chosen = (0..bodies.len()).filter(|&k| &bodies[k].0 == f).collect();
+                if chosen.is_empty() {
+                    return Err(bad(format!("field `{f}` has no bodies")));
+                }
+                let geometry = suspension::Geometry::new(
+                    case.domain.origin,
+                    case.domain.size,
+                    &case.boundaries,
+                    case.gravity,
+                    *axis,
+                    *bins,
+                    *bed_fraction,
+                    *contact_gap,
+                );
+                let path = folder.join(format!("{}_profiles.csv", m.name));
+                let header = suspension::PROFILE_COLUMNS.join(",");
+                let file = match resume {
+                    None => crate::driver::create_csv(&path, &header)?,
+                    Some(source) => {
+                        let step = sim.steps;
+                        let from = source.map(|d| d.join(FOLDER).join(format!("{}_profiles.csv", m.name)));
+                        resume_csv(&path, from.as_deref(), &header, |s| s <= step)?.0
+                    }
+                };
+                stats = Some(Stats { geometry, file, path });
+            }
             let mut cells = Vec::new();
             if let Monitored::Average { min, max, .. } = &m.of {
                 let g = &sim.grid;
@@ -1145,6 +1271,7 @@ impl Monitors {
                 path,
                 written: false,
                 average,
+                stats,
             });
         }
         let mut steady = Vec::new();
@@ -1192,7 +1319,8 @@ impl Monitors {
 
     /// The files of the monitors.
     pub fn files(&self) -> Vec<PathBuf> {
-        self.running.iter().map(|r| r.path.clone()).collect()
+        let profiles = self.running.iter().filter_map(|r| r.stats.as_ref().map(|s| s.path.clone()));
+        self.running.iter().map(|r| r.path.clone()).chain(profiles).collect()
     }
 
     /// Before the first step: the rows at t = 0 of a new run.
@@ -1257,18 +1385,38 @@ impl Monitors {
         }
         let mut rows = Vec::with_capacity(which.len());
         let mut fresh = Vec::new();
+        let mut profiles = Vec::new();
         {
             let mut view = View::new(sim, self.keys);
-            let forces = which.iter().any(|&k| !self.running[k].bodies.is_empty());
-            let (bodies, pressure) =
-                if forces { (sim.bodies(), sim.pressure_forces()) } else { (Vec::new(), Vec::new()) };
+            let any_bodies = which.iter().any(|&k| !self.running[k].bodies.is_empty());
+            let forces = which.iter().any(|&k| matches!(self.running[k].spec.of, Monitored::Forces { .. }));
+            let bodies = if any_bodies { sim.bodies() } else { Vec::new() };
+            let pressure = if forces { sim.pressure_forces() } else { Vec::new() };
             for &k in which {
                 let r = &self.running[k];
                 if let (Some(a), Some(s)) = (r.average, r.source) {
                     fresh.push((a, view.array(s).to_vec()));
                 }
-                rows.push(r.values(&mut view, &bodies, &pressure));
+                if let Some(stats) = &r.stats {
+                    let chosen: Vec<&crate::plugin::BodyState> = r.bodies.iter().map(|&b| &bodies[b].1).collect();
+                    let (row, profile) = suspension::sample(&stats.geometry, &chosen);
+                    rows.push(row);
+                    profiles.push((k, profile));
+                } else {
+                    rows.push(r.values(&mut view, &bodies, &pressure));
+                }
             }
+        }
+        for (k, profile) in profiles {
+            let Some(stats) = self.running[k].stats.as_mut() else { continue };
+            for (j, p) in profile.iter().enumerate() {
+                let text: Vec<String> = [sim.steps.to_string(), cell(sim.time), j.to_string()]
+                    .into_iter()
+                    .chain(p.iter().map(|&x| cell(x)))
+                    .collect();
+                stats.file.write_record(&text).map_err(|e| crate::driver::csv_error(&stats.path, e))?;
+            }
+            stats.file.flush().map_err(io(&stats.path))?;
         }
         let t = sim.time;
         for (a, q) in fresh {

@@ -387,6 +387,32 @@ fn a_probe_outside_the_domain_and_a_tolerance_not_positive_are_refused() {
 }
 
 #[test]
+fn a_suspension_monitor_of_no_bodies_or_bad_bins_is_refused() {
+    let cases = [
+        (r#"field: "disk""#, vec!["monitors.s.of.field", "no field `disk`", "the choices are: disks"]),
+        (r#"field: "water""#, vec!["monitors.s.of.field", "field `water` has no bodies", "the choices are: disks"]),
+        (r#"field: "disks", bins: 0"#, vec!["monitors.s.of.bins", "0: give 1 to 10000 slabs"]),
+        (r#"field: "disks", bins: 10001"#, vec!["monitors.s.of.bins", "10001: give 1 to 10000 slabs"]),
+        (r#"field: "disks", bed_fraction: 1.5"#, vec!["monitors.s.of.bed_fraction", "0 < f ≤ 1"]),
+        (r#"field: "disks", contact_gap: -0.1"#, vec!["monitors.s.of.contact_gap", "a length ≥ 0"]),
+    ];
+    for (k, (entry, expected)) in cases.iter().enumerate() {
+        let text = with_monitors(&format!(r#"(name: "s", of: Suspension({entry}))"#), "");
+        let path = case_file(&format!("suspension{k}.ron"), &text);
+        let (code, _, stderr) = multifield(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 2, "{entry}: {stderr}");
+        assert_contains(&stderr, expected);
+    }
+    let two = r#"(name: "s", of: Suspension(field: "disks")), (name: "s_profiles", of: Forces(bodies: ["disk"]))"#;
+    let m = error_of("suspension_profiles.ron", &with_monitors(two, ""), &[]);
+    assert_contains(&m, &["monitors.s_profiles.name", "the file of the profiles of monitor `s`"]);
+    let good = with_monitors(r#"(name: "s", of: Suspension(field: "disks", axis: X, bins: 4))"#, "");
+    let (code, stdout, stderr) = multifield(&["check", case_file("suspension_good.ron", &good).to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_contains(&stdout, &["monitors/s.csv: Suspension", "profiles in 4 slabs along X", "monitors/s_profiles.csv"]);
+}
+
+#[test]
 fn a_probe_inside_a_body_is_refused_unless_it_samples_the_body_s_own_field() {
     // the disk: centre (0.5, 0.5), radius 0.2, on 8 cells of 1/8
     let probe = r#"(name: "p", of: Probes(quantity: "pressure", points: [(0.1, 0.5), (0.6, 0.5)]))"#;

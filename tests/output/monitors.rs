@@ -421,3 +421,167 @@ fn a_time_average_is_the_trapezoid_rule_over_the_steps_and_follows_the_decay() {
     assert_eq!(column(&t, "mean").last().copied(), Some(mean));
     assert_eq!(column(&t, "window").last().copied(), Some(2.0));
 }
+
+/// A box of water 1 × 2 on 8 × 16 cells with mass-point disks: the field `disks` lists
+/// `disks` (and has the `generate` entry, if any), the field `layer` lists `layer`,
+/// gravity −9.81 in y.
+fn suspension_case(name: &str, disks: &str, generate: &str, layer: &str, monitors: &str) -> Case {
+    let text = format!(
+        r#"(
+    name: "{name}",
+    domain: (size: (1.0, 2.0), cells: (8, 16)),
+    boundaries: (left: NoSlip, right: NoSlip, bottom: NoSlip, top: NoSlip),
+    gravity: (0.0, -9.81),
+    time: (end: 0.001, max_dt: 1e-3, fixed_dt: Some(1e-3)),
+    fields: [
+        (name: "water", density: 1.0, frame: (model: "eulerian"), region: Rest,
+         stress: [(model: "newtonian", params: (viscosity: 0.01))]),
+        (name: "disks", density: 2.0, frame: (model: "lagrangian"), representation: MassPoint,
+         region: Bodies([{disks}]), {generate} stress: [(model: "rigid")]),
+        (name: "layer", density: 2.0, frame: (model: "lagrangian"), representation: MassPoint,
+         region: Bodies([{layer}]), stress: [(model: "rigid")]),
+    ],
+    pressure: Some((model: "pcg")),
+    output: (interval: 0.0, charts: false),
+)"#
+    );
+    case_of(name, &text, monitors, "", &[])
+}
+
+/// (x, y, r, u, v) of a body, as a body of the case.
+fn disk_entry(k: usize, b: [Real; 5]) -> String {
+    format!(
+        "(name: \"b{k}\", shape: Disk(center: ({:?}, {:?}), radius: {:?}), motion: Prescribed(velocity: ({:?}, {:?})))",
+        b[0], b[1], b[2], b[3], b[4]
+    )
+}
+
+/// The area of the disk (c, r) below the level z, from the circular cap r² acos(h/r) −
+/// h √(r² − h²) (not the monitor's formula).
+fn below(c: Real, r: Real, z: Real) -> Real {
+    let cap = |h: Real| r * r * (h / r).acos() - h * (r * r - h * h).sqrt();
+    if z <= c - r {
+        0.0
+    } else if z >= c + r {
+        std::f64::consts::PI * r * r
+    } else if z < c {
+        cap(c - z)
+    } else {
+        std::f64::consts::PI * r * r - cap(z - c)
+    }
+}
+
+/// A `Suspension` monitor's row at t = 0 against the figures computed here from the bodies:
+/// the solid fraction Σπr²/A, the area-weighted mean velocity, the settling velocity, the
+/// granular temperature (to round-off), the contacts (one touching pair) and the wall
+/// contacts (a body on the bottom, one in the top-right corner); the profile's areas
+/// against the circular caps of disks cut by the slabs' edges (1e-12); the bed height of a
+/// layer of disks centred on one level (half of its area below: the level itself).
+#[test]
+fn a_suspension_monitor_gives_the_exact_statistics_of_known_bodies() {
+    let pi = std::f64::consts::PI;
+    let disks: [[Real; 5]; 5] = [
+        [0.3, 0.5, 0.1, 1.0, -2.0],
+        [0.44, 0.5, 0.04, 0.0, 0.0],  // touches the first
+        [0.7, 0.52, 0.05, -1.0, 0.0], // cut by the slab edge y = 0.5
+        [0.5, 0.05, 0.05, 0.5, 0.5],  // on the bottom wall
+        [0.95, 1.95, 0.05, 0.0, 3.0], // in the top-right corner
+    ];
+    let layer: [[Real; 5]; 3] = [[0.2, 1.2, 0.05, 0.0, -1.0], [0.5, 1.2, 0.08, 0.0, -1.0], [0.8, 1.2, 0.03, 0.0, -1.0]];
+    let list = |b: &[[Real; 5]], from: usize| -> String {
+        b.iter().enumerate().map(|(k, b)| disk_entry(from + k, *b)).collect::<Vec<_>>().join(", ")
+    };
+    let monitors = r#"(name: "s", of: Suspension(field: "disks", bins: 8)),
+        (name: "half", of: Suspension(field: "layer", bins: 1, bed_fraction: 0.5)),
+        (name: "top", of: Suspension(field: "layer", axis: X, bins: 4, bed_fraction: 1.0))"#;
+    let case = suspension_case("suspension", &list(&disks, 0), "", &list(&layer, 10), monitors);
+    let dir = out_dir("suspension");
+    run_into(&case, &dir);
+    let s = table(&dir.join("monitors/s.csv"));
+    let at0 = |t: &Table, c: &str| column(t, c)[0];
+    let a: Vec<Real> = disks.iter().map(|b| pi * b[2] * b[2]).collect();
+    let sa: Real = a.iter().sum();
+    let ux = disks.iter().zip(&a).map(|(b, a)| a * b[3]).sum::<Real>() / sa;
+    let uy = disks.iter().zip(&a).map(|(b, a)| a * b[4]).sum::<Real>() / sa;
+    let t =
+        disks.iter().zip(&a).map(|(b, a)| a * ((b[3] - ux).powi(2) + (b[4] - uy).powi(2))).sum::<Real>() / (2.0 * sa);
+    let close = |got: Real, want: Real, what: &str| {
+        assert!((got - want).abs() <= 1e-15 * want.abs().max(1.0), "{what}: {got} against {want}");
+    };
+    assert_eq!(at0(&s, "bodies"), 5.0);
+    close(at0(&s, "solid_fraction"), sa / 2.0, "solid fraction");
+    close(at0(&s, "u_x"), ux, "u_x");
+    close(at0(&s, "u_y"), uy, "u_y");
+    close(at0(&s, "settling_velocity"), -uy, "settling velocity (gravity along −y)");
+    close(at0(&s, "temperature"), t, "granular temperature");
+    assert_eq!((at0(&s, "contacts"), at0(&s, "wall_contacts")), (1.0, 3.0));
+    eprintln!("solid fraction {}, U = ({ux}, {uy}), T = {t}", sa / 2.0);
+    // the profile at t = 0: 8 slabs 0.25 high across the width 1
+    let p = table(&dir.join("monitors/s_profiles.csv"));
+    let (step, bin, centre, phi) =
+        (column(&p, "step"), column(&p, "bin"), column(&p, "centre"), column(&p, "solid_fraction"));
+    let (pu, pv) = (column(&p, "u_x"), column(&p, "u_y"));
+    let mut worst: Real = 0.0;
+    for k in 0..8 {
+        assert_eq!((step[k], bin[k]), (0.0, k as Real));
+        let (lo, hi) = (0.25 * k as Real, 0.25 * (k + 1) as Real);
+        close(centre[k], lo + 0.125, "centre");
+        let parts: Vec<Real> = disks.iter().map(|b| below(b[1], b[2], hi) - below(b[1], b[2], lo)).collect();
+        let area: Real = parts.iter().sum();
+        worst = worst.max((phi[k] * 0.25 - area).abs());
+        assert!((phi[k] * 0.25 - area).abs() <= 1e-12, "slab {k}: {} against {area}", phi[k] * 0.25);
+        if area > 0.0 {
+            let u = disks.iter().zip(&parts).map(|(b, p)| p * b[3]).sum::<Real>() / area;
+            let v = disks.iter().zip(&parts).map(|(b, p)| p * b[4]).sum::<Real>() / area;
+            assert!(
+                (pu[k] - u).abs() <= 1e-12 && (pv[k] - v).abs() <= 1e-12,
+                "slab {k}: ({}, {}) against ({u}, {v})",
+                pu[k],
+                pv[k]
+            );
+        } else {
+            assert!(pu[k].is_nan() && pv[k].is_nan(), "an empty slab has no velocity");
+        }
+    }
+    // the slab 0.5–0.75 holds the upper parts of the disks cut at y = 0.5
+    assert!(phi[2] > 0.0 && phi[1] > 0.0);
+    eprintln!("largest error of a slab's area: {worst:e}");
+    // the profiles of the whole slabs add up to the solid fraction
+    close(phi[..8].iter().sum::<Real>() / 8.0, sa / 2.0, "mean of the profile");
+    // the bed height: half of the layer's area lies below its centres' level (y = 1.2); along
+    // X with bed_fraction 1, all of it lies left of the rightmost disk's right edge, 0.83
+    let half = table(&dir.join("monitors/half.csv"));
+    assert!((at0(&half, "bed_height") - 1.2).abs() <= 1e-14, "{}", at0(&half, "bed_height"));
+    assert_eq!(at0(&half, "settling_velocity"), 1.0);
+    assert_eq!((at0(&half, "contacts"), at0(&half, "temperature")), (0.0, 0.0));
+    let top = table(&dir.join("monitors/top.csv"));
+    // 1 − F(z) ∝ (0.83 − z)^{3/2}: round-off of the total hides up to ~1e-10 below the top
+    assert!((at0(&top, "bed_height") - 0.83).abs() <= 1e-9, "{}", at0(&top, "bed_height"));
+}
+
+/// A hexagonal lattice of 6 × 4 disks with the spacing equal to the diameter (to 10⁻⁹): every
+/// neighbour touches, 4·5 pairs along the rows and 3·11 between them, 53 contacts; the
+/// monitor's files are the same on 1 and 2 threads.
+#[test]
+fn a_suspension_monitor_counts_the_contacts_of_a_touching_lattice() {
+    let generate = r#"generate: [(name: "p", region: (min: (0.2, 0.2), max: (0.86, 0.58)), count: Some(24),
+        diameter: Fixed(0.1), arrangement: Lattice(Hexagonal), seed: 1)],"#;
+    // the default spacing is the diameter and 10⁻⁹ of it (neighbours never overlap by
+    // round-off): gaps of 10⁻¹⁰
+    let monitors = r#"(name: "s", of: Suspension(field: "disks", bins: 10, contact_gap: 1e-6))"#;
+    let case = suspension_case("lattice", "", generate, &disk_entry(0, [0.5, 1.5, 0.05, 0.0, 0.0]), monitors);
+    let mut files = Vec::new();
+    for threads in [1, 2] {
+        let dir = out_dir(&format!("lattice_{threads}"));
+        let outcome = run(&case, &dir, &RunOptions { threads, ..RunOptions::quiet() }).unwrap();
+        assert_eq!(outcome.status, Status::Completed);
+        let s = table(&dir.join("monitors/s.csv"));
+        assert_eq!(column(&s, "bodies")[0], 24.0);
+        assert_eq!(column(&s, "contacts")[0], 53.0, "4·5 + 3·11 lattice edges");
+        assert_eq!(column(&s, "wall_contacts")[0], 0.0);
+        let phi = column(&s, "solid_fraction")[0];
+        assert!((phi - 24.0 * std::f64::consts::PI * 0.0025 / 2.0).abs() <= 1e-15, "{phi}");
+        files.push(["s.csv", "s_profiles.csv"].map(|f| std::fs::read_to_string(dir.join("monitors").join(f)).unwrap()));
+    }
+    assert_eq!(files[0], files[1], "1 and 2 threads");
+}

@@ -370,6 +370,38 @@ fn a_restarted_run_with_monitors_writes_the_same_monitor_files() {
     assert_eq!(end.step, 15, "stopped at step {}", end.step);
 }
 
+/// The settling cloud of 250 mass-point disks with a `Suspension` monitor (every step) and
+/// one every 0.004: both files and the profiles are byte-identical through a checkpoint.
+#[test]
+fn a_restarted_run_with_a_suspension_monitor_writes_the_same_files() {
+    multifield::link_all();
+    let text = std::fs::read_to_string("examples/sedimentation_cloud.ron").unwrap();
+    let monitors = r#"
+    monitors: [
+        (name: "cloud", of: Suspension(field: "disks", bins: 12)),
+        (name: "cloud_x", every: Time(0.004), of: Suspension(field: "disks", axis: X, bins: 5, contact_gap: 0.05)),
+    ],
+)
+"#;
+    let text = text.trim_end().strip_suffix(')').unwrap().to_string() + monitors;
+    let dir = out_dir("suspension_case");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("sedimentation_monitors.ron");
+    std::fs::write(&file, text).unwrap();
+    let case = load(
+        file.to_str().unwrap(),
+        &["time.end=0.02", "output.interval=0", "output.checkpoints=Some((interval: 0.01))", "output.charts=false"],
+    );
+    restart_reproduces_the_run("suspension", &case);
+    let full = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join("suspension").join("full");
+    let rows = read(&full.join("monitors").join("cloud_profiles.csv")).lines().count();
+    let steps = read(&full.join("monitors").join("cloud.csv")).lines().count() - 1;
+    assert_eq!(rows, 1 + 12 * steps, "12 slabs per row of the monitor");
+    let x = multifield::core::table::Table::read(&full.join("monitors").join("cloud_x.csv")).unwrap().unwrap();
+    let contacts = x.numbers("contacts").unwrap();
+    assert!(contacts.iter().all(|&c| c > 0.0), "pairs within 0.05: {contacts:?}");
+}
+
 /// A finished run goes on to a later `time.end` from its final checkpoint, in its own
 /// directory, as if it had been run to that time at once.
 #[test]
