@@ -29,8 +29,9 @@
 //! and `u_x, u_y` the velocity weighted by that area (empty where the slab holds no solid).
 
 use crate::boundary::{Boundaries, Boundary, Side};
-use crate::math::Real;
+use crate::math::{Real, Vector};
 use crate::monitor::Axis;
+use crate::neighbours::{pairs_within, SearchDomain};
 use crate::plugin::BodyState;
 use std::f64::consts::PI;
 
@@ -235,14 +236,10 @@ fn profile(g: &Geometry, bodies: &[&BodyState]) -> Vec<[Real; 4]> {
         .collect()
 }
 
-/// The contacts between bodies and with the walls: a grid of cells at least as wide as
-/// the largest contact distance (and as √(A/N), so that there are at most about N cells);
-/// each body is compared with the bodies of its own and the 8 neighbouring cells.
+/// The contacts between bodies (the pairs of the cell-list search,
+/// [`crate::neighbours::pairs_within`], with the minimum image across periodic sides) and
+/// with the walls.
 fn contacts(g: &Geometry, bodies: &[&BodyState]) -> (u64, u64) {
-    let n = bodies.len();
-    if n == 0 {
-        return (0, 0);
-    }
     let tol = |r: Real| g.contact_gap + 1e-9 * r;
     let mut walls = 0u64;
     let (x0, y0) = (g.origin[0], g.origin[1]);
@@ -256,79 +253,24 @@ fn contacts(g: &Geometry, bodies: &[&BodyState]) -> (u64, u64) {
             }
         }
     }
-    let r_max = bodies.iter().map(|b| b.radius).fold(0.0, Real::max);
-    let reach = 2.0 * r_max + tol(2.0 * r_max);
-    let spacing = reach.max((g.size[0] * g.size[1] / n as Real).sqrt());
-    let cap = 4 * n + 1;
-    let cells = |len: Real| (((len / spacing).floor() as usize).max(1)).min(cap);
-    let (nx, ny) = (cells(g.size[0]), cells(g.size[1]));
-    let index = |v: Real, o: Real, len: Real, m: usize, periodic: bool| -> usize {
-        let f = if periodic { (v - o).rem_euclid(len) } else { v - o } / len * m as Real;
-        (f.floor().max(0.0) as usize).min(m - 1)
+    let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
+    let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
+    let r_max = radii.iter().fold(0.0, |m: Real, &r| m.max(r));
+    let domain = SearchDomain {
+        origin: Vector::new(x0, y0),
+        size: Vector::new(g.size[0], g.size[1]),
+        periodic_x: g.periodic[0],
+        periodic_y: g.periodic[1],
     };
-    let cell_of: Vec<(usize, usize)> = bodies
+    // the search reaches the largest tolerance; the test is each pair's own
+    let pairs = pairs_within(&centres, &radii, tol(2.0 * r_max), &domain)
         .iter()
-        .map(|b| {
-            (
-                index(b.position.x, x0, g.size[0], nx, g.periodic[0]),
-                index(b.position.y, y0, g.size[1], ny, g.periodic[1]),
-            )
+        .filter(|p| {
+            let sum = radii[p.i] + radii[p.j];
+            p.distance - sum <= tol(sum)
         })
-        .collect();
-    // counting sort of the bodies by cell (in body order within a cell)
-    let mut start = vec![0usize; nx * ny + 1];
-    for &(i, j) in &cell_of {
-        start[j * nx + i + 1] += 1;
-    }
-    for k in 0..nx * ny {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut order = vec![0usize; n];
-    for (k, &(i, j)) in cell_of.iter().enumerate() {
-        order[fill[j * nx + i]] = k;
-        fill[j * nx + i] += 1;
-    }
-    let neighbours = |c: usize, m: usize, periodic: bool| -> Vec<usize> {
-        let mut v: Vec<usize> = Vec::with_capacity(3);
-        for d in [-1i64, 0, 1] {
-            let x = c as i64 + d;
-            let x = if periodic {
-                x.rem_euclid(m as i64)
-            } else if x < 0 || x >= m as i64 {
-                continue;
-            } else {
-                x
-            };
-            if !v.contains(&(x as usize)) {
-                v.push(x as usize);
-            }
-        }
-        v
-    };
-    let image = |d: Real, len: Real, periodic: bool| if periodic { d - len * (d / len).round() } else { d };
-    let mut pairs = 0u64;
-    for (k, b) in bodies.iter().enumerate() {
-        let (i, j) = cell_of[k];
-        for jj in neighbours(j, ny, g.periodic[1]) {
-            for &ii in &neighbours(i, nx, g.periodic[0]) {
-                let c = jj * nx + ii;
-                for &o in &order[start[c]..start[c + 1]] {
-                    if o <= k {
-                        continue;
-                    }
-                    let q = bodies[o];
-                    let dx = image(q.position.x - b.position.x, g.size[0], g.periodic[0]);
-                    let dy = image(q.position.y - b.position.y, g.size[1], g.periodic[1]);
-                    let sum = b.radius + q.radius;
-                    if dx.hypot(dy) - sum <= tol(sum) {
-                        pairs += 1;
-                    }
-                }
-            }
-        }
-    }
-    (pairs, walls)
+        .count();
+    (pairs as u64, walls)
 }
 
 #[cfg(test)]
