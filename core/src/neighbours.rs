@@ -19,6 +19,8 @@
 //! twice the reach for no pair to touch through two images). Centres outside a periodic
 //! domain are binned by wrapping; outside a non-periodic one, in the edge cells.
 
+use crate::boundary::Boundaries;
+use crate::case::Domain;
 use crate::math::{Real, Vector};
 
 /// The box the disks live in, and which of its axes are periodic.
@@ -32,6 +34,18 @@ pub struct SearchDomain {
     pub periodic_x: bool,
     /// Periodic along y (period `size.y`).
     pub periodic_y: bool,
+}
+
+impl SearchDomain {
+    /// The box of a case's domain, periodic along the axes whose sides are `Periodic`.
+    pub fn of(domain: &Domain, boundaries: &Boundaries) -> Self {
+        SearchDomain {
+            origin: Vector::new(domain.origin[0], domain.origin[1]),
+            size: Vector::new(domain.size[0], domain.size[1]),
+            periodic_x: boundaries.periodic_x(),
+            periodic_y: boundaries.periodic_y(),
+        }
+    }
 }
 
 /// One pair of disks within reach.

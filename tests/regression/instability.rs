@@ -51,12 +51,15 @@ fn volume_fraction_drift_beyond_the_bound_stops_the_run() {
 }
 
 /// Two rigid disks in vacuum, each in its own Lagrangian field (so their grids do not
-/// touch), no contact model: moving toward each other at 1 each, they pass through each other.
-fn crossing_disks() -> Case {
+/// touch), no contact model: moving toward each other at `u` each, they pass through each
+/// other: inside the box at `u` = 1, across its periodic sides at `u` = −1 (as mass points:
+/// a resolved body does not cross a periodic side).
+fn crossing_disks(u: f64) -> Case {
+    let representation = if u < 0.0 { "representation: MassPoint," } else { "" };
     let disk = |name: &str, x: f64, u: f64| {
         format!(
             r#"(name: "{name}", density: 1.0,
-                frame: (model: "lagrangian", params: (points_per_cell: 2, shape: "linear", transfer: "pic")),
+                frame: (model: "lagrangian", params: (points_per_cell: 2, shape: "linear", transfer: "pic")), {representation}
                 region: Bodies([(name: "{name}", shape: Disk(center: ({x}, 0.5), radius: 0.1), velocity: ({u}, 0.0))]),
                 stress: [(model: "rigid")])"#
         )
@@ -69,8 +72,8 @@ fn crossing_disks() -> Case {
         fields: [{}, {}],
         output: (charts: false),
     )"#,
-        disk("left", 0.2, 1.0),
-        disk("right", 0.8, -1.0)
+        disk("left", 0.2, u),
+        disk("right", 0.8, -u)
     );
     Case::from_ron(&text, Path::new("crossing.ron")).unwrap()
 }
@@ -79,13 +82,21 @@ fn crossing_disks() -> Case {
 fn bodies_passing_through_each_other_stop_the_run() {
     multifield::link_all();
     let dir = scratch("crossing");
-    let out = run(&crossing_disks(), &dir, &RunOptions::quiet()).unwrap();
+    let out = run(&crossing_disks(1.0), &dir, &RunOptions::quiet()).unwrap();
     let Status::Unstable(reason) = &out.status else { panic!("not unstable: {:?}", out.status) };
     assert!(reason.starts_with("bodies `left` and `right` overlap at step"), "{reason}");
     assert!(reason.contains("below 0.5 × the sum of the radii 2.0000e-1"), "{reason}");
     // centres 0.6 apart closing at 2: 0.1 apart (half the contact distance) at t = 0.25
     let t = out.summary.simulated_time;
     assert!((0.25..0.25 + 0.006).contains(&t), "stopped at t = {t}");
+
+    // through the periodic sides (the minimum image): 0.4 apart closing at 2, 0.1 apart at
+    // t = 0.15; a check on the plain distance would see them 0.6 → 1 apart and let them pass
+    let out = run(&crossing_disks(-1.0), &scratch("through_the_sides"), &RunOptions::quiet()).unwrap();
+    let Status::Unstable(reason) = &out.status else { panic!("not unstable: {:?}", out.status) };
+    assert!(reason.starts_with("bodies `left` and `right` overlap at step"), "{reason}");
+    let t = out.summary.simulated_time;
+    assert!((0.15..0.15 + 0.006).contains(&t), "stopped at t = {t}");
 }
 
 /// A rigid disk in vacuum thrown at the left wall (no contact model): the wall's grid nodes
