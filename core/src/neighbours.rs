@@ -226,6 +226,78 @@ pub fn brute(centres: &[Vector], radii: &[Real], search: Real, domain: &SearchDo
     pairs
 }
 
+/// A Verlet list over [`pairs_within`] for a search repeated while the disks move little
+/// (the contact sub-steps of one fluid step): it keeps the pairs within reach plus a skin
+/// of the centres it was built at, and while no centre has moved more than 0.45 × skin
+/// since (minimum image), every pair within reach now is among them (by the triangle
+/// inequality, with a margin for rounding), so a call only tests those candidates. A call
+/// returns exactly what [`pairs_within`] returns (the same pairs, the same order, the same
+/// separations: each candidate goes through the same test), so the list is an accelerator
+/// with no state of its own to checkpoint: a fresh one gives bit-identical results. It is
+/// rebuilt when a centre moved too far, or the number of disks, a radius, the search
+/// distance or the domain changed.
+#[derive(Clone, Debug, Default)]
+pub struct VerletPairs {
+    /// The skin as a fraction of the largest radius (0 rebuilds every call).
+    skin_fraction: Real,
+    skin: Real,
+    reference: Vec<Vector>,
+    radii: Vec<Real>,
+    search: Real,
+    domain: Option<SearchDomain>,
+    candidates: Vec<(usize, usize)>,
+    builds: u64,
+    calls: u64,
+}
+
+impl VerletPairs {
+    /// A list whose skin is `skin_fraction` × the largest radius (e.g. 0.5).
+    pub fn new(skin_fraction: Real) -> Self {
+        VerletPairs { skin_fraction: skin_fraction.max(0.0), ..Default::default() }
+    }
+
+    /// How many calls rebuilt the list, and how many calls there were.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.builds, self.calls)
+    }
+
+    fn valid(&self, centres: &[Vector], radii: &[Real], search: Real, domain: &SearchDomain) -> bool {
+        if self.domain.as_ref() != Some(domain)
+            || self.search.to_bits() != search.to_bits()
+            || self.radii.len() != radii.len()
+            || self.radii.iter().zip(radii).any(|(a, b)| a.to_bits() != b.to_bits())
+        {
+            return false;
+        }
+        let limit = 0.45 * self.skin;
+        centres.iter().zip(&self.reference).all(|(&now, &then)| separation(now, then, domain).norm() <= limit)
+    }
+
+    /// [`pairs_within`]`(centres, radii, search, domain)`, from the list while it holds.
+    pub fn pairs_within(
+        &mut self,
+        centres: &[Vector],
+        radii: &[Real],
+        search: Real,
+        domain: &SearchDomain,
+    ) -> Vec<Pair> {
+        assert_eq!(centres.len(), radii.len(), "one radius per centre");
+        self.calls += 1;
+        if !self.valid(centres, radii, search, domain) {
+            let r_max = radii.iter().fold(0.0 as Real, |m, &r| if r > m { r } else { m });
+            self.skin = self.skin_fraction * r_max;
+            self.candidates =
+                pairs_within(centres, radii, search.max(0.0) + self.skin, domain).iter().map(|p| (p.i, p.j)).collect();
+            self.reference = centres.to_vec();
+            self.radii = radii.to_vec();
+            self.search = search;
+            self.domain = Some(*domain);
+            self.builds += 1;
+        }
+        self.candidates.iter().filter_map(|&(i, j)| test(i, j, centres, radii, search, domain)).collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -254,6 +326,39 @@ mod tests {
         let slow = brute(&c, &radii, search, &domain);
         assert_eq!(fast, slow, "seed {seed}, {n} disks, periodic {periodic:?}");
         fast.len()
+    }
+
+    /// The Verlet list returns what the plain search returns, call after call, while the
+    /// disks drift (periodic and walled boxes), and rebuilds only when one has moved far.
+    #[test]
+    fn the_verlet_list_returns_the_pairs_of_the_plain_search() {
+        for periodic in [(false, false), (true, true)] {
+            let n = 400;
+            let r = (0.3 / (std::f64::consts::PI * 7.0 / 3.0 * n as Real)).sqrt();
+            let (mut c, radii) = packing(7, n, 1.0, r);
+            let domain = SearchDomain {
+                origin: Vector::zeros(),
+                size: Vector::new(1.0, 1.0),
+                periodic_x: periodic.0,
+                periodic_y: periodic.1,
+            };
+            let mut rng = fastrand::Rng::with_seed(3);
+            let velocities: Vec<Vector> = (0..n).map(|_| Vector::new(rng.f64() - 0.5, rng.f64() - 0.5)).collect();
+            let mut list = VerletPairs::new(0.5);
+            let step = 0.01 * r;
+            for _ in 0..200 {
+                let listed = list.pairs_within(&c, &radii, 0.1 * r, &domain);
+                assert_eq!(listed, pairs_within(&c, &radii, 0.1 * r, &domain), "periodic {periodic:?}");
+                for (x, v) in c.iter_mut().zip(&velocities) {
+                    *x += step * v;
+                }
+            }
+            // the fastest disk moves at most 0.71 × 0.01 r a call: a skin of 0.5 × 2r holds
+            // for ≥ 63 calls, so 200 calls take at most 4 builds
+            let (builds, calls) = list.counts();
+            assert_eq!(calls, 200);
+            assert!((2..=4).contains(&builds), "{builds} builds");
+        }
     }
 
     #[test]
