@@ -20,7 +20,7 @@ fn out_dir(name: &str) -> PathBuf {
     d
 }
 
-/// A cloud of 24 generated disks (d = 0.125) settling in a closed 1 × 2 box of water,
+/// A cloud of 16 generated disks (d = 0.1) settling in a closed 1 × 2 box of water,
 /// with `representation`, the monitor `s` (8 slabs along y) on `every`, and snapshots
 /// every 0.005.
 fn cloud(representation: &str, cells: [usize; 2], end: Real, every: &str) -> String {
@@ -36,8 +36,8 @@ fn cloud(representation: &str, cells: [usize; 2], end: Real, every: &str) -> Str
          stress: [(model: "newtonian", params: (viscosity: 0.01))]),
         (name: "disks", density: 1.5, frame: (model: "lagrangian"), representation: {representation},
          region: Bodies([]),
-         generate: [(name: "p", region: (min: (0.1, 0.8), max: (0.9, 1.9)), count: Some(24),
-                     diameter: Fixed(0.125), min_gap: 0.03, seed: 7)],
+         generate: [(name: "p", region: (min: (0.1, 0.8), max: (0.9, 1.9)), count: Some(16),
+                     diameter: Fixed(0.1), min_gap: 0.03, seed: 7)],
          stress: [(model: "rigid")]),
     ],
     exchange: [(between: ("water", "disks"), model: "no_slip",
@@ -208,7 +208,7 @@ fn a_study_metric_averages_the_settling_velocity_over_a_window() {
 #[test]
 fn compare_gives_the_differences_of_the_suspension_statistics() {
     let dir = out_dir("compare");
-    let case = case_of(&dir, &cloud("Resolved", [16, 32], 0.01, "Time(0.002)"));
+    let case = case_of(&dir, &cloud("Resolved", [32, 64], 0.01, "Time(0.002)"));
     let out = dir.join("out");
     let c = multifield::compare::compare(&case, &[], &out, &RunOptions::quiet(), None).unwrap();
     assert_eq!((c.resolved.status.as_str(), c.point.status.as_str()), ("completed", "completed"));
