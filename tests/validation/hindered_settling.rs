@@ -134,9 +134,9 @@ fn fit(points: &[(Real, Real)]) -> (Real, Real) {
 }
 
 /// The fitted exponent of five suspensions (φ = 0.05 to 0.4, 288 points each) is the
-/// mean-field n = 2 of a hindrance-free drag law within 0.05 (measured 2.015: the bottom
-/// row, on the wall from the start, and the top row, with clear fluid above, settle
-/// otherwise), with an RMS residual in log space below 0.01 (measured 4.3e-3); each U is
+/// mean-field n = 2 of a hindrance-free drag law within 0.05 (measured 2.015: U is 0.5 to
+/// 0.75 % below (1 − φ)², mostly from the bottom row, on the wall from the start), with an
+/// RMS residual in log space below 0.01 (measured 4.3e-3); each U is
 /// steady over its window to 1 % (measured 0.25–0.49 %), the 288 points fill the lattice
 /// at every φ, and the measured φ is the target to 1e-12.
 #[test]
