@@ -157,7 +157,8 @@ pub enum Metric {
         #[serde(default)]
         of: Reduce,
         /// Only the rows with `from ≤ time ≤ to` (e.g. the steady regime of a settling
-        /// suspension); default every row.
+        /// suspension); default every row. The column's name then ends in
+        /// `_in_<from>_<to>`.
         #[serde(default)]
         window: Option<(Real, Real)>,
     },
@@ -1048,12 +1049,19 @@ pub fn metric_columns(metrics: &[Metric]) -> Vec<String> {
             Metric::Summary(s) => vec![s.clone()],
             Metric::Dkt => vec!["kiss_time".into(), "tumble_time".into(), "min_gap_over_d".into()],
             Metric::Body { body, column, .. } => vec![format!("{body}_{column}")],
-            Metric::Monitor { monitor, column, of, .. } => vec![match of {
-                Reduce::Final => format!("{monitor}_{column}"),
-                Reduce::Mean => format!("mean_{monitor}_{column}"),
-                Reduce::Max => format!("max_{monitor}_{column}"),
-                Reduce::Min => format!("min_{monitor}_{column}"),
-            }],
+            Metric::Monitor { monitor, column, of, window } => {
+                let name = match of {
+                    Reduce::Final => format!("{monitor}_{column}"),
+                    Reduce::Mean => format!("mean_{monitor}_{column}"),
+                    Reduce::Max => format!("max_{monitor}_{column}"),
+                    Reduce::Min => format!("min_{monitor}_{column}"),
+                };
+                // two windows of one column are two columns
+                vec![match window {
+                    Some((from, to)) => format!("{name}_in_{from}_{to}"),
+                    None => name,
+                }]
+            }
             Metric::Stopped => vec!["stop_time".into()],
         })
         .collect()

@@ -173,7 +173,8 @@ fn a_study_metric_averages_the_settling_velocity_over_a_window() {
     let directories: Vec<String> =
         results.rows.iter().map(|r| r[results.index("directory").unwrap()].to_string()).collect();
     assert_eq!(directories.len(), 2);
-    let (mean, min) = (column(&results, "mean_s_settling_velocity"), column(&results, "min_s_bed_height"));
+    let (mean, min) =
+        (column(&results, "mean_s_settling_velocity_in_0.005_0.015"), column(&results, "min_s_bed_height"));
     for (k, d) in directories.iter().enumerate() {
         let s = table(&out.join(d).join("monitors/s.csv"));
         let (t, u, bed) = (column(&s, "time"), column(&s, "settling_velocity"), column(&s, "bed_height"));
