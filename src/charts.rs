@@ -7,8 +7,10 @@
 //!   x–y plane inside the domain's box (from `case.ron`), and vx, vy over time;
 //! - `monitor_<name>.{png,svg}` from each `monitors/<name>.csv` (the monitors of
 //!   `case.ron`): a `Line`'s last profile against the distance along the line; a `Forces`
-//!   monitor's forces (and coefficients) over time; a `Suspension`'s figures over time and
-//!   its last profile of the solid fraction (`monitors/<name>_profiles.csv`); the other
+//!   monitor's forces (and coefficients) over time; a `Suspension`'s figures over time (the
+//!   solid fraction, the mean and settling velocity, the granular temperature, the bed
+//!   height, the contacts) and its last profiles of the solid fraction and of the solid's
+//!   mean velocity (`monitors/<name>_profiles.csv`); the other
 //!   kinds' columns over time (the first eight).
 //!
 //! A missing or empty CSV file gives no chart and no error; a chart that cannot be drawn
@@ -195,6 +197,20 @@ fn write_monitor(stem: &Path, name: &str, m: &MonitorSpec, t: &Table, profiles: 
                     x_label: format!("{axis:?}").to_lowercase(),
                     y_label: "solid fraction".into(),
                     series: vec![curve("solid fraction", 0, &pick(&centre), &pick(&phi))],
+                    log: (false, false),
+                });
+                // and of the mean velocity (slabs without solid have none: left out)
+                let (u, w) = (pick(&p.numbers("u_x")), pick(&p.numbers("u_y")));
+                let c = pick(&centre);
+                let solid = |v: &[Real]| -> (Vec<Real>, Vec<Real>) {
+                    c.iter().zip(v).filter(|(_, x)| x.is_finite()).map(|(c, x)| (*c, *x)).unzip()
+                };
+                let ((cu, u), (cw, w)) = (solid(&u), solid(&w));
+                v.push(Chart {
+                    title: format!("mean velocity of the solid across {axis:?} at t = {time:.6}"),
+                    x_label: format!("{axis:?}").to_lowercase(),
+                    y_label: "velocity".into(),
+                    series: vec![curve("u_x", 0, &cu, &u), curve("u_y", 1, &cw, &w)],
                     log: (false, false),
                 });
             }

@@ -642,9 +642,23 @@ fn compare(
     for w in &c.point.warnings {
         println!("point run: warning: {w}");
     }
+    if !c.suspension.is_empty() {
+        println!(
+            "{:<12} {:<24} {:>7} {:>12} {:>12} {:>12} {:>12}  (point − resolved)",
+            "monitor", "statistic", "samples", "L2", "L∞", "resolved", "point"
+        );
+        for d in &c.suspension {
+            println!(
+                "{:<12} {:<24} {:>7} {:>12.4e} {:>12.4e} {:>12.5} {:>12.5}",
+                d.monitor, d.quantity, d.samples, d.l2, d.linf, d.resolved_mean, d.point_mean
+            );
+        }
+    }
     println!(
-        "wrote {}/comparison.{{json,csv}} and the charts compare_position, compare_velocity (PNG and SVG)",
-        dir.display()
+        "wrote {}/comparison.{{json,csv}}{} and the charts compare_position, compare_velocity{} (PNG and SVG)",
+        dir.display(),
+        if c.suspension.is_empty() { "" } else { ", suspension_comparison.csv" },
+        if c.suspension.is_empty() { "" } else { ", compare_suspension_<monitor>" }
     );
     Ok(())
 }

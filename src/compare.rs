@@ -8,12 +8,21 @@
 //! Output in the comparison directory: `resolved/` and `point/` (two ordinary runs),
 //! `comparison.json`, `comparison.csv` (one row per run and body), `compare_position` and
 //! `compare_velocity` charts, and for two disks `dkt_position`/`dkt_lateral`.
+//!
+//! A case with `Suspension` monitors (docs/monitors.md) is also compared on their
+//! statistics ([`suspension_differences`]): the mean settling velocity, the bed height and
+//! the granular temperature over time, and the last profile of the solid fraction, each as
+//! the L2 (root mean square) and L∞ norms of point − resolved, in `comparison.json`
+//! (`suspension`) and `suspension_comparison.csv` (one row per monitor and statistic), and
+//! drawn in `compare_suspension_<monitor>` (settling velocity and bed height over time, the
+//! last profiles).
 
 use crate::core::case::{Case, Region, Representation};
 use crate::core::error::Error;
 use crate::core::math::Real;
+use crate::core::monitor::Monitored;
 use crate::dkt::{self, Track};
-use crate::plot::{write_chart, Chart, Series};
+use crate::plot::{write_chart, write_figure, Chart, Figure, Series};
 use crate::run::{self, RunOptions};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -75,6 +84,165 @@ pub struct Comparison {
     pub terminal_speed_relative_difference: BTreeMap<String, Real>,
     /// Wall time ratio resolved/point.
     pub speedup: f64,
+    /// The differences point − resolved of the statistics of each `Suspension` monitor of
+    /// the case (empty without one).
+    pub suspension: Vec<StatisticDifference>,
+}
+
+/// The statistics of a `Suspension` monitor compared: over time, and the profile.
+pub const COMPARED_OVER_TIME: [&str; 3] = ["settling_velocity", "bed_height", "temperature"];
+
+/// One statistic of one `Suspension` monitor, point − resolved (module doc of
+/// [`suspension_differences`]).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct StatisticDifference {
+    /// The monitor's name.
+    pub monitor: String,
+    /// A column of its file (`settling_velocity`, `bed_height`, `temperature`), or
+    /// `solid_fraction_profile`.
+    pub quantity: String,
+    /// The samples (times, or slabs of the profile) compared.
+    pub samples: usize,
+    /// Root mean square of the difference over the samples.
+    pub l2: Real,
+    /// Largest absolute difference.
+    pub linf: Real,
+    /// Mean of the resolved run's values over the samples.
+    pub resolved_mean: Real,
+    /// Mean of the point run's values over the samples.
+    pub point_mean: Real,
+}
+
+/// `y(t)` of the piecewise linear curve through `(ts, ys)` (increasing `ts`), `None`
+/// outside `[ts[0], ts[last]]`.
+fn interpolate(ts: &[Real], ys: &[Real], t: Real) -> Option<Real> {
+    let n = ts.len();
+    if n == 0 || t < ts[0] || t > ts[n - 1] {
+        return None;
+    }
+    let k = ts.partition_point(|&s| s < t);
+    if ts[k] == t {
+        return Some(ys[k]);
+    }
+    let (t0, t1) = (ts[k - 1], ts[k]);
+    let w = (t - t0) / (t1 - t0);
+    Some(ys[k - 1] + w * (ys[k] - ys[k - 1]))
+}
+
+/// The L2 (root mean square) and L∞ norms of the differences `b − a` and the means of `a`
+/// and `b`.
+fn norms(monitor: &str, quantity: &str, a: &[Real], b: &[Real]) -> StatisticDifference {
+    let n = a.len().max(1) as Real;
+    let d: Vec<Real> = a.iter().zip(b).map(|(a, b)| b - a).collect();
+    StatisticDifference {
+        monitor: monitor.into(),
+        quantity: quantity.into(),
+        samples: a.len(),
+        l2: (d.iter().map(|d| d * d).sum::<Real>() / n).sqrt(),
+        linf: d.iter().fold(0.0, |m: Real, d| m.max(d.abs())),
+        resolved_mean: a.iter().sum::<Real>() / n,
+        point_mean: b.iter().sum::<Real>() / n,
+    }
+}
+
+/// A `Suspension` monitor's file and profiles of the run in `dir`.
+fn suspension_tables(
+    dir: &Path,
+    monitor: &str,
+) -> Result<(crate::core::table::Table, crate::core::table::Table), Error> {
+    let folder = dir.join(crate::core::monitor::FOLDER);
+    let read = |name: String| -> Result<crate::core::table::Table, Error> {
+        let path = folder.join(name);
+        crate::core::table::Table::read(&path)?
+            .ok_or_else(|| Error::Model(format!("{}: no rows: the run wrote no statistics to compare", path.display())))
+    };
+    Ok((read(format!("{monitor}.csv"))?, read(format!("{monitor}_profiles.csv"))?))
+}
+
+/// The last sample's profile (`column` per slab) of a profiles table.
+fn last_profile(p: &crate::core::table::Table, column: &str) -> (Vec<Real>, Vec<Real>) {
+    let step = p.numbers("step").unwrap_or_default();
+    let last = step.last().copied().unwrap_or(Real::NAN);
+    let pick =
+        |v: Vec<Real>| -> Vec<Real> { step.iter().zip(v).filter(|(s, _)| **s == last).map(|(_, x)| x).collect() };
+    (pick(p.numbers("centre").unwrap_or_default()), pick(p.numbers(column).unwrap_or_default()))
+}
+
+/// The statistics of the `Suspension` monitor `monitor` of the runs in `resolved` and
+/// `point`, compared: for each column of [`COMPARED_OVER_TIME`], the point run's values
+/// interpolated linearly in time at the resolved run's sample times (those inside the
+/// point run's span), the differences point − resolved there; for
+/// `solid_fraction_profile`, the two runs' last profiles of the solid fraction, slab by
+/// slab. L2 is the root mean square of the differences, L∞ the largest.
+pub fn suspension_differences(resolved: &Path, point: &Path, monitor: &str) -> Result<Vec<StatisticDifference>, Error> {
+    let (rt, rp) = suspension_tables(resolved, monitor)?;
+    let (pt, pp) = suspension_tables(point, monitor)?;
+    let col = |t: &crate::core::table::Table, c: &str| t.numbers(c).unwrap_or_default();
+    let (tr, tp) = (col(&rt, "time"), col(&pt, "time"));
+    let mut out = Vec::new();
+    for q in COMPARED_OVER_TIME {
+        let (yr, yp) = (col(&rt, q), col(&pt, q));
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for (t, y) in tr.iter().zip(&yr) {
+            if let Some(z) = interpolate(&tp, &yp, *t) {
+                a.push(*y);
+                b.push(z);
+            }
+        }
+        out.push(norms(monitor, q, &a, &b));
+    }
+    let ((cr, a), (cp, b)) = (last_profile(&rp, "solid_fraction"), last_profile(&pp, "solid_fraction"));
+    if cr != cp {
+        return Err(Error::Model(format!(
+            "monitor `{monitor}`: the two runs' profiles have different slabs ({} and {}): nothing to compare",
+            cr.len(),
+            cp.len()
+        )));
+    }
+    out.push(norms(monitor, "solid_fraction_profile", &a, &b));
+    Ok(out)
+}
+
+/// The overlay of a `Suspension` monitor's statistics of both runs: settling velocity and
+/// bed height over time, the last profiles of the solid fraction.
+fn plot_suspension(out: &Path, case: &str, monitor: &str, dirs: &[PathBuf]) -> Result<(), Error> {
+    let mut settling = Vec::new();
+    let mut bed = Vec::new();
+    let mut profile = Vec::new();
+    for (k, (dir, label)) in dirs.iter().zip(["resolved", "mass points"]).enumerate() {
+        let (t, p) = suspension_tables(dir, monitor)?;
+        let time = t.numbers("time").unwrap_or_default();
+        let series = |c: &str| Series {
+            label: label.into(),
+            points: time.iter().copied().zip(t.numbers(c).unwrap_or_default()).collect(),
+            color: k,
+            markers: false,
+        };
+        settling.push(series("settling_velocity"));
+        bed.push(series("bed_height"));
+        let (c, phi) = last_profile(&p, "solid_fraction");
+        profile.push(Series { label: label.into(), points: c.into_iter().zip(phi).collect(), color: k, markers: true });
+    }
+    let chart = |title: &str, x: &str, y: &str, series| Chart {
+        title: format!("{case}: {monitor}, {title}"),
+        x_label: x.into(),
+        y_label: y.into(),
+        series,
+        log: (false, false),
+    };
+    let charts = [
+        chart("mean settling velocity", "time", "settling velocity", settling),
+        chart("bed height", "time", "bed height", bed),
+        chart("solid fraction at the end", "position along the axis", "solid fraction", profile),
+    ];
+    write_figure(
+        &out.join(format!("compare_suspension_{monitor}")),
+        &Figure {
+            title: format!("{case}: resolved against mass points, monitor {monitor}"),
+            size: (1000, 300 + 250 * charts.len() as u32),
+            columns: vec![(1.0, charts.iter().collect())],
+        },
+    )
 }
 
 /// The case with every body list represented as `rep`.
@@ -189,7 +357,35 @@ pub fn compare(
             rel.insert(br.body.clone(), (bp.max_settling_speed - br.max_settling_speed) / br.max_settling_speed);
         }
     }
+    let mut suspension = Vec::new();
+    for m in &case.monitors {
+        if matches!(m.of, Monitored::Suspension { .. }) {
+            suspension.extend(suspension_differences(&dirs[0], &dirs[1], &m.name)?);
+            plot_suspension(out, &case.name, &m.name, &dirs)?;
+        }
+    }
+    if !suspension.is_empty() {
+        let header = ["monitor", "quantity", "samples", "l2", "linf", "resolved_mean", "point_mean"];
+        let rows: Vec<Vec<String>> = suspension
+            .iter()
+            .map(|d| {
+                vec![
+                    d.monitor.clone(),
+                    d.quantity.clone(),
+                    d.samples.to_string(),
+                    d.l2.to_string(),
+                    d.linf.to_string(),
+                    d.resolved_mean.to_string(),
+                    d.point_mean.to_string(),
+                ]
+            })
+            .collect();
+        let path = out.join("suspension_comparison.csv");
+        std::fs::write(&path, crate::core::table::to_text(&header, rows)?)
+            .map_err(|source| Error::Io { path, source })?;
+    }
     let cmp = Comparison {
+        suspension,
         case: case.name.clone(),
         kiss_time_difference: diff(r.kiss_time, p.kiss_time),
         tumble_time_difference: diff(r.tumble_time, p.tumble_time),

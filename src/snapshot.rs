@@ -69,6 +69,8 @@
 //! | `/fields/<f>/points/stress` | (N, 3) | force/area | Cauchy stress σxx, σyy, σxy |
 //! | `/fields/<f>/points/body` | (N) | - | index of the point's body in `bodies`, −1 for none (i64) |
 //! | `/averages/<name>` | (NY, NX) or (NY, NX, 3) | the quantity's | running time average of a `TimeAverage` monitor (docs/monitors.md), with the attributes `quantity`, `field`, `from`, `to`, `samples`; only once it has a sample |
+//! | `/suspension/<name>/statistics` | (9) | per column | a `Suspension` monitor's figures at this step (docs/monitors.md), in the order of the attribute `columns`: bodies, solid_fraction, u_x, u_y, settling_velocity, temperature, bed_height, contacts, wall_contacts; equal to its row of `monitors/<name>.csv` at the same step |
+//! | `/suspension/<name>/profiles` | (bins, 4) | length, -, length/time, length/time | its profile at this step, per slab: centre, solid_fraction, u_x, u_y (attribute `columns`; NaN where a slab holds no solid); the group has the attributes `field`, `axis` (`"X"` or `"Y"`), `bins`, `bed_fraction`, `contact_gap` |
 //!
 //! The files are in the HDF5 1.8 format (version 2 superblock, contiguous uncompressed
 //! datasets), which every HDF5 library since 1.8 reads. Every dataset has the attributes
@@ -99,6 +101,9 @@ use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::Grid;
 use crate::core::math::Real;
+use crate::core::monitor::suspension::{self, COLUMNS};
+use crate::core::monitor::Monitored;
+use crate::core::plugin::BodyState;
 use crate::core::quantity::{self, Compute, Place, Quantity, Sample};
 use crate::core::simulation::Simulation;
 use crate::output::{write_atomically, Due, Moments};
@@ -197,6 +202,32 @@ pub struct AverageData {
     pub values: Vec<Real>,
 }
 
+/// A `Suspension` monitor's statistics in a snapshot (`/suspension/<name>`): the
+/// figures of its row and its profile at the snapshot's step, computed from the bodies
+/// as the monitor computes them (the same function on the same state: equal to its CSV
+/// row at that step, bit for bit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SuspensionData {
+    /// The monitor's name.
+    pub name: String,
+    /// The field of bodies.
+    pub field: String,
+    /// `"X"` or `"Y"`: the axis of the profiles and of the bed height.
+    pub axis: String,
+    /// The fraction of solid area below the bed height.
+    pub bed_fraction: Real,
+    /// The largest gap of a contact.
+    pub contact_gap: Real,
+    /// The row, in the order of [`crate::core::monitor::suspension::COLUMNS`].
+    pub statistics: Vec<Real>,
+    /// Per slab (`bins` of them): centre, solid fraction, u_x, u_y (NaN where the slab
+    /// holds no solid).
+    pub profiles: Vec<[Real; 4]>,
+}
+
+/// The columns of `/suspension/<name>/profiles`.
+pub const SUSPENSION_PROFILE_COLUMNS: [&str; 4] = ["centre", "solid_fraction", "u_x", "u_y"];
+
 /// Everything one snapshot file holds, as [`Snapshot::of`] computes it and
 /// [`Snapshot::read`] reads it back.
 #[derive(Clone, Debug, PartialEq)]
@@ -223,6 +254,8 @@ pub struct Snapshot {
     pub fields: Vec<FieldData>,
     /// The running time averages that have a sample, in the case's order of monitors.
     pub averages: Vec<AverageData>,
+    /// The statistics of the case's `Suspension` monitors, by name.
+    pub suspensions: Vec<SuspensionData>,
 }
 
 const UNITS: &str = "case units: length, time and mass as in the case file (CGS by convention: cm, s, g)";
@@ -323,6 +356,7 @@ impl Snapshot {
             })
             .collect();
         averages.sort_by(|a, b| a.name.cmp(&b.name));
+        let suspensions = suspensions_of(sim);
         Ok(Snapshot {
             case: sim.case.name.clone(),
             program: program(),
@@ -335,7 +369,13 @@ impl Snapshot {
             cells,
             fields,
             averages,
+            suspensions,
         })
+    }
+
+    /// The statistics of the `Suspension` monitor `name`, if written.
+    pub fn suspension(&self, name: &str) -> Option<&SuspensionData> {
+        self.suspensions.iter().find(|s| s.name == name)
     }
 
     /// The running time average of the monitor `name`, if written.
@@ -440,6 +480,46 @@ impl Snapshot {
             }
             b.add_group(g.finish());
         }
+        if !self.suspensions.is_empty() {
+            let mut top = b.create_group("suspension");
+            for s in &self.suspensions {
+                let mut g = top.create_group(&s.name);
+                g.set_attr("field", AttrValue::String(s.field.clone()));
+                g.set_attr("axis", AttrValue::String(s.axis.clone()));
+                g.set_attr("bins", AttrValue::I64(s.profiles.len() as i64));
+                g.set_attr("bed_fraction", AttrValue::F64(s.bed_fraction));
+                g.set_attr("contact_gap", AttrValue::F64(s.contact_gap));
+                let d = g.create_dataset("statistics");
+                d.with_f64_data(&s.statistics).with_shape(&[s.statistics.len() as u64]);
+                d.set_attr("units", AttrValue::String("per column (docs/monitors.md, Suspension)".into()));
+                d.set_attr(
+                    "description",
+                    AttrValue::String(format!(
+                        "the statistics of the bodies of field `{}` at this step, as the row of monitors/{}.csv",
+                        s.field, s.name
+                    )),
+                );
+                d.set_attr("columns", AttrValue::StringArray(COLUMNS.iter().map(|c| c.to_string()).collect()));
+                let flat: Vec<Real> = s.profiles.iter().flatten().copied().collect();
+                let d = g.create_dataset("profiles");
+                d.with_f64_data(&flat).with_shape(&[s.profiles.len() as u64, 4]);
+                d.set_attr("units", AttrValue::String("length, -, length/time, length/time".into()));
+                d.set_attr(
+                    "description",
+                    AttrValue::String(format!(
+                        "per slab across {}: centre, solid fraction, area-weighted u_x and u_y (NaN: no solid), \
+                         as monitors/{}_profiles.csv at this step",
+                        s.axis, s.name
+                    )),
+                );
+                d.set_attr(
+                    "columns",
+                    AttrValue::StringArray(SUSPENSION_PROFILE_COLUMNS.iter().map(|c| c.to_string()).collect()),
+                );
+                top.add_group(g.finish());
+            }
+            b.add_group(top.finish());
+        }
         b.finish().map_err(|e| Error::Model(format!("cannot build the HDF5 snapshot: {e}")))
     }
 
@@ -538,8 +618,78 @@ impl Snapshot {
                 }
                 Err(_) => Vec::new(),
             },
+            suspensions: match file.group("suspension") {
+                Ok(g) => {
+                    let mut out = Vec::new();
+                    for name in g.groups().map_err(err)? {
+                        let base = format!("suspension/{name}");
+                        let a = file.group(&base).and_then(|g| g.attrs()).map_err(err)?;
+                        let flat = f64s(&format!("{base}/profiles"))?;
+                        out.push(SuspensionData {
+                            field: string(&a, "field")?,
+                            axis: string(&a, "axis")?,
+                            bed_fraction: real(&a, "bed_fraction")?,
+                            contact_gap: real(&a, "contact_gap")?,
+                            statistics: f64s(&format!("{base}/statistics"))?,
+                            profiles: flat.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
+                            name,
+                        });
+                    }
+                    out.sort_by(|a: &SuspensionData, b| a.name.cmp(&b.name));
+                    out
+                }
+                Err(_) => Vec::new(),
+            },
         })
     }
+}
+
+/// The statistics of the case's `Suspension` monitors at the simulation's current state
+/// (by monitor name).
+fn suspensions_of(sim: &Simulation) -> Vec<SuspensionData> {
+    let case = &sim.case;
+    let specs: Vec<_> = case
+        .monitors
+        .iter()
+        .filter_map(|m| match &m.of {
+            Monitored::Suspension { field, axis, bins, bed_fraction, contact_gap } => {
+                Some((m.name.clone(), field, *axis, *bins, *bed_fraction, *contact_gap))
+            }
+            _ => None,
+        })
+        .collect();
+    if specs.is_empty() {
+        return Vec::new();
+    }
+    let bodies = sim.bodies();
+    let mut out: Vec<SuspensionData> = specs
+        .into_iter()
+        .map(|(name, field, axis, bins, bed_fraction, contact_gap)| {
+            let geometry = suspension::Geometry::new(
+                case.domain.origin,
+                case.domain.size,
+                &case.boundaries,
+                case.gravity,
+                axis,
+                bins,
+                bed_fraction,
+                contact_gap,
+            );
+            let chosen: Vec<&BodyState> = bodies.iter().filter(|(f, _)| f == field).map(|(_, b)| b).collect();
+            let (statistics, profiles) = suspension::sample(&geometry, &chosen);
+            SuspensionData {
+                name,
+                field: field.clone(),
+                axis: format!("{axis:?}"),
+                bed_fraction,
+                contact_gap,
+                statistics,
+                profiles,
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| a.name.cmp(&b.name));
+    out
 }
 
 /// An array of a snapshot as the XDMF lists it: its name and whether it is a vector.
@@ -951,6 +1101,15 @@ mod tests {
                     values: vec![0.25, 1.0, 0.0, 2.5, -3.0, 0.0],
                 },
             ],
+            suspensions: vec![SuspensionData {
+                name: "bed".into(),
+                field: "sand grains".into(),
+                axis: "Y".into(),
+                bed_fraction: 0.99,
+                contact_gap: 1e-3,
+                statistics: (0..COLUMNS.len()).map(|k| 0.5 + k as Real).collect(),
+                profiles: vec![[0.25, 0.3, -1.0, 2.0], [0.75, 0.0, 1e-300, -0.5]],
+            }],
         };
         let path = std::env::temp_dir().join(format!("multifield-snapshot-{}.h5", std::process::id()));
         snap.write(&path).unwrap();

@@ -156,6 +156,11 @@ pub enum Metric {
         /// How the rows are reduced.
         #[serde(default)]
         of: Reduce,
+        /// Only the rows with `from ≤ time ≤ to` (e.g. the steady regime of a settling
+        /// suspension); default every row. The column's name then ends in
+        /// `_in_<from>_<to>`.
+        #[serde(default)]
+        window: Option<(Real, Real)>,
     },
     /// The simulated time at which a stop condition of the case (`stop: [...]`) ended the
     /// run: column `stop_time`, empty when no condition fired (the run reached `time.end`,
@@ -701,7 +706,19 @@ impl Study {
     /// Checks the [`Metric::Monitor`] entries against the monitors of `case`.
     fn check_monitor_metrics(&self, file: &Path, case: &Case) -> Result<(), Error> {
         for (k, m) in self.metrics.iter().enumerate() {
-            let Metric::Monitor { monitor, column, .. } = m else { continue };
+            let Metric::Monitor { monitor, column, window, .. } = m else { continue };
+            if let Some((from, to)) = window {
+                if !(from.is_finite() && to.is_finite() && from <= to) {
+                    return Err(bad(
+                        file,
+                        &format!("metrics.{k}.window"),
+                        format!(
+                            "the window ({from}, {to}) is not a span of time: give (from, to) with from ≤ to, \
+                             e.g. window: Some((0.1, 0.3))"
+                        ),
+                    ));
+                }
+            }
             let names = case.monitors.iter().map(|m| m.name.as_str());
             let Some(spec) = case.monitors.iter().find(|m| &m.name == monitor) else {
                 let list: Vec<&str> = names.clone().collect();
@@ -1032,12 +1049,19 @@ pub fn metric_columns(metrics: &[Metric]) -> Vec<String> {
             Metric::Summary(s) => vec![s.clone()],
             Metric::Dkt => vec!["kiss_time".into(), "tumble_time".into(), "min_gap_over_d".into()],
             Metric::Body { body, column, .. } => vec![format!("{body}_{column}")],
-            Metric::Monitor { monitor, column, of } => vec![match of {
-                Reduce::Final => format!("{monitor}_{column}"),
-                Reduce::Mean => format!("mean_{monitor}_{column}"),
-                Reduce::Max => format!("max_{monitor}_{column}"),
-                Reduce::Min => format!("min_{monitor}_{column}"),
-            }],
+            Metric::Monitor { monitor, column, of, window } => {
+                let name = match of {
+                    Reduce::Final => format!("{monitor}_{column}"),
+                    Reduce::Mean => format!("mean_{monitor}_{column}"),
+                    Reduce::Max => format!("max_{monitor}_{column}"),
+                    Reduce::Min => format!("min_{monitor}_{column}"),
+                };
+                // two windows of one column are two columns
+                vec![match window {
+                    Some((from, to)) => format!("{name}_in_{from}_{to}"),
+                    None => name,
+                }]
+            }
             Metric::Stopped => vec!["stop_time".into()],
         })
         .collect()
@@ -1099,7 +1123,9 @@ fn row_of(dir: &Path, study: &Study) -> Row {
             },
             Metric::Body { body, column, scale } => metrics
                 .push(body_last(&bodies, body, column).map(|v| v * scale.unwrap_or(1.0)).filter(|v| v.is_finite())),
-            Metric::Monitor { monitor, column, of } => metrics.push(monitor_value(dir, monitor, column, *of)),
+            Metric::Monitor { monitor, column, of, window } => {
+                metrics.push(monitor_value(dir, monitor, column, *of, *window))
+            }
             Metric::Stopped => metrics.push(
                 (s["status"].as_str() == Some("completed")
                     && crate::core::monitor::is_stop_reason(s["reason"].as_str().unwrap_or_default()))
@@ -1123,9 +1149,20 @@ fn row_of(dir: &Path, study: &Study) -> Row {
 
 /// A column of the run's `monitors/<monitor>.csv` reduced over its rows ([`Reduce`]);
 /// `None` when the file, the column or a value in it is missing or not finite.
-pub fn monitor_value(dir: &Path, monitor: &str, column: &str, of: Reduce) -> Option<Real> {
+pub fn monitor_value(
+    dir: &Path,
+    monitor: &str,
+    column: &str,
+    of: Reduce,
+    window: Option<(Real, Real)>,
+) -> Option<Real> {
     let csv = Csv::read(&dir.join(crate::core::monitor::FOLDER).join(format!("{monitor}.csv")))?;
-    let v = csv.column(column)?;
+    let (mut v, mut t) = (csv.column(column)?, csv.column("time")?);
+    if let Some((from, to)) = window {
+        let keep: Vec<bool> = t.iter().map(|&t| t >= from && t <= to).collect();
+        let pick = |x: Vec<Real>| x.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| x).collect::<Vec<_>>();
+        (v, t) = (pick(v), pick(t));
+    }
     if v.is_empty() || v.iter().any(|x| !x.is_finite()) {
         return None;
     }
@@ -1134,7 +1171,6 @@ pub fn monitor_value(dir: &Path, monitor: &str, column: &str, of: Reduce) -> Opt
         Reduce::Max => v.iter().copied().fold(Real::NEG_INFINITY, Real::max),
         Reduce::Min => v.iter().copied().fold(Real::INFINITY, Real::min),
         Reduce::Mean => {
-            let t = csv.column("time")?;
             let span = t[t.len() - 1] - t[0];
             if v.len() == 1 || span <= 0.0 {
                 v[v.len() - 1]

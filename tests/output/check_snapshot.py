@@ -8,10 +8,14 @@ the shapes of every grid and point array, that no value is NaN, that θ lies in 
 and the bulk density is θ ρ⁰, the point count and body ids. Then parses the XDMF sidecar
 (xml.etree) and checks that every time refers to a snapshot whose `time` attribute it
 states, and that every `file.h5:/path` it references exists with the stated Dimensions
-and number type. Prints a summary and exits 0, or prints every mismatch on stderr and
-exits 1 (2 for bad usage).
+and number type. Every snapshot's `/suspension/<name>` groups (a `Suspension` monitor's
+statistics and profile) must equal, bit for bit, the monitor's rows of the snapshot's step
+in RUN_DIR/monitors/<name>.csv and <name>_profiles.csv (when the monitor sampled that
+step). Prints a summary and exits 0, or prints every mismatch on stderr and exits 1 (2 for
+bad usage).
 """
 
+import csv
 import glob
 import os
 import sys
@@ -100,6 +104,79 @@ def check_snapshot(path):
               f"{nx} x {ny} cells, fields {fields}, points {points}, "
               f"max |p| = {np.abs(f['pressure'][()]).max():.6g}")
         return time
+
+
+def csv_rows(path):
+    """The rows of a CSV file as dicts of str (None when the file is missing)."""
+    if not os.path.isfile(path):
+        return None
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def number(cell):
+    """A CSV cell as written by multifield: a float, an empty cell for NaN."""
+    return float("nan") if cell == "" else float(cell)
+
+
+def same(a, b):
+    """Equal floats, NaN equal to NaN (bit for bit otherwise)."""
+    return (np.isnan(a) and np.isnan(b)) or a == b
+
+
+def check_suspension(path, run_dir):
+    """Every /suspension/<name> group of the snapshot: its shapes and attributes, and its
+    values against the monitor's CSV rows of the snapshot's step (equal, bit for bit).
+    Returns the number of groups checked."""
+    checked = 0
+    with h5py.File(path, "r") as f:
+        if "suspension" not in f:
+            return 0
+        step = int(f.attrs["step"])
+        for name, g in f["suspension"].items():
+            for key in ("field", "axis", "bins", "bed_fraction", "contact_gap"):
+                if key not in g.attrs:
+                    fail(f"{path}: /suspension/{name} has no attribute `{key}`")
+            stats, prof = g["statistics"], g["profiles"]
+            columns = [text(c) for c in stats.attrs["columns"]]
+            bins = int(g.attrs["bins"])
+            if stats.shape != (len(columns),) or prof.shape != (bins, 4):
+                fail(f"{path}: /suspension/{name}: shapes {stats.shape}, {prof.shape} for "
+                     f"{len(columns)} columns and {bins} bins")
+                continue
+            if text(g.attrs["axis"]) not in ("X", "Y"):
+                fail(f"{path}: /suspension/{name}: axis {text(g.attrs['axis'])!r}")
+            rows = csv_rows(os.path.join(run_dir, "monitors", f"{name}.csv"))
+            profiles = csv_rows(os.path.join(run_dir, "monitors", f"{name}_profiles.csv"))
+            if rows is None or profiles is None:
+                fail(f"{path}: /suspension/{name} but no monitors/{name}.csv and {name}_profiles.csv in {run_dir}")
+                continue
+            row = [r for r in rows if int(r["step"]) == step]
+            slabs = [r for r in profiles if int(r["step"]) == step]
+            if not row:
+                print(f"{os.path.basename(path)}: suspension {name}: the monitor did not sample step {step} "
+                      "(its schedule): not compared")
+                continue
+            if len(row) != 1 or len(slabs) != bins:
+                fail(f"{path}: monitors/{name}.csv has {len(row)} rows and its profiles {len(slabs)} of step {step}")
+                continue
+            values = stats[()]
+            for k, c in enumerate(columns):
+                if not same(values[k], number(row[0][c])):
+                    fail(f"{path}: /suspension/{name}/statistics `{c}` = {values[k]!r}, "
+                         f"monitors/{name}.csv at step {step}: {row[0][c]}")
+            p = prof[()]
+            pcols = [text(c) for c in prof.attrs["columns"]]
+            for s in slabs:
+                b = int(s["bin"])
+                for k, c in enumerate(pcols):
+                    if not same(p[b, k], number(s[c])):
+                        fail(f"{path}: /suspension/{name}/profiles[{b}] `{c}` = {p[b, k]!r}, "
+                             f"monitors/{name}_profiles.csv at step {step}: {s[c]}")
+            checked += 1
+            print(f"{os.path.basename(path)}: suspension {name}: step {step}, {len(columns)} statistics and "
+                  f"{bins} slabs equal to monitors/{name}.csv")
+    return checked
 
 
 NUMBER_KIND = {"Float": "f", "Int": "i", "UInt": "u"}
@@ -191,6 +268,10 @@ def main():
         fail(f"{folder}: {len(xdmfs)} .xdmf files, expected 1")
     if not errors:
         check_snapshot(snapshots[-1])
+        run_dir = os.path.dirname(os.path.abspath(folder))
+        groups = sum(check_suspension(s, run_dir) for s in snapshots)
+        if groups:
+            print(f"{groups} suspension groups equal to their monitors' CSV rows")
         listed = check_xdmf(xdmfs[0], folder)
         if listed != len(snapshots):
             fail(f"{xdmfs[0]} lists {listed} times, the folder holds {len(snapshots)} snapshots")

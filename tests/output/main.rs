@@ -13,3 +13,4 @@ mod pictures;
 mod restart;
 mod snapshots;
 mod study;
+mod suspension;
