@@ -11,5 +11,6 @@ mod monitors;
 mod output_contract;
 mod pictures;
 mod restart;
+mod slurm;
 mod snapshots;
 mod study;
