@@ -444,6 +444,17 @@ pub fn submit(plan: &Plan, options: &Submit) -> Result<Submitted, Error> {
     let texts: Vec<String> = plan.runs.iter().map(|c| c.case.to_ron()).collect();
     let indices: Vec<usize> =
         (0..plan.runs.len()).filter(|&k| !study::finished(&plan.runs[k].dir, &texts[k])).collect();
+    if let (Some(&last), Some(max)) = (indices.last(), max_array_size()) {
+        if last >= max {
+            return Err(Error::Model(format!(
+                "the study has {} runs, but this cluster's array indices end at {} (MaxArraySize = {max} in \
+                 slurm.conf): submit it in parts with --only AXIS=LABEL, each part a study folder of its own \
+                 (--out)",
+                plan.runs.len(),
+                max - 1
+            )));
+        }
+    }
     let mut done = Submitted {
         skipped: plan.runs.len() - indices.len(),
         partition: partition.name.clone(),
@@ -552,6 +563,15 @@ pub fn submit(plan: &Plan, options: &Submit) -> Result<Submitted, Error> {
         done.report_state = Some(wait_for(&report_job)?);
     }
     Ok(done)
+}
+
+/// `MaxArraySize` of the cluster's configuration (`scontrol show config`): array indices
+/// are below it. `None` when it cannot be read.
+fn max_array_size() -> Option<usize> {
+    let out = Command::new(tool("scontrol")?).args(["show", "config"]).output().ok()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().find(|l| l.trim_start().starts_with("MaxArraySize"))?;
+    line.split('=').nth(1)?.trim().parse().ok()
 }
 
 /// The state of a job (`JobState` of `scontrol show job`); `None` once Slurm has forgotten

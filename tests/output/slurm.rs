@@ -258,6 +258,16 @@ fn the_small_study_through_slurm_gives_the_local_table() {
     let study = shipped_study();
     let s = study.to_str().unwrap();
     let (local, cluster) = (dir.join("local"), dir.join("cluster"));
+    // the real sinfo's partitions: an unknown one is refused, nothing written
+    let o =
+        multifield(&["study", s, "--out", cluster.to_str().unwrap(), "--scheduler", "slurm", "--partition", "nosuch"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("--partition nosuch: the cluster has no such partition (sinfo); partitions: "),
+        "{}",
+        text(&o)
+    );
+    assert!(!cluster.exists());
     let o = multifield(&["study", s, "--out", local.to_str().unwrap(), "--jobs", "2", "--quiet"]);
     assert!(o.status.success(), "{}", text(&o));
     let o = multifield(&["study", s, "--out", cluster.to_str().unwrap(), "--scheduler", "slurm", "--wait"]);
