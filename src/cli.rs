@@ -148,6 +148,9 @@ enum Command {
         /// The most memory each run may use, as for `run`.
         #[arg(long, value_name = "SIZE")]
         max_memory: Option<String>,
+        /// Slurm: where the runs go, and the parts of a study on a cluster.
+        #[command(flatten)]
+        cluster: crate::slurm::ClusterArgs,
     },
 }
 
@@ -235,10 +238,12 @@ pub fn main() -> ExitCode {
                 compare(&c, &case, &point_overrides, out, &options, reference)
             })
         }
-        Some(Command::Study { study, jobs, out, threads_per_run, only, quiet, max_runs, max_memory }) => {
+        Some(Command::Study { study, jobs, out, threads_per_run, only, quiet, max_runs, max_memory, cluster }) => {
             let options = crate::study::StudyOptions { jobs, threads_per_run, quiet };
-            memory_limit(&max_memory)
-                .and_then(|memory| run_study(&study, out, &only, &options, &crate::study::Limits { max_runs, memory }))
+            memory_limit(&max_memory).and_then(|memory| {
+                let limits = crate::study::Limits { max_runs, memory };
+                run_study(&study, out, &only, &options, &limits, &cluster, &max_memory)
+            })
         }
     };
     match result {
@@ -552,29 +557,45 @@ fn quantities() {
 /// `multifield study STUDY.ron`: exit 0 when every run ended (completed, unstable or
 /// failed: all data), 2 on bad input, 1 when the output cannot be written, 130 when an
 /// interrupt stopped it (the same command continues it).
+#[allow(clippy::too_many_arguments)]
 fn run_study(
     file: &Path,
     out: Option<PathBuf>,
     only: &[String],
     options: &crate::study::StudyOptions,
     limits: &crate::study::Limits,
+    cluster: &crate::slurm::ClusterArgs,
+    max_memory: &Option<String>,
 ) -> Result<(), Failure> {
-    let plan = crate::study::plan_within(file, out, only, limits)?;
+    // a task or the report builds no simulation but its own: the submission checked them all
+    let part = cluster.index.is_some() || cluster.report;
+    let plan = crate::study::plan_to(file, out, only, limits, !part)?;
+    if let Some(i) = cluster.index {
+        return study_index(&plan, i, options.threads_per_run);
+    }
+    if cluster.report {
+        return study_report(&plan);
+    }
+    let spec = cluster.resolve(&plan.study.scheduler);
+    if spec.kind == crate::slurm::SchedulerKind::Slurm {
+        let submit = crate::slurm::Submit {
+            spec,
+            threads_per_run: options.threads_per_run,
+            only: only.to_vec(),
+            max_runs: limits.max_runs,
+            max_memory: max_memory.clone(),
+            wait: cluster.wait,
+        };
+        return study_slurm(&plan, &submit);
+    }
     if !options.quiet {
         println!("study {}: {} runs (at most {} with --max-runs)", plan.study.name, plan.runs.len(), limits.max_runs);
     }
     let report = crate::study::run_study(&plan, options).map_err(|e| Failure::Run(e.to_string()))?;
-    let count = |s: &str| report.statuses.iter().filter(|x| x.as_str() == s).count();
-    // interrupted and pending runs (after an interrupt) only when there are any
-    let rest: String =
-        ["interrupted", "pending"].iter().filter(|s| count(s) > 0).map(|s| format!(", {} {s}", count(s))).collect();
     println!(
-        "study {}: {} runs: {} completed, {} unstable, {} failed{rest} ({} run now, {} skipped as finished)",
+        "study {}: {} ({} run now, {} skipped as finished)",
         plan.study.name,
-        report.statuses.len(),
-        count("completed"),
-        count("unstable"),
-        count("failed"),
+        counts(&report.statuses),
         report.ran,
         report.skipped
     );
@@ -589,6 +610,139 @@ fn run_study(
         )));
     }
     Ok(())
+}
+
+/// `N runs: a completed, b unstable, c failed`, then the other statuses (interrupted,
+/// pending, Slurm's cancelled, timeout, …) when there are any.
+fn counts(statuses: &[String]) -> String {
+    let count = |s: &str| statuses.iter().filter(|x| x.as_str() == s).count();
+    let mut others: Vec<&str> = Vec::new();
+    for s in statuses {
+        if !["completed", "unstable", "failed"].contains(&s.as_str()) && !others.contains(&s.as_str()) {
+            others.push(s);
+        }
+    }
+    let rest: String = others.iter().map(|s| format!(", {} {s}", count(s))).collect();
+    format!(
+        "{} runs: {} completed, {} unstable, {} failed{rest}",
+        statuses.len(),
+        count("completed"),
+        count("unstable"),
+        count("failed")
+    )
+}
+
+/// `multifield study STUDY.ron --index I`: runs combination I alone (a Slurm array task).
+fn study_index(plan: &crate::study::Plan, i: usize, threads: usize) -> Result<(), Failure> {
+    let n = plan.runs.len();
+    let c = plan.runs.get(i).ok_or_else(|| {
+        Failure::Input(Error::Model(format!(
+            "--index {i}: the study {} has {n} runs, numbered 0 to {}",
+            plan.study.name,
+            n.saturating_sub(1)
+        )))
+    })?;
+    let what = c.describe(&plan.study.axes);
+    let text = c.case.to_ron();
+    if crate::study::finished(&c.dir, &text) {
+        println!("run {i} ({what}) finished before: not run again ({})", c.dir.display());
+        return Ok(());
+    }
+    let task = crate::slurm::TaskRecord::from_env();
+    let record = task.as_ref().and_then(|t| serde_json::to_vec_pretty(t).ok());
+    let restart = crate::study::resume_point(&c.dir, &text);
+    println!(
+        "run {i} of {n} ({what}) into {}{}{}",
+        c.dir.display(),
+        task.as_ref().map(|t| format!(" as Slurm job {}", t.job_id)).unwrap_or_default(),
+        restart.map(|p| format!(", continuing from {}", p.display())).unwrap_or_default()
+    );
+    match crate::study::run_one(c, &text, threads, record.as_deref()) {
+        Ok(o) => println!(
+            "run {i}: {} after {} steps, {:.2} s{}",
+            o.summary.status,
+            o.summary.steps,
+            o.summary.wall_seconds,
+            if o.summary.reason.is_empty() { String::new() } else { format!(": {}", o.summary.reason) }
+        ),
+        Err(e @ Error::Io { .. }) => return Err(Failure::Run(e.to_string())),
+        // a run that cannot start is a failed run (its summary says so): data, as locally
+        Err(e) => println!("run {i}: failed: {e}"),
+    }
+    if crate::run::interrupted() {
+        return Err(Failure::Interrupted(format!("run {i} interrupted; its output is written up to the last step")));
+    }
+    Ok(())
+}
+
+/// `multifield study STUDY.ron --report`: records how Slurm ended the unfinished runs, then
+/// rebuilds results.csv and the charts from the run directories.
+fn study_report(plan: &crate::study::Plan) -> Result<(), Failure> {
+    let run_error = |e: Error| Failure::Run(e.to_string());
+    std::fs::create_dir_all(&plan.out).map_err(|e| Failure::Run(format!("{}: {e}", plan.out.display())))?;
+    let ended = crate::slurm::record_ends(plan).map_err(run_error)?;
+    let rows = crate::study::write_results(plan).map_err(run_error)?;
+    let charts = crate::study_chart::write(plan, &rows).map_err(run_error)?;
+    let statuses: Vec<String> = rows.iter().map(|r| r.status.clone()).collect();
+    println!(
+        "study {}: {}{}",
+        plan.study.name,
+        counts(&statuses),
+        if ended > 0 { format!(" ({ended} ended by Slurm now recorded)") } else { String::new() }
+    );
+    println!("results: {}", plan.out.join("results.csv").display());
+    for c in &charts {
+        println!("chart:   {} (and .svg)", c.display());
+    }
+    Ok(())
+}
+
+/// `multifield study STUDY.ron --scheduler slurm`: submits the unfinished runs.
+fn study_slurm(plan: &crate::study::Plan, submit: &crate::slurm::Submit) -> Result<(), Failure> {
+    let s = crate::slurm::submit(plan, submit).map_err(Failure::Input)?;
+    let name = &plan.study.name;
+    if s.indices.is_empty() {
+        println!("study {name}: every one of its {} runs is finished: nothing submitted", plan.runs.len());
+        return study_report(plan);
+    }
+    let logs = crate::slurm::folder(&plan.out);
+    println!(
+        "study {name}: {} runs, {} finished before; {} submitted to Slurm partition {} as job array {} (--array={})",
+        plan.runs.len(),
+        s.skipped,
+        s.indices.len(),
+        s.partition,
+        s.array_job,
+        s.array
+    );
+    println!(
+        "report job {} (afterany:{}) writes {} and the charts",
+        s.report_job,
+        s.array_job,
+        plan.out.join("results.csv").display()
+    );
+    println!(
+        "logs: {}/{}_<index>.log; follow: squeue -j {},{}",
+        logs.display(),
+        s.array_job,
+        s.array_job,
+        s.report_job
+    );
+    match s.report_state.as_deref() {
+        None => Ok(()),
+        Some("COMPLETED") => {
+            let statuses: Vec<String> = crate::study::rows(plan).into_iter().map(|r| r.status).collect();
+            println!("study {name}: {}", counts(&statuses));
+            println!("results: {}", plan.out.join("results.csv").display());
+            Ok(())
+        }
+        Some(state) => Err(Failure::Run(format!(
+            "the report job {} ended {state}; its log: {}/report_{}.log",
+            s.report_job,
+            logs.display(),
+            s.report_job
+        ))),
+    }
 }
 
 /// `multifield compare CASE`: the scene resolved and as mass points, side by side.

@@ -32,6 +32,7 @@ pub mod output;
 pub mod picture;
 pub mod plot;
 pub mod run;
+pub mod slurm;
 pub mod snapshot;
 pub mod study;
 pub mod study_chart;

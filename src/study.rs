@@ -52,6 +52,10 @@ pub struct Study {
     /// Charts drawn from the results table.
     #[serde(default)]
     pub charts: Vec<ChartSpec>,
+    /// Where the runs go: here (default) or a Slurm cluster ([`crate::slurm`]); the command
+    /// line's `--scheduler`, `--partition`, … override each entry.
+    #[serde(default)]
+    pub scheduler: crate::slurm::SchedulerSpec,
 }
 
 /// One swept parameter.
@@ -915,6 +919,43 @@ fn read_summary(dir: &Path) -> Option<serde_json::Value> {
     std::fs::read_to_string(dir.join("summary.json")).ok().and_then(|t| serde_json::from_str(&t).ok())
 }
 
+/// The last checkpoint of an unfinished run of the case `case_text` in `dir` (killed, or
+/// interrupted: no `summary.json`, or one that says `interrupted`), to continue it from.
+pub fn resume_point(dir: &Path, case_text: &str) -> Option<PathBuf> {
+    let same = std::fs::read_to_string(dir.join(STUDY_CASE)).is_ok_and(|t| t == case_text);
+    let status = read_summary(dir).and_then(|s| s["status"].as_str().map(str::to_string));
+    if !same || status.is_some_and(|s| s != "interrupted") {
+        return None;
+    }
+    crate::checkpoint::list(dir).pop().map(|(_, path)| path)
+}
+
+/// Runs one combination (whose case is `case_text`) into its directory with `threads`
+/// worker threads: from its last checkpoint when an earlier attempt of the same case was
+/// killed or interrupted after writing one ([`resume_point`]), else from t = 0. `task`: the
+/// scheduler's record of this attempt ([`crate::slurm::TASK`]), written before the run
+/// starts; without it an earlier attempt's record is removed.
+pub fn run_one(c: &Combination, case_text: &str, threads: usize, task: Option<&[u8]>) -> Result<run::Outcome, Error> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path: path.clone(), source }
+    };
+    std::fs::create_dir_all(&c.dir).map_err(io(&c.dir))?;
+    let restart = resume_point(&c.dir, case_text);
+    // a run directory of an earlier case (or attempt) is cleared of its results first
+    let _ = std::fs::remove_file(c.dir.join("summary.json"));
+    let _ = std::fs::remove_file(c.dir.join(crate::slurm::ENDED));
+    match task {
+        Some(record) => crate::output::write_atomically(&c.dir.join(crate::slurm::TASK), record)?,
+        None => {
+            let _ = std::fs::remove_file(c.dir.join(crate::slurm::TASK));
+        }
+    }
+    crate::output::write_atomically(&c.dir.join(STUDY_CASE), case_text.as_bytes())?;
+    let options = RunOptions { threads, quiet: true, restart, case_file: None };
+    run::run(&c.case, &c.dir, &options)
+}
+
 /// Runs the study: every combination not finished yet, `jobs` at a time; writes the results
 /// table after every run and the charts at the end.
 pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
@@ -961,17 +1002,7 @@ pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
                 let k = next.fetch_add(1, Ordering::SeqCst);
                 let Some(&r) = todo.get(k) else { break };
                 let c = &plan.runs[r];
-                let started = std::fs::create_dir_all(&c.dir)
-                    .map_err(io(&c.dir))
-                    .and_then(|_| {
-                        // a run directory of an earlier case is cleared of its results first
-                        let _ = std::fs::remove_file(c.dir.join("summary.json"));
-                        crate::output::write_atomically(&c.dir.join(STUDY_CASE), texts[r].as_bytes())
-                    })
-                    .and_then(|_| {
-                        let options = RunOptions { threads, quiet: true, restart: None, case_file: None };
-                        run::run(&c.case, &c.dir, &options)
-                    });
+                let started = run_one(c, &texts[r], threads, None);
                 let line = match &started {
                     Ok(o) => format!(
                         "{:<10} {:>8.2} s {:>7} steps  {}{}",
@@ -1018,7 +1049,9 @@ pub fn run_study(plan: &Plan, options: &StudyOptions) -> Result<Report, Error> {
 /// One row of the results table.
 #[derive(Clone, Debug, Default)]
 pub struct Row {
-    /// `completed`, `unstable`, `failed`, `interrupted` or `pending`.
+    /// `completed`, `unstable`, `failed`, `interrupted` or `pending`; for a run Slurm ended
+    /// before it finished, its state in lower case (`cancelled`, `timeout`, `node_fail`,
+    /// `preempted`, `out_of_memory`, …).
     pub status: String,
     /// Why the run stopped early.
     pub reason: String,
@@ -1036,6 +1069,8 @@ pub struct Row {
     pub energy_drift: Option<Real>,
     /// The study's metrics, in the order of [`metric_columns`].
     pub metrics: Vec<Option<Real>>,
+    /// The Slurm job (`<array job>_<task>`) that ran it last; empty when it ran here.
+    pub job_id: String,
 }
 
 /// The columns of the study's metrics.
@@ -1091,6 +1126,23 @@ impl Csv {
 
 /// The metrics of the run in `dir` (everything but the error).
 fn row_of(dir: &Path, study: &Study) -> Row {
+    let row = row_of_summary(dir, study);
+    let task = crate::slurm::TaskRecord::read(dir);
+    let job_id = task.map(|t| t.job_id).unwrap_or_default();
+    // a run the scheduler ended before it finished: its state, not `pending` or `interrupted`
+    match crate::slurm::Ended::read(dir) {
+        Some(e) if matches!(row.status.as_str(), "pending" | "interrupted") => Row {
+            status: e.state.to_lowercase(),
+            reason: format!("Slurm ended job {} as {} ({})", e.job_id, e.state, e.how),
+            job_id: e.job_id,
+            ..row
+        },
+        _ => Row { job_id, ..row },
+    }
+}
+
+/// [`row_of`] from the run's own files, without the scheduler's records.
+fn row_of_summary(dir: &Path, study: &Study) -> Row {
     let Some(s) = read_summary(dir) else {
         return Row {
             status: "pending".into(),
@@ -1144,6 +1196,7 @@ fn row_of(dir: &Path, study: &Study) -> Row {
         max_volume_fraction_error: num("max_volume_fraction_error"),
         energy_drift,
         metrics,
+        job_id: String::new(),
     }
 }
 
@@ -1337,9 +1390,12 @@ pub fn header(study: &Study) -> Vec<String> {
     h
 }
 
-/// Writes `results.csv` (atomically) and returns its rows.
+/// Writes `results.csv` (atomically) and returns its rows: one per combination, built from
+/// the runs' own files (so concurrent runs never write the same file). A study run through
+/// Slurm has a last column `job_id`.
 pub fn write_results(plan: &Plan) -> Result<Vec<Row>, Error> {
     let rows = rows(plan);
+    let jobs = rows.iter().any(|r| !r.job_id.is_empty());
     let x = |v: Option<Real>| v.map(run::number).unwrap_or_default();
     let mut table = Vec::new();
     for (c, r) in plan.runs.iter().zip(&rows) {
@@ -1353,9 +1409,16 @@ pub fn write_results(plan: &Plan) -> Result<Vec<Row>, Error> {
         f.extend(r.metrics.iter().map(|v| x(*v)));
         let dir = c.dir.strip_prefix(&plan.out).unwrap_or(&c.dir);
         f.push(dir.display().to_string());
+        if jobs {
+            f.push(r.job_id.clone());
+        }
         table.push(f);
     }
-    let text = crate::core::table::to_text(&header(&plan.study), table)?;
+    let mut header = header(&plan.study);
+    if jobs {
+        header.push("job_id".into());
+    }
+    let text = crate::core::table::to_text(&header, table)?;
     crate::output::write_atomically(&plan.out.join("results.csv"), &text)?;
     Ok(rows)
 }

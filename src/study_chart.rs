@@ -400,7 +400,10 @@ where
             chart.draw_series(with("completed").map(|c| Circle::new(at(c), 6, GREEN.filled()))).map_err(s)?;
             chart.draw_series(with("unstable").map(|c| Cross::new(at(c), 6, RED.stroke_width(3)))).map_err(s)?;
             chart.draw_series(with("failed").map(|c| TriangleMarker::new(at(c), 7, GREY.filled()))).map_err(s)?;
-            chart.draw_series(with("pending").map(|c| Circle::new(at(c), 6, GREY.stroke_width(1)))).map_err(s)?;
+            // not run, or not to its end (pending, interrupted, Slurm's cancelled, timeout, …)
+            let unfinished =
+                panel.cells.iter().filter(|c| !matches!(c.2.as_str(), "completed" | "unstable" | "failed"));
+            chart.draw_series(unfinished.map(|c| Circle::new(at(c), 6, GREY.stroke_width(1)))).map_err(s)?;
             for seg in boundary(panel, &ex, &ey) {
                 chart.draw_series(LineSeries::new(seg, BLACK.stroke_width(3))).map_err(s)?;
             }

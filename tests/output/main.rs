@@ -11,6 +11,7 @@ mod monitors;
 mod output_contract;
 mod pictures;
 mod restart;
+mod slurm;
 mod snapshots;
 mod study;
 mod suspension;
