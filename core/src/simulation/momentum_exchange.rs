@@ -7,6 +7,17 @@ use rayon::prelude::*;
 /// small enough that the thread-count tests on 32 × 96 cells split it).
 const EXCHANGE_CHUNK: usize = 1024;
 
+/// One field's faces of one chunk: what the exchange reads and the two arrays it writes.
+struct FaceChunk<'a> {
+    u: &'a mut [Real],
+    w: &'a mut [Real],
+    mass: &'a [Real],
+    theta: &'a [Real],
+    u_old: &'a [Real],
+    /// Bodies of their own densities (θρ⁰ is the mass the points put there).
+    own: bool,
+}
+
 impl Simulation {
     /// Phase 4: implicit (or explicit) momentum exchange on every face.
     pub(super) fn exchange(&mut self, dt: Real) {
@@ -45,14 +56,35 @@ impl Simulation {
             })
             .collect();
         // each face's exchange is independent of every other's: solved in parallel in
-        // chunks, the results written back in face order (bit-identical whatever the threads)
+        // chunks of faces, each chunk writing its own faces of every field in place
+        // (bit-identical whatever the threads)
         for lattice in 0..2 {
             let nf = if lattice == 0 { self.grid.n_xfaces() } else { self.grid.n_yfaces() };
-            let (fields, exchanges) = (&self.fields, &self.exchanges);
-            let solved: Vec<([Real; MAX_FIELDS], [Real; MAX_FIELDS])> = (0..nf)
-                .into_par_iter()
-                .with_min_len(EXCHANGE_CHUNK)
-                .map(|face| {
+            let mut chunks: Vec<Vec<FaceChunk>> =
+                (0..nf.div_ceil(EXCHANGE_CHUNK)).map(|_| Vec::with_capacity(n)).collect();
+            for f in self.fields.iter_mut() {
+                let own = f.own_densities;
+                let s = &mut f.state;
+                let (u, w, mass, theta, u_old) = if lattice == 0 {
+                    (&mut s.velocity.u, &mut s.specific_volume.u, &s.mass_u, &s.theta_u, &s.velocity_old.u)
+                } else {
+                    (&mut s.velocity.v, &mut s.specific_volume.v, &s.mass_v, &s.theta_v, &s.velocity_old.v)
+                };
+                let parts = u
+                    .chunks_mut(EXCHANGE_CHUNK)
+                    .zip(w.chunks_mut(EXCHANGE_CHUNK))
+                    .zip(mass.chunks(EXCHANGE_CHUNK))
+                    .zip(theta.chunks(EXCHANGE_CHUNK))
+                    .zip(u_old.chunks(EXCHANGE_CHUNK));
+                for (chunk, ((((u, w), mass), theta), u_old)) in chunks.iter_mut().zip(parts) {
+                    chunk.push(FaceChunk { u, w, mass, theta, u_old, own });
+                }
+            }
+            let exchanges = &self.exchanges;
+            chunks.into_par_iter().enumerate().for_each(|(c, mut chunk)| {
+                let len = chunk.first().map_or(0, |f| f.u.len());
+                for i in 0..len {
+                    let face = c * EXCHANGE_CHUNK + i;
                     let mut loc = Local {
                         n,
                         rho: [0.0; MAX_FIELDS],
@@ -63,19 +95,14 @@ impl Simulation {
                         u_old: [0.0; MAX_FIELDS],
                         w: [0.0; MAX_FIELDS],
                     };
-                    for (k, f) in fields.iter().enumerate() {
-                        let s = &f.state;
-                        let (m, t, u, u0) = if lattice == 0 {
-                            (s.mass_u[face], s.theta_u[face], s.velocity.u[face], s.velocity_old.u[face])
-                        } else {
-                            (s.mass_v[face], s.theta_v[face], s.velocity.v[face], s.velocity_old.v[face])
-                        };
+                    for (k, f) in chunk.iter().enumerate() {
+                        let (m, t) = (f.mass[i], f.theta[i]);
                         loc.rho[k] = m / area;
                         // bodies of their own densities: θρ⁰ is the mass the points put there
-                        loc.rho_w[k] = if f.own_densities { m / area } else { t * densities[k] };
+                        loc.rho_w[k] = if f.own { m / area } else { t * densities[k] };
                         loc.theta[k] = t;
-                        loc.u[k] = u;
-                        loc.u_old[k] = u0;
+                        loc.u[k] = f.u[i];
+                        loc.u_old[k] = f.u_old[i];
                         loc.material_density[k] = densities[k];
                     }
 
@@ -108,21 +135,12 @@ impl Simulation {
                         }
                         exchange::solve_with_added_mass(&mut loc, &implicit, &added_mass, dt);
                     }
-                    (loc.u, loc.w)
-                })
-                .collect();
-            for (k, f) in self.fields.iter_mut().enumerate() {
-                let s = &mut f.state;
-                let (vel, w) = if lattice == 0 {
-                    (&mut s.velocity.u, &mut s.specific_volume.u)
-                } else {
-                    (&mut s.velocity.v, &mut s.specific_volume.v)
-                };
-                for (face, (u_face, w_face)) in solved.iter().enumerate() {
-                    vel[face] = u_face[k];
-                    w[face] = w_face[k];
+                    for (k, f) in chunk.iter_mut().enumerate() {
+                        f.u[i] = loc.u[k];
+                        f.w[i] = loc.w[k];
+                    }
                 }
-            }
+            });
         }
     }
 
