@@ -150,7 +150,9 @@ impl Simulation {
                 if m.needs_fluid_viscosity() && ambient_viscosity(&fields).is_none() {
                     let why = match fields.iter().find(|f| f.fills_rest) {
                         None => "the case has no ambient fluid (no field with region `Rest`)".to_string(),
-                        Some(f) => format!("the ambient fluid `{}` has no Newtonian stress (e.g. \"newtonian\")", f.name),
+                        Some(f) => {
+                            format!("the ambient fluid `{}` has no Newtonian stress (e.g. \"newtonian\")", f.name)
+                        }
                     };
                     return Err(Error::invalid(
                         "contact.params.lubrication",

@@ -644,8 +644,15 @@ mod tests {
         let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
         let (mut steps, mut touched, mut rose) = (0, false, 1.0 as Real);
         for _ in 0..1_000_000 {
-            let ctx =
-                ContactContext { grid: &grid, boundaries: bc, gravity: Vector::zeros(), fluid_density: 0.0, fluid_viscosity: None, bodies, resolved: &[] };
+            let ctx = ContactContext {
+                grid: &grid,
+                boundaries: bc,
+                gravity: Vector::zeros(),
+                fluid_density: 0.0,
+                fluid_viscosity: None,
+                bodies,
+                resolved: &[],
+            };
             m.forces(&ctx, dt, &mut out);
             let touching = !m.history.is_empty();
             if touched && !touching {
@@ -809,7 +816,13 @@ mod tests {
         let h = 1.0 / n as Real;
         let sum: Real = (0..=n)
             .map(|k| {
-                let w = if k == 0 || k == n { 1.0 } else if k % 2 == 1 { 4.0 } else { 2.0 };
+                let w = if k == 0 || k == n {
+                    1.0
+                } else if k % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
                 w * f(k as Real * h)
             })
             .sum();
@@ -991,14 +1004,17 @@ mod tests {
         let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "steps_per_collision": 0.5 }))
             .unwrap_err();
         assert!(err.contains("at least 1"), "{err}");
-        let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "normal": "hertz" })).unwrap_err();
-        assert!(err.contains("needs reference_speed > 0"), "{err}");
-        let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "normal": "hooke" })).unwrap_err();
-        assert!(err.contains("unknown variant `hooke`, expected `linear` or `hertz`"), "{err}");
-        let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "roughness": 0.0 })).unwrap_err();
-        assert!(err.contains("roughness 0: must lie in (0, 1)"), "{err}");
         let err =
-            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "lubrication_range": -1.0 })).unwrap_err();
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "normal": "hertz" })).unwrap_err();
+        assert!(err.contains("needs reference_speed > 0"), "{err}");
+        let err =
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "normal": "hooke" })).unwrap_err();
+        assert!(err.contains("unknown variant `hooke`, expected `linear` or `hertz`"), "{err}");
+        let err =
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "roughness": 0.0 })).unwrap_err();
+        assert!(err.contains("roughness 0: must lie in (0, 1)"), "{err}");
+        let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "lubrication_range": -1.0 }))
+            .unwrap_err();
         assert!(err.contains("lubrication_range -1: must be positive"), "{err}");
     }
 }
