@@ -203,3 +203,27 @@ fn lubrication_without_a_newtonian_fluid_is_refused() {
     assert!(err.contains("the ambient fluid `fluid` has no Newtonian stress"), "{err}");
     assert!(err.contains("or set lubrication: false"), "{err}");
 }
+
+/// The activation gap ε_act (`lubrication_range`, in cells) against the grid: the spread of
+/// e between 8 and 16 cells per diameter at St 640 for ranges ½, 1 and 2 cells (a
+/// measurement for docs/defaults.md; `--ignored`).
+#[test]
+#[ignore]
+fn the_activation_gap_against_the_grid() {
+    for range in [0.5, 1.0, 2.0] {
+        let e: Vec<Real> = [8, 16]
+            .iter()
+            .map(|&cells| {
+                let mut c = case(640.0, cells, true);
+                c.contact.as_mut().unwrap().params["lubrication_range"] = serde_json::json!(range);
+                bounce(&c).restitution()
+            })
+            .collect();
+        eprintln!(
+            "St 640, ε_act = {range} h: e {:.4} (8 cells), {:.4} (16), spread {:.4}",
+            e[0],
+            e[1],
+            (e[1] - e[0]).abs()
+        );
+    }
+}
