@@ -91,7 +91,9 @@ fn bench(c: &mut Criterion) {
             boundaries: &bc,
             gravity: Vector::new(0.0, -1.0),
             fluid_density: 0.0,
+            fluid_viscosity: None,
             bodies: &bodies,
+            resolved: &[],
         };
         let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
         let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();

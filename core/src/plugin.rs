@@ -515,8 +515,23 @@ pub struct ContactContext<'a> {
     /// Material density of the ambient fluid (the field that fills the rest of the
     /// domain; 0 when there is none), for buoyant weights (m − ρ_f V) |g|.
     pub fluid_density: Real,
+    /// Dynamic viscosity μ of the ambient fluid when its stress is Newtonian (σ = 2μD; the
+    /// sum of its Newtonian grid stresses), `None` when there is no ambient fluid or its
+    /// stress is not Newtonian: for lubrication ([`ContactModel::needs_fluid_viscosity`]).
+    pub fluid_viscosity: Option<Real>,
     /// Every body of every field.
     pub bodies: &'a [BodyState],
+    /// Per body (the order of `bodies`): whether its field resolves it on the grid
+    /// ([`Representation::Resolved`]) rather than as a single mass point, whose drag law
+    /// already represents the fluid. Empty: every body resolved.
+    pub resolved: &'a [bool],
+}
+
+impl ContactContext<'_> {
+    /// Whether body `i` is resolved on the grid ([`ContactContext::resolved`]).
+    pub fn is_resolved(&self, i: usize) -> bool {
+        self.resolved.get(i).copied().unwrap_or(true)
+    }
 }
 
 /// Contact between bodies and between bodies and walls (`repulsion`, `dem`).
@@ -548,6 +563,11 @@ pub trait ContactModel: Send + Sync {
     /// [`ContactModel::stable_dt`], which sees only the bodies in range now.
     fn substep_dt(&self, ctx: &ContactContext) -> Option<Real> {
         self.stable_dt(ctx)
+    }
+    /// Whether the model reads [`ContactContext::fluid_viscosity`] (lubrication): the core
+    /// then refuses a case whose ambient fluid has no Newtonian viscosity. Default: false.
+    fn needs_fluid_viscosity(&self) -> bool {
+        false
     }
 }
 

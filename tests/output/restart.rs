@@ -255,6 +255,50 @@ fn a_restart_mid_collision_carries_the_dem_history_bit_for_bit() {
     assert_eq!(read(&one.join("bodies.csv")), read(&full.join("bodies.csv")));
 }
 
+/// A resolved disk (direct forcing) launched obliquely at a wall through a viscous fluid
+/// under the `dem` contact with the Hertzian law, friction and lubrication, sub-stepped,
+/// checkpointed while it touches the wall (the tangential spring loaded, the lubrication
+/// acting): the restart reproduces the run bit for bit, as does a run on one thread.
+#[test]
+fn a_restart_mid_wet_collision_with_hertz_and_lubrication_is_bit_identical() {
+    multifield::link_all();
+    let text = r#"(
+        name: "wet_restart",
+        domain: (size: (1.5, 1.0), cells: (48, 32)),
+        boundaries: (left: NoSlip, right: NoSlip, bottom: NoSlip, top: NoSlip),
+        gravity: (0.0, 0.0),
+        time: (end: 0.2, cfl: 0.4, max_dt: 2e-3, contact_substeps: true),
+        fields: [
+            (name: "fluid", density: 1.0, frame: (model: "eulerian"), region: Rest,
+             stress: [(model: "newtonian", params: (viscosity: 1e-4))]),
+            (name: "disk", density: 8.0, frame: (model: "lagrangian"),
+             region: Bodies([(name: "disk", shape: Disk(center: (0.75, 0.225), radius: 0.125),
+                              velocity: (0.5, -1.0))]),
+             stress: [(model: "rigid")]),
+        ],
+        exchange: [(between: ("fluid", "disk"), model: "direct_forcing")],
+        contact: Some((model: "dem", params: (restitution: 0.8, collision_time: 0.01, friction: 0.3,
+                       normal: "hertz", reference_speed: 1.0, lubrication: true, lubrication_range: 2.0))),
+        pressure: Some((model: "pcg", params: (preconditioner: "multigrid", tolerance: 1e-10))),
+        output: (interval: 0.0, charts: false, checkpoints: Some((interval: CHECKPOINT))),
+    )"#
+    .replace("CHECKPOINT", "0.14");
+    let case = Case::from_ron(&text, Path::new("wet_restart.ron")).unwrap();
+    let (_, _) = restart_reproduces_the_run("wet", &case);
+    // the first checkpoint is mid-contact, with the spring loaded
+    let full = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join("wet").join("full");
+    let (_, mid) = checkpoints(&full)[0].clone();
+    let sim = checkpoint::restore(&case, &mid).unwrap().0;
+    let history = sim.contact.as_ref().unwrap().history();
+    assert_eq!(history.len(), 8 + 24, "one touching pair in the history");
+    let xi = Real::from_bits(u64::from_le_bytes(history[24..32].try_into().unwrap()));
+    assert!(xi.abs() > 1e-6, "ξ = {xi}");
+    let one = out_dir("wet/one_thread");
+    let options = RunOptions { threads: 1, ..RunOptions::quiet() };
+    run(&case, &one, &options).unwrap();
+    assert_eq!(read(&one.join("bodies.csv")), read(&full.join("bodies.csv")));
+}
+
 /// A Lagrangian fluid (APIC, quadratic B-splines: the C matrices carry over), with each
 /// pressure solver (none keeps a state that changes its result but the initial guess).
 #[test]

@@ -18,3 +18,4 @@ mod multifield_coupling;
 mod point_particles;
 mod point_state;
 mod quantities;
+mod wet_collision;

@@ -147,6 +147,22 @@ impl Simulation {
             Some(c) => {
                 let m = registry::build_contact(&c.model, &c.params, "contact")?;
                 c.params = m.params();
+                if m.needs_fluid_viscosity() && ambient_viscosity(&fields).is_none() {
+                    let why = match fields.iter().find(|f| f.fills_rest) {
+                        None => "the case has no ambient fluid (no field with region `Rest`)".to_string(),
+                        Some(f) => {
+                            format!("the ambient fluid `{}` has no Newtonian stress (e.g. \"newtonian\")", f.name)
+                        }
+                    };
+                    return Err(Error::invalid(
+                        "contact.params.lubrication",
+                        format!(
+                            "`{}` lubrication takes the fluid's viscosity from the case, but {why}: give the \
+                             fluid a Newtonian stress, or set lubrication: false",
+                            c.model
+                        ),
+                    ));
+                }
                 Some(m)
             }
             None => None,

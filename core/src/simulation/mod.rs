@@ -279,6 +279,14 @@ pub fn region_fraction(region: &Region, grid: &Grid) -> Vec<Real> {
     out
 }
 
+/// [`Simulation::fluid_viscosity`] of these fields.
+pub(crate) fn ambient_viscosity(fields: &[Field]) -> Option<Real> {
+    let f = fields.iter().find(|f| f.fills_rest)?;
+    let mut grid = f.stress.iter().filter(|s| s.kind().acts_on_grid()).peekable();
+    grid.peek()?;
+    grid.map(|s| s.kind().newtonian_viscosity()).sum()
+}
+
 impl Simulation {
     /// Index of the field named `name`.
     pub fn field_index(&self, name: &str) -> Option<usize> {
@@ -289,6 +297,29 @@ impl Simulation {
     /// fluid of bodies), 0 when no field does.
     pub fn fluid_density(&self) -> Real {
         self.fields.iter().find(|f| f.fills_rest).map_or(0.0, |f| f.density)
+    }
+
+    /// Dynamic viscosity of the ambient fluid (the field that fills what the others
+    /// leave): the sum of its grid stresses' Newtonian viscosities, `None` when no field
+    /// fills the rest, it has no grid stress, or one of them is not Newtonian.
+    pub fn fluid_viscosity(&self) -> Option<Real> {
+        ambient_viscosity(&self.fields)
+    }
+
+    /// Every body of every field and, per body, whether its field resolves it on the grid
+    /// (not a mass point), in the order of [`Simulation::bodies`], and the number of
+    /// bodies of each field.
+    pub(crate) fn contact_bodies(&self) -> (Vec<BodyState>, Vec<bool>, Vec<usize>) {
+        let mut bodies = Vec::new();
+        let mut resolved = Vec::new();
+        let mut counts = Vec::with_capacity(self.fields.len());
+        for f in &self.fields {
+            let b = f.frame.bodies();
+            resolved.extend(std::iter::repeat_n(f.frame.representation() == Representation::Resolved, b.len()));
+            counts.push(b.len());
+            bodies.extend(b);
+        }
+        (bodies, resolved, counts)
     }
 
     /// Largest speed of any field.

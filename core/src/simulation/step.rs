@@ -86,13 +86,15 @@ impl Simulation {
         }
         // with sub-steps the contact limits only its own integration (phase 8a)
         if let Some(c) = self.contact.as_ref().filter(|_| !self.case.time.contact_substeps) {
-            let bodies: Vec<BodyState> = self.fields.iter().flat_map(|f| f.frame.bodies()).collect();
+            let (bodies, resolved, _) = self.contact_bodies();
             let ctx = ContactContext {
                 grid: &self.grid,
                 boundaries: &self.boundaries,
                 gravity: self.gravity,
                 fluid_density: self.fluid_density(),
+                fluid_viscosity: self.fluid_viscosity(),
                 bodies: &bodies,
+                resolved: &resolved,
             };
             if let Some(dt) = c.stable_dt(&ctx) {
                 if dt < best.0 {
@@ -447,21 +449,26 @@ impl Simulation {
     /// frames take its mean force and the position correction.
     pub(super) fn contact_forces(&mut self, dt: Real) -> Result<()> {
         let fluid_density = self.fluid_density();
+        let fluid_viscosity = self.fluid_viscosity();
         let substeps = self.case.time.contact_substeps;
-        let Some(c) = &mut self.contact else {
+        if self.contact.is_none() {
             return Ok(());
-        };
-        let per_field: Vec<Vec<BodyState>> = self.fields.iter().map(|f| f.frame.bodies()).collect();
-        let all: Vec<BodyState> = per_field.iter().flatten().cloned().collect();
+        }
+        let (all, resolved, per_field) = self.contact_bodies();
         if all.is_empty() {
             return Ok(());
         }
+        let Some(c) = &mut self.contact else {
+            return Ok(());
+        };
         let ctx = ContactContext {
             grid: &self.grid,
             boundaries: &self.boundaries,
             gravity: self.gravity,
             fluid_density,
+            fluid_viscosity,
             bodies: &all,
+            resolved: &resolved,
         };
         let out = if substeps && dt > 0.0 {
             super::contact::substepped(c.as_mut(), &ctx, dt)
@@ -472,9 +479,9 @@ impl Simulation {
             out.into_iter().map(|(f, t)| BodyContact::force(f, t)).collect()
         };
         let mut k = 0;
-        for (f, bodies) in per_field.iter().enumerate() {
-            self.body_forces[f] = out[k..k + bodies.len()].to_vec();
-            k += bodies.len();
+        for (f, &n) in per_field.iter().enumerate() {
+            self.body_forces[f] = out[k..k + n].to_vec();
+            k += n;
         }
         Ok(())
     }

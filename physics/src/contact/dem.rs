@@ -35,6 +35,37 @@
 //! Walls (the non-periodic, non-outflow sides, as `repulsion`'s): a body touching a wall is
 //! a pair with a fixed body of infinite mass whose surface is the wall.
 //!
+//! Hertzian normal law (`normal: "hertz"`): F_n = k δ^{3/2} − α sqrt(m_eff k) δ^{1/4} v_n,
+//! the 3D sphere's power law applied to disks as 2D DEM codes do (Tsuji, Kawaguchi & Tanaka,
+//! Powder Technol. 77, 1993; the 2D line contact of Hertz is not a power law), with the
+//! damping of Tsuji, Tanaka & Ishida (Powder Technol. 71, 1992), for which the restitution
+//! does not depend on the impact speed (Antypov & Elliott, EPL 94, 2011). In units of
+//! δ_s = (m U²/k)^{2/5} and δ_s/U a head-on contact is x'' = −x^{3/2} − α x^{1/4} x',
+//! x(0) = 0, x'(0) = 1, whatever U: its rebound e(α) and duration T(α) are computed once
+//! (RK4 and bisection, [`hertz_damping`]) for the given e rather than from a fit, and
+//! k = m_eff U_ref^{-1/2} (T/t_c)^{5/2} makes a contact at the impact speed U_ref
+//! (`reference_speed`) last t_c; at U it lasts t_c (U_ref/U)^{1/5}. The tangential spring
+//! scales with the tangent stiffness: k_t = `tangential_stiffness` · 3/2 k δ^{1/2},
+//! γ_t = `tangential_damping` · α sqrt(m_eff k) δ^{1/4}. Step: t_c (U_ref/U)^{1/5} /
+//! `steps_per_collision` with U = max(U_ref, 2 max|v|), the fastest contact the bodies
+//! could make.
+//!
+//! Lubrication (`lubrication: true`), for resolved bodies only (a mass point's drag law
+//! already represents the fluid; `ContactContext::resolved`): the grid resolves the film
+//! between two disks, or a disk and a wall, down to about a cell; below, the normal force of
+//! lubrication theory for cylinders (docs/method.md §4), per unit length
+//!
+//!   F = −3π√2 μ v_n [(a*/ε)^{3/2} − (a*/ε_act)^{3/2}]  for ε < ε_act,
+//!
+//! with a* = R_i R_j/(R_i + R_j) (a wall: R_i), ε the gap, ε_act = `lubrication_range` · h
+//! and ε replaced by ε_0 = `roughness` · min(R_i, R_j) below it (also while the disks
+//! overlap, where the dry contact acts beside it). The subtraction of F(ε_act) blends it
+//! with the resolved flow, which carries the film down to ε_act. μ is the ambient fluid's
+//! Newtonian viscosity (`ContactContext::fluid_viscosity`; the core refuses the option
+//! without one). The term is stiff (c/m_eff → ∞ as ε → 0): it is integrated by backward
+//! Euler on the pair's relative normal velocity, F = −c v_n/(1 + c Δt/m_eff), which is
+//! stable at any (sub-)step and cannot reverse an approach.
+//!
 //! Step: Δt ≤ t_c / `steps_per_collision` at every step of a case with a free body (a
 //! collision can begin at any step; docs/method.md §5). The pairs come from the cell-list
 //! search of `multifield_core::neighbours` (O(N)).
@@ -70,9 +101,41 @@ pub struct Dem {
     /// Steps per collision time: Δt ≤ t_c / steps_per_collision.
     #[serde(default = "default_steps")]
     pub steps_per_collision: Real,
+    /// The normal force law: linear spring–dashpot or Hertzian (F ∝ δ^{3/2}).
+    #[serde(default)]
+    pub normal: NormalLaw,
+    /// Hertzian law: the impact speed at which a head-on contact lasts `collision_time`
+    /// (a Hertzian contact's duration goes as U^{-1/5}).
+    #[serde(default)]
+    pub reference_speed: Real,
+    /// Lubrication between resolved bodies and between them and walls, below the grid
+    /// scale (module docs).
+    #[serde(default)]
+    pub lubrication: bool,
+    /// The gap ε_act below which lubrication acts, in grid spacings h.
+    #[serde(default = "default_lubrication_range")]
+    pub lubrication_range: Real,
+    /// The roughness ε_0 at which the lubrication saturates, as a fraction of the smaller
+    /// radius of the pair.
+    #[serde(default = "default_roughness")]
+    pub roughness: Real,
     /// ξ per touching pair: (i, j) for bodies, (i, WALL + side) for walls.
     #[serde(skip)]
     history: BTreeMap<(u64, u64), Real>,
+    /// Hertzian law: the damping α(e) and the dimensionless duration T(e) (module docs).
+    #[serde(skip)]
+    hertz: (Real, Real),
+}
+
+/// The normal force law of [`Dem`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NormalLaw {
+    /// F_n = k_n δ − γ_n v_n.
+    #[default]
+    Linear,
+    /// F_n = k δ^{3/2} − α sqrt(m_eff k) δ^{1/4} v_n.
+    Hertz,
 }
 
 /// The partner index of a wall in the history's keys: WALL + the side's index.
@@ -87,6 +150,68 @@ fn default_walls() -> bool {
 fn default_steps() -> Real {
     20.0
 }
+fn default_lubrication_range() -> Real {
+    1.0
+}
+fn default_roughness() -> Real {
+    1e-3
+}
+
+/// 3π√2: the lubrication force per unit length of a cylinder of radius a approaching a
+/// plane at speed V across a gap ε ≪ a is 3π√2 μ V (a/ε)^{3/2} (module docs).
+const LUBRICATION: Real = 3.0 * std::f64::consts::PI * std::f64::consts::SQRT_2;
+
+/// The dimensionless damped Hertzian contact x'' = −x^{3/2} − α x^{1/4} x', x(0) = 0,
+/// x'(0) = 1 (time in δ_s/U, overlap in δ_s = (m U²/k)^{2/5}), integrated by RK4 until
+/// the overlap returns to zero: (the rebound speed −x'(T), the duration T).
+pub fn hertz_collision(alpha: Real) -> (Real, Real) {
+    let f = |x: Real, v: Real| -> Real {
+        let x = x.max(0.0);
+        -x * x.sqrt() - alpha * x.sqrt().sqrt() * v
+    };
+    let h = 1e-4;
+    let (mut x, mut v, mut t) = (0.0 as Real, 1.0 as Real, 0.0);
+    loop {
+        let (k1x, k1v) = (v, f(x, v));
+        let (k2x, k2v) = (v + 0.5 * h * k1v, f(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+        let (k3x, k3v) = (v + 0.5 * h * k2v, f(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+        let (k4x, k4v) = (v + h * k3v, f(x + h * k3x, v + h * k3v));
+        let x1 = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let v1 = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        if x1 <= 0.0 && t > 0.0 {
+            // the crossing, by linear interpolation within the step
+            let s = x / (x - x1);
+            return (-(v + s * (v1 - v)), t + s * h);
+        }
+        (x, v, t) = (x1, v1, t + h);
+        if t > 100.0 {
+            // α so large that the overlap never returns (it cannot for e > 0)
+            return (0.0, t);
+        }
+    }
+}
+
+/// The α of [`hertz_collision`] that rebounds with `e`, by bisection (the rebound falls
+/// monotonically with α), and its duration T.
+pub fn hertz_damping(e: Real) -> (Real, Real) {
+    if e >= 1.0 {
+        return (0.0, hertz_collision(0.0).1);
+    }
+    let (mut lo, mut hi) = (0.0 as Real, 1.0 as Real);
+    while hertz_collision(hi).0 > e {
+        hi *= 2.0;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if hertz_collision(mid).0 > e {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let alpha = 0.5 * (lo + hi);
+    (alpha, hertz_collision(alpha).1)
+}
 
 /// One contact's figures, for the force law.
 struct Touch {
@@ -96,8 +221,14 @@ struct Touch {
     i: usize,
     /// The second body, `None` for a wall.
     j: Option<usize>,
-    /// Overlap δ > 0.
+    /// Overlap δ (> 0 touching; −δ the gap ε otherwise, within the lubrication range).
     overlap: Real,
+    /// The smaller radius of the pair, for the roughness.
+    small: Real,
+    /// The reduced radius a* = R_i R_j/(R_i + R_j) (a wall: R_i).
+    reduced: Real,
+    /// Whether lubrication acts on this pair (both resolved).
+    lubricated: bool,
     /// Unit normal, towards the first body.
     n: Vector,
     /// Relative velocity of the contact point (first minus second).
@@ -139,11 +270,48 @@ impl Dem {
                 self.steps_per_collision
             ));
         }
+        if !(self.reference_speed >= 0.0 && self.reference_speed.is_finite()) {
+            return Err(format!("reference_speed {}: must be positive (a speed)", self.reference_speed));
+        }
+        if self.normal == NormalLaw::Hertz {
+            if self.reference_speed <= 0.0 {
+                return Err("normal: \"hertz\" needs reference_speed > 0, the impact speed at which a contact \
+                            lasts collision_time (a Hertzian contact lasts longer at lower speeds, as U^(-1/5))"
+                    .into());
+            }
+            self.hertz = hertz_damping(self.restitution);
+        }
+        if !(self.lubrication_range > 0.0 && self.lubrication_range.is_finite()) {
+            return Err(format!(
+                "lubrication_range {}: must be positive (the gap below which lubrication acts, in cells; 1 by default)",
+                self.lubrication_range
+            ));
+        }
+        if !(self.roughness > 0.0 && self.roughness < 1.0) {
+            return Err(format!(
+                "roughness {}: must lie in (0, 1) (the gap where lubrication saturates, over the smaller radius; \
+                 1e-3 by default)",
+                self.roughness
+            ));
+        }
         Ok(())
     }
 
-    /// k_n and γ_n for the effective mass `m`.
-    fn normal(&self, m: Real) -> (Real, Real) {
+    /// The lubrication's normal coefficient c (F = −c v_n n) of a pair at gap ε for the
+    /// viscosity μ with ε_act = `range`: 3π√2 μ [(a*/max(ε, ε_0))^{3/2} − (a*/ε_act)^{3/2}],
+    /// zero from ε_act on.
+    fn lubrication_coefficient(&self, c: &Touch, mu: Real, range: Real) -> Real {
+        let gap = -c.overlap;
+        let eps0 = self.roughness * c.small;
+        if !c.lubricated || gap >= range || range <= eps0 {
+            return 0.0;
+        }
+        let g = gap.max(eps0);
+        LUBRICATION * mu * ((c.reduced / g).powf(1.5) - (c.reduced / range).powf(1.5))
+    }
+
+    /// The linear law's k_n and γ_n for the effective mass `m`.
+    fn linear(&self, m: Real) -> (Real, Real) {
         let ln_e = self.restitution.ln();
         let tc = self.collision_time;
         let k = m * (std::f64::consts::PI.powi(2) + ln_e * ln_e) / (tc * tc);
@@ -154,10 +322,22 @@ impl Dem {
     /// The normal and tangential forces of a contact from the history ξ before the step,
     /// and ξ after it: (F_n, F_t, ξ').
     fn law(&self, c: &Touch, xi: Real, dt: Real) -> (Real, Real, Real) {
-        let (k_n, gamma_n) = self.normal(c.mass);
         let t = Vector::new(-c.n.y, c.n.x);
         let (v_n, v_t) = (c.v.dot(&c.n), c.v.dot(&t));
-        let f_n = k_n * c.overlap - gamma_n * v_n;
+        // the normal force, and the stiffness and damping the tangential spring scales with
+        let (f_n, k_n, gamma_n) = match self.normal {
+            NormalLaw::Linear => {
+                let (k_n, gamma_n) = self.linear(c.mass);
+                (k_n * c.overlap - gamma_n * v_n, k_n, gamma_n)
+            }
+            NormalLaw::Hertz => {
+                let k = self.hertz_stiffness(c.mass);
+                let root = c.overlap.sqrt();
+                let gamma_n = self.hertz.0 * (c.mass * k).sqrt() * root.sqrt();
+                // the tangent stiffness dF/dδ = 3/2 k δ^{1/2} for the tangential spring
+                (k * c.overlap * root - gamma_n * v_n, 1.5 * k * root, gamma_n)
+            }
+        };
         let k_t = self.tangential_stiffness * k_n;
         let gamma_t = self.tangential_damping * gamma_n;
         let mut xi = xi + v_t * dt;
@@ -170,8 +350,24 @@ impl Dem {
         (f_n, f_t, xi)
     }
 
-    /// Every touching pair and wall contact, in a deterministic order (pairs by (i, j), then
-    /// walls by body and side).
+    /// Hertzian k of a pair of effective mass `m`: m U_ref^{-1/2} (T/t_c)^{5/2}, so that a
+    /// head-on contact at U_ref lasts t_c (module docs).
+    fn hertz_stiffness(&self, m: Real) -> Real {
+        m / self.reference_speed.sqrt() * (self.hertz.1 / self.collision_time).powf(2.5)
+    }
+
+    /// The lubrication range ε_act (length) on this grid, 0 without lubrication.
+    fn range(&self, ctx: &ContactContext) -> Real {
+        if self.lubrication {
+            self.lubrication_range * ctx.grid.h
+        } else {
+            0.0
+        }
+    }
+
+    /// Every touching pair and wall contact, and with lubrication every pair of resolved
+    /// bodies (or body and wall) closer than ε_act, in a deterministic order (pairs by
+    /// (i, j), then walls by body and side).
     fn touches(&self, ctx: &ContactContext) -> Vec<Touch> {
         let bodies = ctx.bodies;
         let domain = SearchDomain {
@@ -182,18 +378,22 @@ impl Dem {
         };
         let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
         let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
+        let range = self.range(ctx);
         let mut out = Vec::new();
-        for p in pairs_within(&centres, &radii, 0.0, &domain) {
+        for p in pairs_within(&centres, &radii, range, &domain) {
             let (a, b) = (&bodies[p.i], &bodies[p.j]);
             let Some(mass) = effective_mass(a, Some(b)) else { continue };
             let overlap = a.radius + b.radius - p.distance;
-            if !(overlap > 0.0 && p.distance > 0.0) {
+            let lubricated = range > 0.0 && ctx.is_resolved(p.i) && ctx.is_resolved(p.j);
+            if !((overlap > 0.0 || (lubricated && -overlap < range)) && p.distance > 0.0) {
                 continue;
             }
             let n = p.separation / p.distance;
             let t = Vector::new(-n.y, n.x);
             let v = a.velocity - b.velocity - (a.radius * a.angular_velocity + b.radius * b.angular_velocity) * t;
-            out.push(Touch { key: (p.i as u64, p.j as u64), i: p.i, j: Some(p.j), overlap, n, v, mass });
+            let (small, reduced) = (a.radius.min(b.radius), a.radius * b.radius / (a.radius + b.radius));
+            let key = (p.i as u64, p.j as u64);
+            out.push(Touch { key, i: p.i, j: Some(p.j), overlap, small, reduced, lubricated, n, v, mass });
         }
         if !self.walls {
             return out;
@@ -214,12 +414,15 @@ impl Dem {
                     Side::Top => (hi.y - x.y, Vector::new(0.0, -1.0)),
                 };
                 let overlap = a.radius - gap;
-                if !(overlap > 0.0) {
+                let lubricated = range > 0.0 && ctx.is_resolved(i);
+                if !(overlap > 0.0 || (lubricated && -overlap < range)) {
                     continue;
                 }
                 let t = Vector::new(-n.y, n.x);
                 let v = a.velocity - a.radius * a.angular_velocity * t;
-                out.push(Touch { key: (i as u64, WALL + k as u64), i, j: None, overlap, n, v, mass });
+                let key = (i as u64, WALL + k as u64);
+                let (small, reduced) = (a.radius, a.radius);
+                out.push(Touch { key, i, j: None, overlap, small, reduced, lubricated, n, v, mass });
             }
         }
         out
@@ -277,6 +480,36 @@ multifield_core::register!(
             default: "20.0",
             doc: "Δt ≤ t_c/steps_per_collision at every step of a case with a free body",
         },
+        ParamDoc {
+            name: "normal",
+            unit: "-",
+            default: "\"linear\"",
+            doc: "normal law: \"linear\" (k_n δ − γ_n v_n) or \"hertz\" (k δ^{3/2} − α(e) sqrt(m_eff k) δ^{1/4} v_n)",
+        },
+        ParamDoc {
+            name: "reference_speed",
+            unit: "length/time",
+            default: "0.0",
+            doc: "hertz: the impact speed at which a contact lasts collision_time (required > 0 with hertz)",
+        },
+        ParamDoc {
+            name: "lubrication",
+            unit: "-",
+            default: "false",
+            doc: "normal lubrication between resolved bodies and walls below the grid scale (needs a Newtonian fluid)",
+        },
+        ParamDoc {
+            name: "lubrication_range",
+            unit: "cells",
+            default: "1.0",
+            doc: "ε_act/h: the gap below which lubrication adds 3π√2 μ v_n [(a*/ε)^1.5 − (a*/ε_act)^1.5]",
+        },
+        ParamDoc {
+            name: "roughness",
+            unit: "-",
+            default: "0.001",
+            doc: "ε_0 over the smaller radius: the gap where the lubrication force saturates",
+        },
     ]
 );
 
@@ -290,11 +523,21 @@ impl ContactModel for Dem {
     fn forces(&mut self, ctx: &ContactContext, dt: Real, out: &mut [(Vector, Real)]) {
         out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
         let mut history = BTreeMap::new();
+        let (range, mu) = (self.range(ctx), ctx.fluid_viscosity.unwrap_or(0.0));
         for c in self.touches(ctx) {
             let (i, j) = (c.i, c.j);
-            let xi = self.history.get(&c.key).copied().unwrap_or(0.0);
-            let (f_n, f_t, xi) = self.law(&c, xi, dt);
-            history.insert(c.key, xi);
+            let (mut f_n, mut f_t) = (0.0, 0.0);
+            if c.overlap > 0.0 {
+                let xi = self.history.get(&c.key).copied().unwrap_or(0.0);
+                let (n, t, xi) = self.law(&c, xi, dt);
+                (f_n, f_t) = (n, t);
+                history.insert(c.key, xi);
+            }
+            let lub = self.lubrication_coefficient(&c, mu, range);
+            if lub > 0.0 {
+                // backward Euler on the pair's relative normal velocity: stable at any step
+                f_n -= lub * c.v.dot(&c.n) / (1.0 + lub * dt / c.mass);
+            }
             let t = Vector::new(-c.n.y, c.n.x);
             let f = f_n * c.n + f_t * t;
             out[i].0 += f;
@@ -307,7 +550,22 @@ impl ContactModel for Dem {
         self.history = history;
     }
     fn stable_dt(&self, ctx: &ContactContext) -> Option<Real> {
-        ctx.bodies.iter().any(|b| b.free).then(|| self.collision_time / self.steps_per_collision)
+        if !ctx.bodies.iter().any(|b| b.free) {
+            return None;
+        }
+        let tc = match self.normal {
+            NormalLaw::Linear => self.collision_time,
+            NormalLaw::Hertz => {
+                // a contact at the largest relative speed possible, |v_i| + |v_j|, lasts
+                // t_c (U_ref/U)^{1/5}
+                let top = ctx.bodies.iter().map(|b| b.velocity.norm()).fold(0.0, Real::max);
+                self.collision_time * (self.reference_speed / (2.0 * top).max(self.reference_speed)).powf(0.2)
+            }
+        };
+        Some(tc / self.steps_per_collision)
+    }
+    fn needs_fluid_viscosity(&self) -> bool {
+        self.lubrication
     }
     fn history(&self) -> Vec<u8> {
         let mut b = Vec::with_capacity(8 + 24 * self.history.len());
@@ -386,8 +644,15 @@ mod tests {
         let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
         let (mut steps, mut touched, mut rose) = (0, false, 1.0 as Real);
         for _ in 0..1_000_000 {
-            let ctx =
-                ContactContext { grid: &grid, boundaries: bc, gravity: Vector::zeros(), fluid_density: 0.0, bodies };
+            let ctx = ContactContext {
+                grid: &grid,
+                boundaries: bc,
+                gravity: Vector::zeros(),
+                fluid_density: 0.0,
+                fluid_viscosity: None,
+                bodies,
+                resolved: &[],
+            };
             m.forces(&ctx, dt, &mut out);
             let touching = !m.history.is_empty();
             if touched && !touching {
@@ -506,7 +771,9 @@ mod tests {
             boundaries: &bc,
             gravity: Vector::zeros(),
             fluid_density: 0.0,
+            fluid_viscosity: None,
             bodies: &bodies,
+            resolved: &[],
         };
         let mut a = dem(0.5, 1e-3, 0.5);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
@@ -523,6 +790,200 @@ mod tests {
         let mut bytes = a.history();
         bytes.pop();
         assert!(b.restore_history(&bytes).unwrap_err().contains("not a count and (i, j, ξ) triples"));
+    }
+
+    fn hertz(e: Real, tc: Real, u_ref: Real) -> Dem {
+        let mut d: Dem = multifield_core::registry::parse_params(&serde_json::json!({
+            "restitution": e, "collision_time": tc, "normal": "hertz", "reference_speed": u_ref
+        }))
+        .unwrap();
+        d.validate().unwrap();
+        d
+    }
+
+    /// The undamped Hertzian contact x'' = −x^{3/2} (x'(0) = 1) lasts
+    /// T₀ = 2 (5/4)^{2/5} ∫₀¹ dx/sqrt(1 − x^{5/2}) = (5/4)^{2/5} · 2.94328…, here by Simpson's
+    /// rule on x = 1 − u² (which removes the end's singularity), independently of the RK4.
+    fn undamped_hertz_duration() -> Real {
+        let f = |u: Real| {
+            if u == 0.0 {
+                return 2.0 / (2.5 as Real).sqrt();
+            }
+            let x: Real = 1.0 - u * u;
+            2.0 * u / (1.0 - x.powf(2.5)).sqrt()
+        };
+        let n = 2000;
+        let h = 1.0 / n as Real;
+        let sum: Real = (0..=n)
+            .map(|k| {
+                let w = if k == 0 || k == n {
+                    1.0
+                } else if k % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                w * f(k as Real * h)
+            })
+            .sum();
+        2.0 * (1.25 as Real).powf(0.4) * sum * h / 3.0
+    }
+
+    /// Hertzian head-on collisions with a wall: at the reference speed the contact lasts
+    /// t_c and rebounds with e (within 1 %, at 1000 steps per contact); at 8 times the speed
+    /// the same e (the damping α sqrt(m k) δ^{1/4} makes e independent of the speed) and
+    /// t_c · 8^{-1/5}; without damping the duration is the analytic
+    /// T₀ (m/k)^{2/5} U^{-1/5}, T₀ = (5/4)^{2/5} · 2.94328.
+    #[test]
+    fn a_hertzian_collision_rebounds_with_e_and_lasts_the_hertz_time() {
+        let t0 = undamped_hertz_duration();
+        let (alpha, t) = hertz_damping(1.0);
+        assert!(alpha == 0.0 && (t / t0 - 1.0).abs() < 1e-6, "T(e = 1) = {t}, analytic {t0}");
+        let tc = 1e-3;
+        for e in [1.0, 0.9, 0.5, 0.1] {
+            for speed in [1.0 as Real, 8.0] {
+                let mut m = hertz(e, tc, 1.0);
+                let duration_expected = tc * speed.powf(-0.2);
+                let dt = duration_expected / 1000.0;
+                let mut b = [disk(0.5, 0.1 + 2.0 * speed * dt, 0.0, -speed)];
+                let (duration, rose) = collide(&mut m, &mut b, &Boundaries::default(), dt);
+                let ratio = b[0].velocity.y / speed;
+                eprintln!(
+                    "hertz e = {e}, U = {speed}: rebound/approach {ratio:.5}, contact {duration:.4e} \
+                     (expected {duration_expected:.4e}); α = {:.5}",
+                    m.hertz.0
+                );
+                assert!((ratio / e - 1.0).abs() < 1e-2, "e = {e}, U = {speed}: rebound/approach {ratio}");
+                assert!((duration / duration_expected - 1.0).abs() < 3e-3, "e = {e}, U = {speed}: contact {duration}");
+                // symplectic Euler: the energy may exceed its start by O((Δt/t_c)²) mid-contact (1.9e-10 at e = 1)
+                assert!(rose <= 1.0 + 1e-6, "e = {e}: the energy rose by {}", rose - 1.0);
+                if e == 1.0 {
+                    // the analytic duration from the stiffness itself
+                    let k = m.hertz_stiffness(b[0].mass);
+                    let analytic = t0 * (b[0].mass / k).powf(0.4) * speed.powf(-0.2);
+                    assert!((duration / analytic - 1.0).abs() < 3e-3, "contact {duration}, Hertz {analytic}");
+                }
+            }
+        }
+        // the step limit shortens with the bodies' speed as the contact does
+        let m = hertz(0.9, tc, 1.0);
+        let grid = Grid::new(10, 10, 0.1, Vector::zeros());
+        let bc = Boundaries::default();
+        let bodies = [disk(0.5, 0.5, 0.0, -16.0)];
+        let ctx = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: Vector::zeros(),
+            fluid_density: 0.0,
+            fluid_viscosity: None,
+            bodies: &bodies,
+            resolved: &[],
+        };
+        let dt = m.stable_dt(&ctx).unwrap();
+        assert!((dt / (tc * 32.0_f64.powf(-0.2) / 20.0) - 1.0).abs() < 1e-12, "step {dt}");
+    }
+
+    /// Lubrication alone (no dry contact reached): a disk of mass m launched at V₀ towards
+    /// a wall from the activation gap ε_act feels F = 3π√2 μ v [(a/ε)^{3/2} − (a/ε_act)^{3/2}]
+    /// so m dv = −c(ε) dε: v(ε) = V₀ − (3π√2 μ a^{3/2}/m)[2(ε^{-1/2} − ε_act^{-1/2})
+    /// − ε_act^{-3/2}(ε_act − ε)]. The backward-Euler step follows it to first order (within
+    /// 2e-3 of V₀ at 10⁵ steps over the approach), the disk stops where v(ε) = 0 and never
+    /// turns back (the implicit step cannot reverse a velocity, even at steps 10⁴ times
+    /// larger); a mass point (not resolved) gets no force; nothing acts from ε_act on.
+    #[test]
+    fn lubrication_follows_the_film_law_and_never_reverses_the_motion() {
+        let grid = Grid::new(10, 10, 0.1, Vector::zeros());
+        let bc = Boundaries::default();
+        let mut m = dem(0.9, 1e-3, 0.0);
+        m.lubrication = true;
+        m.validate().unwrap();
+        let (a, mu, v0): (Real, Real, Real) = (0.1, 0.05, 1.0);
+        let act = 0.1 * m.lubrication_range;
+        let e0 = m.roughness * a;
+        let mass = disk(0.0, 0.0, 0.0, 0.0).mass;
+        let c = LUBRICATION * mu * a.powf(1.5) / mass;
+        let exact = |eps: Real| v0 - c * (2.0 * (eps.powf(-0.5) - act.powf(-0.5)) - act.powf(-1.5) * (act - eps));
+        // where it stops: the root of exact(ε) (bisection); it must lie above ε_0
+        let (mut lo, mut hi) = (e0, act);
+        assert!(exact(lo) < 0.0, "the film stops the disk before the roughness");
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if exact(mid) < 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let stop = 0.5 * (lo + hi);
+        // one step 100 times the film's relaxation time m/c(ε) at ε = 10 ε_0: the velocity
+        // falls by 1/(1 + 100) and keeps its sign (explicitly it would reverse, ×(1 − 100))
+        let eps = 10.0 * e0;
+        let b = [disk(0.5, a + eps, 0.0, -v0)];
+        let coefficient = LUBRICATION * mu * ((a / eps).powf(1.5) - (a / act).powf(1.5));
+        let big = 100.0 * mass / coefficient;
+        let mut out = [(Vector::zeros(), 0.0)];
+        let context = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: Vector::zeros(),
+            fluid_density: 1.0,
+            fluid_viscosity: Some(mu),
+            bodies: &b,
+            resolved: &[true],
+        };
+        m.forces(&context, big, &mut out);
+        let v1 = b[0].velocity.y + big / mass * out[0].0.y;
+        assert!((v1 / (-v0 / 101.0) - 1.0).abs() < 1e-12, "one large step: v = {v1}");
+        // the approach at 10⁵ steps over ε_act/V₀
+        {
+            let (dt, tolerance) = (act / v0 / 1e5, 2e-3);
+            let mut b = [disk(0.5, a + act * (1.0 - 1e-9), 0.0, -v0)];
+            let mut out = [(Vector::zeros(), 0.0)];
+            let mut worst: Real = 0.0;
+            for _ in 0..200_000 {
+                let ctx = ContactContext {
+                    grid: &grid,
+                    boundaries: &bc,
+                    gravity: Vector::zeros(),
+                    fluid_density: 1.0,
+                    fluid_viscosity: Some(mu),
+                    bodies: &b,
+                    resolved: &[true],
+                };
+                m.forces(&ctx, dt, &mut out);
+                b[0].velocity += dt / mass * out[0].0;
+                b[0].position += dt * b[0].velocity;
+                assert!(b[0].velocity.y <= 0.0, "the motion reversed: {}", b[0].velocity.y);
+                let gap = b[0].position.y - a;
+                if b[0].velocity.y > -1e-6 * v0 {
+                    break;
+                }
+                worst = worst.max((-b[0].velocity.y - exact(gap).max(0.0)).abs());
+            }
+            let gap = b[0].position.y - a;
+            eprintln!("Δt {dt:.1e}: stopped at ε = {gap:.5e} (film law {stop:.5e}), largest |v − v(ε)| {worst:.2e}");
+            assert!(worst < tolerance * v0, "Δt {dt}: v off the film law by {worst}");
+            assert!((gap / stop - 1.0).abs() < 1e-2, "stopped at {gap}, film law {stop}");
+        }
+        // a mass point feels nothing, and nothing acts at ε_act or beyond
+        let ctx = |b: &[BodyState; 1], resolved: bool| -> (Vector, Real) {
+            let mut out = [(Vector::zeros(), 0.0)];
+            let ctx = ContactContext {
+                grid: &grid,
+                boundaries: &bc,
+                gravity: Vector::zeros(),
+                fluid_density: 1.0,
+                fluid_viscosity: Some(mu),
+                bodies: b,
+                resolved: &[resolved],
+            };
+            m.clone().forces(&ctx, 1e-6, &mut out);
+            out[0]
+        };
+        for (gap, resolved) in [(0.5 * act, false), (act, true), (2.0 * act, true)] {
+            let f = ctx(&[disk(0.5, a + gap, 0.0, -v0)], resolved);
+            assert_eq!(f.0, Vector::zeros(), "gap {gap}, resolved {resolved}");
+        }
     }
 
     #[test]
@@ -543,5 +1004,17 @@ mod tests {
         let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "steps_per_collision": 0.5 }))
             .unwrap_err();
         assert!(err.contains("at least 1"), "{err}");
+        let err =
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "normal": "hertz" })).unwrap_err();
+        assert!(err.contains("needs reference_speed > 0"), "{err}");
+        let err =
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "normal": "hooke" })).unwrap_err();
+        assert!(err.contains("unknown variant `hooke`, expected `linear` or `hertz`"), "{err}");
+        let err =
+            build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "roughness": 0.0 })).unwrap_err();
+        assert!(err.contains("roughness 0: must lie in (0, 1)"), "{err}");
+        let err = build(serde_json::json!({ "restitution": 0.5, "collision_time": 1.0, "lubrication_range": -1.0 }))
+            .unwrap_err();
+        assert!(err.contains("lubrication_range -1: must be positive"), "{err}");
     }
 }

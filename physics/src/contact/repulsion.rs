@@ -270,7 +270,9 @@ mod tests {
             boundaries: &bc,
             gravity: Vector::new(0.0, -10.0),
             fluid_density: 0.0,
+            fluid_viscosity: None,
             bodies: &bodies,
+            resolved: &[],
         };
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         rep.forces(&ctx, 0.0, &mut out);
@@ -307,7 +309,15 @@ mod tests {
         let bodies = [body(0.3), body(0.6)];
         let g = Vector::new(0.0, -10.0);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
-        let ctx = ContactContext { grid: &grid, boundaries: &bc, gravity: g, fluid_density: 1.0, bodies: &bodies };
+        let ctx = ContactContext {
+            grid: &grid,
+            boundaries: &bc,
+            gravity: g,
+            fluid_density: 1.0,
+            fluid_viscosity: None,
+            bodies: &bodies,
+            resolved: &[],
+        };
         rep.forces(&ctx, 0.0, &mut out);
         let expected = 0.5 * 0.04 * 10.0 / 0.5 * 0.25;
         assert!((out[0].0.x + expected).abs() < 1e-12, "{:?} against {expected}", out[0]);
@@ -338,7 +348,9 @@ mod tests {
             boundaries: &bc,
             gravity: Vector::new(0.0, -10.0),
             fluid_density: 0.0,
+            fluid_viscosity: None,
             bodies: &b,
+            resolved: &[],
         };
         let mut out = vec![(Vector::zeros(), 0.0)];
         rep.forces(&ctx, 0.0, &mut out);
