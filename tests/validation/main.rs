@@ -4,3 +4,4 @@
 //! One test binary: `cargo test --release --test validation [module::]`.
 
 mod dkt;
+mod fluidized_bed;
