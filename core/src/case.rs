@@ -929,7 +929,9 @@ impl Case {
         if !(d.size[0] > 0.0 && d.size[1] > 0.0 && d.size.iter().all(|s| s.is_finite())) {
             return bad("domain.size", format!("{:?}: both sides must be positive lengths", d.size));
         }
-        for (path, cells) in std::iter::once(("domain.cells", d.cells)).chain(d.point_cells.map(|c| ("domain.point_cells", c))) {
+        for (path, cells) in
+            std::iter::once(("domain.cells", d.cells)).chain(d.point_cells.map(|c| ("domain.point_cells", c)))
+        {
             if cells[0] < 2 || cells[1] < 2 {
                 return bad(path, format!("{cells:?}: at least 2 cells in each direction"));
             }

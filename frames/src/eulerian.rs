@@ -960,7 +960,16 @@ mod tests {
 
     fn frame(limiter: Limiter, grid: &Grid, bc: &Boundaries, region: &Region, vel: &InitialVelocity) -> Eulerian {
         let mut e = Eulerian { limiter, ..Default::default() };
-        let ctx = InitContext { grid, boundaries: bc, name: "test", density: 2.0, region, velocity: vel, theta: None, contact: None };
+        let ctx = InitContext {
+            grid,
+            boundaries: bc,
+            name: "test",
+            density: 2.0,
+            region,
+            velocity: vel,
+            theta: None,
+            contact: None,
+        };
         e.initialize(&ctx).unwrap();
         e
     }

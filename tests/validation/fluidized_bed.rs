@@ -120,3 +120,22 @@ fn the_mass_point_bed_expands_with_the_inflow_as_richardson_zaki() {
         assert!((0.7..0.9).contains(&(h / rz)), "U = {u}: bed height {h} against Richardson–Zaki's {rz}");
     }
 }
+
+/// The one-entry switch: `representation` alone picks the grid, `domain.cells` for
+/// resolved disks, `domain.point_cells` when every field of bodies is mass points; a
+/// `point_cells` that makes cells that are not square is refused with the fix.
+#[test]
+fn the_representation_switch_takes_the_point_grid() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fluidized_bed.ron");
+    assert_eq!(Case::load(&file, &[]).unwrap().cells(), [160, 480]);
+    let points = Case::load(&file, &["fields.disks.representation=MassPoint".into()]).unwrap();
+    assert_eq!((points.cells(), points.domain.cells), ([20, 60], [160, 480]));
+    let e = Case::load(&file, &["domain.point_cells=Some((20, 50))".into()]).err().expect("refused").to_string();
+    assert!(
+        e.ends_with(
+            "domain.point_cells: cells must be square, but size [2.0, 6.0] with cells [20, 50] gives 0.1 × 0.12; \
+             use cells proportional to the size, e.g. (20, 60)"
+        ),
+        "{e}"
+    );
+}

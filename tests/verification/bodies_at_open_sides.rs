@@ -160,7 +160,9 @@ fn a_body_rebounds_from_an_inflow_side_as_from_a_wall() {
         for (side, bottom) in [("wall", "NoSlip"), ("inflow", "Velocity(velocity: (0.0, 0.1))")] {
             let rows = bounce(&format!("{representation}_{side}"), representation, cells, bottom);
             let (overlap, touch) = rebound(&rows);
-            eprintln!("{representation} at a {side}: deepest overlap {overlap:.5} r (bound {bound:.5} r), contact {touch:?}");
+            eprintln!(
+                "{representation} at a {side}: deepest overlap {overlap:.5} r (bound {bound:.5} r), contact {touch:?}"
+            );
             assert!(rows.iter().all(|&(_, y, _)| y > 0.0), "{representation} crossed the {side}");
             if representation == "MassPoint" {
                 let (v_in, v_out) = touch.expect("the mass point touches the side");
@@ -169,7 +171,10 @@ fn a_body_rebounds_from_an_inflow_side_as_from_a_wall() {
                 assert!(overlap > 0.0 && overlap <= bound, "{representation} at a {side}: overlap {overlap} r");
                 assert!(ratio > 0.97 * 0.8 && ratio <= 0.8, "{representation} at a {side}: rebound ratio {ratio}");
             } else {
-                assert!(touch.is_none() && (-0.1..-0.04).contains(&overlap), "resolved at a {side}: overlap {overlap} r");
+                assert!(
+                    touch.is_none() && (-0.1..-0.04).contains(&overlap),
+                    "resolved at a {side}: overlap {overlap} r"
+                );
             }
         }
     }
