@@ -77,7 +77,7 @@ fn drag_law_equilibrium(u: Real) -> Real {
     };
     let re_s = rho * u * d / mu;
     let chi = 3.7 - 0.65 * (-(1.5 - re_s.log10()).powi(2) / 2.0).exp();
-    let (mut lo, mut hi) = (0.3, 1.0);
+    let (mut lo, mut hi): (Real, Real) = (0.3, 1.0);
     for _ in 0..100 {
         let theta = 0.5 * (lo + hi);
         if f0(u) * theta.powf(-chi) > theta * f0(U_T) {
@@ -130,7 +130,7 @@ fn the_representation_switch_takes_the_point_grid() {
     assert_eq!(Case::load(&file, &[]).unwrap().cells(), [160, 480]);
     let points = Case::load(&file, &["fields.disks.representation=MassPoint".into()]).unwrap();
     assert_eq!((points.cells(), points.domain.cells), ([20, 60], [160, 480]));
-    let e = Case::load(&file, &["domain.point_cells=Some((20, 50))".into()]).err().expect("refused").to_string();
+    let e = Case::load(&file, &["domain.point_cells=Some((20, 50))".into()]).expect_err("refused").to_string();
     assert!(
         e.ends_with(
             "domain.point_cells: cells must be square, but size [2.0, 6.0] with cells [20, 50] gives 0.1 × 0.12; \
