@@ -127,9 +127,9 @@ fn the_mass_point_bed_expands_with_the_inflow_as_richardson_zaki() {
 #[test]
 fn the_representation_switch_takes_the_point_grid() {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fluidized_bed.ron");
-    assert_eq!(Case::load(&file, &[]).unwrap().cells(), [160, 480]);
+    assert_eq!(Case::load(&file, &[]).unwrap().cells(), [80, 240]);
     let points = Case::load(&file, &["fields.disks.representation=MassPoint".into()]).unwrap();
-    assert_eq!((points.cells(), points.domain.cells), ([20, 60], [160, 480]));
+    assert_eq!((points.cells(), points.domain.cells), ([20, 60], [80, 240]));
     let e = Case::load(&file, &["domain.point_cells=Some((20, 50))".into()]).expect_err("refused").to_string();
     assert!(
         e.ends_with(
