@@ -872,7 +872,7 @@ fn dkt(runs: &[PathBuf], reference: Option<PathBuf>, out: Option<PathBuf>) -> Re
         "wall (s)"
     );
     for (run, report, _, case) in &analysed {
-        let h = case.domain.size[0] / case.domain.cells[0] as f64;
+        let h = case.domain.size[0] / case.cells()[0] as f64;
         let summary: serde_json::Value = std::fs::read_to_string(run.join("summary.json"))
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok())

@@ -284,7 +284,7 @@ fn figures(
             }
         }
     }
-    let h = case.domain.size[0] / case.domain.cells[0] as Real;
+    let h = case.domain.size[0] / case.cells()[0] as Real;
     let bodies = tracks
         .iter()
         .map(|(name, tr)| {

@@ -1319,7 +1319,7 @@ pub fn reference_runs(plan: &Plan) -> Vec<Option<usize>> {
         Reference::Finest { axis, .. } | Reference::Baseline { axis, .. } => axis,
         _ => return vec![None; plan.runs.len()],
     };
-    let cells = |k: usize| plan.runs[k].case.domain.cells[0] * plan.runs[k].case.domain.cells[1];
+    let cells = |k: usize| plan.runs[k].case.cells()[0] * plan.runs[k].case.cells()[1];
     let a = plan.study.axes.iter().position(|x| &x.name == axis).unwrap_or(0);
     let mut groups: BTreeMap<Vec<usize>, Vec<usize>> = BTreeMap::new();
     for (k, c) in plan.runs.iter().enumerate() {

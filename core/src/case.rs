@@ -50,6 +50,11 @@ pub struct Domain {
     pub size: [Real; 2],
     /// Cells along x and y; cells must be square.
     pub cells: [usize; 2],
+    /// The cells instead of `cells` when every field of bodies is represented by mass
+    /// points ([`Case::cells`]): the grid of the mass points' own scale (d ≲ h), so that one
+    /// entry (`representation`) switches a scene from resolved bodies to mass points.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point_cells: Option<[usize; 2]>,
 }
 
 /// Time control.
@@ -524,7 +529,7 @@ fn is_zero(x: &Real) -> bool {
 
 /// Entries (parent path, key) left out of the written case when they hold their default
 /// (so that cases written before them stay byte-identical), which `--set` may still set.
-const OMITTED_AT_DEFAULT: &[(&str, &str)] = &[("time", "contact_substeps")];
+const OMITTED_AT_DEFAULT: &[(&str, &str)] = &[("time", "contact_substeps"), ("domain", "point_cells")];
 
 fn is_false(b: &bool) -> bool {
     !*b
@@ -781,6 +786,18 @@ impl Case {
         })
     }
 
+    /// The grid's cells: `domain.point_cells` when it is given and every field of bodies
+    /// (a `region: Bodies`) is represented by mass points, else `domain.cells`.
+    pub fn cells(&self) -> [usize; 2] {
+        let mut bodies = self.fields.iter().filter(|f| matches!(f.region, Region::Bodies(_))).peekable();
+        match self.domain.point_cells {
+            Some(cells) if bodies.peek().is_some() && bodies.all(|f| f.representation == Representation::MassPoint) => {
+                cells
+            }
+            _ => self.domain.cells,
+        }
+    }
+
     /// Reads, overrides (`--set path=value`) and validates a case file.
     pub fn load(file: &Path, overrides: &[String]) -> Result<Case> {
         let text = crate::input::read_text(file)?;
@@ -912,22 +929,25 @@ impl Case {
         if !(d.size[0] > 0.0 && d.size[1] > 0.0 && d.size.iter().all(|s| s.is_finite())) {
             return bad("domain.size", format!("{:?}: both sides must be positive lengths", d.size));
         }
-        if d.cells[0] < 2 || d.cells[1] < 2 {
-            return bad("domain.cells", format!("{:?}: at least 2 cells in each direction", d.cells));
-        }
-        let (hx, hy) = (d.size[0] / d.cells[0] as Real, d.size[1] / d.cells[1] as Real);
-        if ((hx - hy) / hx).abs() > 1e-9 {
-            return bad(
-                "domain.cells",
-                format!(
-                    "cells must be square, but size {:?} with cells {:?} gives {hx} × {hy}; \
-                     use cells proportional to the size, e.g. ({}, {})",
-                    d.size,
-                    d.cells,
-                    d.cells[0],
-                    (d.size[1] / hx).round() as usize
-                ),
-            );
+        for (path, cells) in
+            std::iter::once(("domain.cells", d.cells)).chain(d.point_cells.map(|c| ("domain.point_cells", c)))
+        {
+            if cells[0] < 2 || cells[1] < 2 {
+                return bad(path, format!("{cells:?}: at least 2 cells in each direction"));
+            }
+            let (hx, hy) = (d.size[0] / cells[0] as Real, d.size[1] / cells[1] as Real);
+            if ((hx - hy) / hx).abs() > 1e-9 {
+                return bad(
+                    path,
+                    format!(
+                        "cells must be square, but size {:?} with cells {cells:?} gives {hx} × {hy}; \
+                         use cells proportional to the size, e.g. ({}, {})",
+                        d.size,
+                        cells[0],
+                        (d.size[1] / hx).round() as usize
+                    ),
+                );
+            }
         }
         self.boundaries.validate().map_err(|m| Error::invalid("boundaries", m))?;
         if !self.gravity.iter().all(|g| g.is_finite()) {

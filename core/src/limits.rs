@@ -162,7 +162,7 @@ impl Case {
     /// The number of cells, nx × ny, or an error naming `domain.cells` when it exceeds
     /// [`MAX_CELLS`] (checked, so that no product of counts can overflow).
     pub fn cell_count(&self) -> Result<u64> {
-        let [nx, ny] = self.domain.cells;
+        let [nx, ny] = self.cells();
         let cells = (nx as u64).checked_mul(ny as u64).filter(|&c| c <= MAX_CELLS);
         cells.ok_or_else(|| {
             Error::invalid(
@@ -191,7 +191,7 @@ impl Case {
             return 0;
         }
         let n = f.frame.params.get("points_per_cell").and_then(|v| v.as_u64()).unwrap_or(2);
-        let h = d.size[0] / d.cells[0] as Real;
+        let h = d.size[0] / self.cells()[0] as Real;
         let domain_area = d.size[0] * d.size[1];
         let area = match &f.region {
             Region::All | Region::Rest => domain_area,
@@ -209,7 +209,7 @@ impl Case {
     /// pressure solver with its multigrid levels, and the output's buffers. A frame of
     /// another crate is counted as an Eulerian one. Saturates instead of overflowing.
     pub fn memory_estimate(&self) -> MemoryEstimate {
-        let [nx, ny] = [self.domain.cells[0] as u64, self.domain.cells[1] as u64];
+        let [nx, ny] = self.cells().map(|n| n as u64);
         let (c, x, y) = lattice(nx, ny);
         let faces = x.saturating_add(y);
         let mut parts: Vec<(String, u64)> = Vec::new();
@@ -380,7 +380,7 @@ impl Case {
     pub fn check_resources(&self, limit: &MemoryLimit) -> Result<MemoryEstimate> {
         let estimate = self.memory_estimate();
         if estimate.bytes > limit.bytes {
-            let [nx, ny] = self.domain.cells;
+            let [nx, ny] = self.cells();
             let fix = match limit.source {
                 LimitSource::Option => "raise --max-memory",
                 LimitSource::Environment => "raise MULTIFIELD_MAX_MEMORY (or give --max-memory)",

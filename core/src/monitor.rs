@@ -496,7 +496,7 @@ fn inside_a_body(case: &Case, m: &MonitorSpec, q: [Real; 2]) -> Option<String> {
         return None;
     }
     let (quantity, field) = m.of.quantity()?;
-    let h = case.domain.size[0] / case.domain.cells[0] as Real;
+    let h = case.domain.size[0] / case.cells()[0] as Real;
     for f in &case.fields {
         let Region::Bodies(bodies) = &f.region else { continue };
         if f.representation == Representation::MassPoint || field.as_deref() == Some(f.name.as_str()) {
@@ -674,7 +674,7 @@ pub fn validate(case: &Case) -> Result<()> {
                 if !(min[0] < max[0] && min[1] < max[1]) {
                     return bad(p("of"), format!("rectangle min {min:?} must lie below and left of max {max:?}"));
                 }
-                let h = d.size[0] / d.cells[0] as Real;
+                let h = d.size[0] / case.cells()[0] as Real;
                 let centres =
                     |lo: Real, hi: Real, o: Real| ((hi - o) / h - 0.5).floor() - ((lo - o) / h - 0.5).ceil() + 1.0;
                 if centres(min[0], max[0], x0) < 1.0 || centres(min[1], max[1], y0) < 1.0 {

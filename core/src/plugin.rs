@@ -28,6 +28,10 @@ pub struct InitContext<'a> {
     pub velocity: &'a InitialVelocity,
     /// Initial volume fraction per cell when the core computed it (region `Rest`).
     pub theta: Option<&'a [Real]>,
+    /// The case's contact model, if any: its name and whether it keeps bodies off every
+    /// side that is not periodic, open sides (inflows, outflows) included
+    /// ([`ContactModel::keeps_bodies_off_sides`]).
+    pub contact: Option<(&'a str, bool)>,
 }
 
 /// What a frame sees in a phase of a step.
@@ -567,6 +571,12 @@ pub trait ContactModel: Send + Sync {
     /// Whether the model reads [`ContactContext::fluid_viscosity`] (lubrication): the core
     /// then refuses a case whose ambient fluid has no Newtonian viscosity. Default: false.
     fn needs_fluid_viscosity(&self) -> bool {
+        false
+    }
+    /// Whether the model treats every side that is not periodic as a wall for the bodies,
+    /// open sides (inflows and outflows) included, so that no body reaches an open side
+    /// (a field of bodies may then face one). False by default.
+    fn keeps_bodies_off_sides(&self) -> bool {
         false
     }
 }

@@ -960,7 +960,16 @@ mod tests {
 
     fn frame(limiter: Limiter, grid: &Grid, bc: &Boundaries, region: &Region, vel: &InitialVelocity) -> Eulerian {
         let mut e = Eulerian { limiter, ..Default::default() };
-        let ctx = InitContext { grid, boundaries: bc, name: "test", density: 2.0, region, velocity: vel, theta: None };
+        let ctx = InitContext {
+            grid,
+            boundaries: bc,
+            name: "test",
+            density: 2.0,
+            region,
+            velocity: vel,
+            theta: None,
+            contact: None,
+        };
         e.initialize(&ctx).unwrap();
         e
     }
@@ -1033,6 +1042,7 @@ mod tests {
             region: &region,
             velocity: &vel,
             theta: None,
+            contact: None,
         };
         let e = Eulerian::default().initialize(&ctx).expect_err("refused");
         assert!(e.starts_with("region `Bodies([...])` (disk) needs a Lagrangian frame"), "{e}");

@@ -607,18 +607,25 @@ multifield_core::register!(
     ]
 );
 
-/// Refuses open sides. The frame neither creates points where material enters nor removes
-/// them where it leaves: at an inflow the points next to the side would be carried away and
-/// leave the grid there empty, at an outflow the points that reach the side would be stopped
-/// and pile up against it. A field whose bodies are all `Fixed` never moves (a cylinder in a
-/// channel flow of an Eulerian fluid), so it may face open sides. A moving wall (a `Velocity`
-/// side with a tangential component only) is a wall.
-fn check_open_sides(bc: &Boundaries, region: &Region) -> Result<(), String> {
+/// Refuses open sides where the field's material can reach them. The frame neither creates
+/// points where material enters nor removes them where it leaves: at an inflow the points
+/// next to the side would be carried away and leave the grid there empty, at an outflow the
+/// points that reach the side would be stopped and pile up against it. That holds for a
+/// continuum (a FLIP fluid, an MPM solid filling a region), which is refused. A field of
+/// bodies is accepted when its bodies cannot reach the side: all `Fixed` (a cylinder in a
+/// channel flow of an Eulerian fluid), or kept off every side by the case's contact model
+/// (`contact` of [`InitContext`]: its name, and whether it treats every non-periodic side,
+/// open ones included, as a wall for bodies; `dem` and `repulsion` with `walls: true`). A
+/// moving wall (a `Velocity` side with a tangential component only) is a wall.
+fn check_open_sides(bc: &Boundaries, region: &Region, contact: Option<(&str, bool)>) -> Result<(), String> {
     let bodies = match region {
         Region::Bodies(bodies) => Some(bodies),
         _ => None,
     };
     if bodies.is_some_and(|b| b.iter().all(|b| b.motion == Motion::Fixed)) {
+        return Ok(());
+    }
+    if bodies.is_some() && contact.is_some_and(|(_, walls)| walls) {
         return Ok(());
     }
     for side in Side::ALL {
@@ -642,16 +649,27 @@ fn check_open_sides(bc: &Boundaries, region: &Region) -> Result<(), String> {
             }
             Boundary::NoSlip | Boundary::FreeSlip | Boundary::Periodic => continue,
         };
-        let fix = if bodies.is_some() {
-            "make the side a wall (NoSlip, FreeSlip, or Velocity with a tangential component only), \
-             or make every body of this field `motion: Fixed`"
-        } else {
-            "give this field an Eulerian frame (`frame: (model: \"eulerian\")`), or make the side a wall \
-             (NoSlip, FreeSlip, or Velocity with a tangential component only)"
+        if bodies.is_none() {
+            return Err(format!(
+                "side `{}` is {what}: a Lagrangian field cannot create points at an inflow or remove them at an \
+                 outflow yet; give this field an Eulerian frame (`frame: (model: \"eulerian\")`), or make the side \
+                 a wall (NoSlip, FreeSlip, or Velocity with a tangential component only)",
+                side.name()
+            ));
+        }
+        let keep_off = match contact {
+            Some((model, _)) => format!(
+                "set `walls: true` in the contact model `{model}`'s params (it then treats every side that is not \
+                 periodic, open ones included, as a wall for the bodies)"
+            ),
+            None => "add a contact model that treats every side that is not periodic, open ones included, as a \
+                     wall for the bodies (`contact: Some((model: \"repulsion\"))`, or `dem`)"
+                .to_string(),
         };
         return Err(format!(
-            "side `{}` is {what}: a Lagrangian field cannot create points at an inflow or remove them at an \
-             outflow yet; {fix}",
+            "side `{}` is {what}, and the bodies of this field that move could reach it: a body cannot leave at an \
+             outflow or enter at an inflow; {keep_off}, make the side a wall (NoSlip, FreeSlip, or Velocity with a \
+             tangential component only), or make every body of this field `motion: Fixed`",
             side.name()
         ));
     }
@@ -816,7 +834,7 @@ impl Frame for Lagrangian {
     }
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
-        check_open_sides(ctx.boundaries, ctx.region)?;
+        check_open_sides(ctx.boundaries, ctx.region, ctx.contact)?;
         if self.grid == GridLayout::Collocated && matches!(ctx.region, Region::Bodies(_)) {
             return Err("a field of bodies needs grid \"staggered\" (its rigid projection and its coupling \
                         to a fluid live on the faces); remove grid: \"collocated\""
@@ -1245,6 +1263,11 @@ mod tests {
 
     /// Initializes a 4 × 4 Lagrangian field of `region` within `bc`.
     fn init(bc: Boundaries, region: Region) -> Result<Lagrangian, String> {
+        init_with(bc, region, None)
+    }
+
+    /// [`init`] in a case whose contact model is `contact` (name, keeps bodies off the sides).
+    fn init_with(bc: Boundaries, region: Region, contact: Option<(&str, bool)>) -> Result<Lagrangian, String> {
         let grid = Grid::new(4, 4, 0.25, Vector::zeros());
         let mut frame = Lagrangian::new(2, Shape::Linear, Transfer::Flip, 0.97);
         let velocity = InitialVelocity::default();
@@ -1256,6 +1279,7 @@ mod tests {
             region: &region,
             velocity: &velocity,
             theta: None,
+            contact,
         };
         frame.initialize(&ctx).map(|_| frame)
     }
@@ -1297,10 +1321,43 @@ mod tests {
         let e = init(outflow, Region::All).err().expect("an outflow is refused");
         assert!(e.starts_with("side `right` is an outflow (Outflow): a Lagrangian field cannot create points"), "{e}");
         assert!(e.contains("give this field an Eulerian frame"), "{e}");
-        // bodies that can move would stop against an open side: the fix is a wall or fixed bodies
+        // bodies that can move would stop against an open side: the fix is a contact model
+        // that keeps them off it, a wall or fixed bodies
         let e = init(outflow, disk(Motion::Free)).err().expect("a free body is refused");
-        assert!(e.starts_with("side `right` is an outflow (Outflow): "), "{e}");
-        assert!(e.ends_with("or make every body of this field `motion: Fixed`"), "{e}");
+        assert_eq!(
+            e,
+            "side `right` is an outflow (Outflow), and the bodies of this field that move could reach it: a body \
+             cannot leave at an outflow or enter at an inflow; add a contact model that treats every side that \
+             is not periodic, open ones included, as a wall for the bodies (`contact: Some((model: \"repulsion\"))`, \
+             or `dem`), make the side a wall (NoSlip, FreeSlip, or Velocity with a tangential component only), or \
+             make every body of this field `motion: Fixed`"
+        );
+        // a contact model whose walls are off
+        let e = init_with(inflow, disk(Motion::Free), Some(("dem", false))).err().expect("no walls: refused");
+        assert!(
+            e.starts_with(
+                "side `left` is an inflow (Velocity with a normal component), and the bodies of this field that \
+                 move could reach it: a body cannot leave at an outflow or enter at an inflow; set `walls: true` in \
+                 the contact model `dem`'s params"
+            ),
+            "{e}"
+        );
+        // a continuum stays refused whatever the contact model
+        let e = init_with(outflow, Region::All, Some(("dem", true))).err().expect("a continuum is refused");
+        assert!(e.contains("give this field an Eulerian frame"), "{e}");
+    }
+
+    #[test]
+    fn bodies_kept_off_the_sides_by_contact_may_face_open_sides() {
+        let bed = Boundaries {
+            bottom: velocity(0.0, 1.0, Profile::Uniform),
+            top: Boundary::Outflow { pressure: 0.0 },
+            ..Boundaries::default()
+        };
+        for model in ["dem", "repulsion"] {
+            let frame = init_with(bed, disk(Motion::Free), Some((model, true))).expect("bodies kept off");
+            assert!(!frame.points.is_empty());
+        }
     }
 
     #[test]

@@ -47,6 +47,10 @@ pub struct MassPoint {
     /// The drag law's name and Re range, once a step has seen it.
     #[serde(skip)]
     law: Option<(&'static str, (Real, Real))>,
+    /// Whether the case's contact model keeps the bodies off the sides (then the contact
+    /// meets the walls, and the frame only keeps the centres in the domain).
+    #[serde(skip)]
+    contact_walls: bool,
 }
 
 /// One body as a mass point.
@@ -145,6 +149,7 @@ impl Frame for MassPoint {
             return Err("a mass-point field needs `region: Bodies([...])` of disks".into());
         };
         self.points.clear();
+        self.contact_walls = ctx.contact.is_some_and(|(_, walls)| walls);
         for spec in specs {
             let BodyShape::Disk { center, radius } = spec.shape else {
                 return Err(format!("body `{}` is not a disk; a mass point stands for a disk", spec.name));
@@ -306,7 +311,11 @@ impl Frame for MassPoint {
                     p.max_reynolds = p.max_reynolds.max(re);
                 }
             }
-            // move; wrap periodic sides, stop the centre at a disk's radius from a wall
+            // move; wrap periodic sides; at the other sides, stop the centre at a disk's radius
+            // from the side, or, where the contact model meets the sides (as it does for
+            // resolved bodies), only at the side itself, a backstop the contact never lets
+            // it reach
+            let stop = if self.contact_walls { 0.0 } else { r };
             let mut x = st.position + dt * v_new;
             if contact.shift != Vector::zeros() {
                 // sub-stepped contact: where the sub-steps put the centre (docs/method.md §5)
@@ -318,11 +327,11 @@ impl Frame for MassPoint {
                     if x[axis] < lo[axis] || x[axis] >= hi[axis] {
                         x[axis] = lo[axis] + (x[axis] - lo[axis]).rem_euclid(len);
                     }
-                } else if x[axis] < lo[axis] + r.min(0.5 * len) {
-                    x[axis] = lo[axis] + r.min(0.5 * len);
+                } else if x[axis] < lo[axis] + stop.min(0.5 * len) {
+                    x[axis] = lo[axis] + stop.min(0.5 * len);
                     st.velocity[axis] = st.velocity[axis].max(0.0);
-                } else if x[axis] > hi[axis] - r.min(0.5 * len) {
-                    x[axis] = hi[axis] - r.min(0.5 * len);
+                } else if x[axis] > hi[axis] - stop.min(0.5 * len) {
+                    x[axis] = hi[axis] - stop.min(0.5 * len);
                     st.velocity[axis] = st.velocity[axis].min(0.0);
                 }
             }

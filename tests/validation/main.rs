@@ -4,4 +4,5 @@
 //! One test binary: `cargo test --release --test validation [module::]`.
 
 mod dkt;
+mod fluidized_bed;
 mod hindered_settling;

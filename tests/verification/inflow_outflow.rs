@@ -171,8 +171,9 @@ fn parabolic_inflow_and_outflow_give_plane_poiseuille_flow() {
     );
 }
 
-/// A Lagrangian field cannot face an inflow or an outflow (no points are created or
-/// removed there): the case is refused before step 0 with the side and the fix.
+/// A Lagrangian continuum cannot face an inflow or an outflow (no points are created or
+/// removed there): the case is refused before step 0 with the side and the fix (fields of
+/// bodies: `bodies_at_open_sides.rs`).
 #[test]
 fn a_lagrangian_field_refuses_open_sides() {
     link();

@@ -3,6 +3,7 @@
 //!
 //! One test binary: `cargo test --release --test verification [module::]`.
 
+mod bodies_at_open_sides;
 mod body_densities;
 mod collocated;
 mod contact_substeps;

@@ -20,7 +20,8 @@
 //!   `contact_gap` + 10⁻⁹ (r_i + r_j) (the nearest image across a periodic side), found on
 //!   a grid of cells at least as wide as the largest contact distance: O(N);
 //! - `wall_contacts`: the (body, wall) pairs with gap at most `contact_gap` + 10⁻⁹ r, for
-//!   the sides that are walls (not `Periodic`, not `Outflow`); a body in a corner touches
+//!   the sides that are walls for bodies (every side but a `Periodic` one, as for the
+//!   contact models: an inflow or an outflow of the fluid too); a body in a corner touches
 //!   two.
 //!
 //! The profiles cut the domain into `bins` slabs of equal width across the axis; per slab,
@@ -87,7 +88,7 @@ impl Geometry {
         bed_fraction: Real,
         contact_gap: Real,
     ) -> Self {
-        let wall = |s: Side| !matches!(boundaries.side(s), Boundary::Periodic | Boundary::Outflow { .. });
+        let wall = |s: Side| boundaries.side(s) != Boundary::Periodic;
         let g = gravity[0].hypot(gravity[1]);
         let down = if g > 0.0 {
             [gravity[0] / g, gravity[1] / g]

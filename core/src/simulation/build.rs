@@ -18,8 +18,9 @@ impl Simulation {
         // the caps on cells, points, bodies and lists before the grid is allocated
         case.check_counts()?;
         let d = &case.domain;
-        let h = d.size[0] / d.cells[0] as Real;
-        let grid = Grid::new(d.cells[0], d.cells[1], h, vector(d.origin));
+        let [nx, ny] = case.cells();
+        let h = d.size[0] / nx as Real;
+        let grid = Grid::new(nx, ny, h, vector(d.origin));
         let boundaries = case.boundaries;
         let mut fields = Vec::new();
         for (k, spec) in case.fields.iter_mut().enumerate() {
@@ -167,6 +168,7 @@ impl Simulation {
             }
             None => None,
         };
+        let contact_sides = contact.as_ref().map(|c| (c.model(), c.keeps_bodies_off_sides()));
         // seed: fields with their own region first, then the one that fills the rest
         let mut occupied = vec![0.0; grid.n_cells()];
         let seeded: Vec<(String, bool)> = fields.iter().map(|f| (f.name.clone(), f.fills_rest)).collect();
@@ -210,6 +212,7 @@ impl Simulation {
                     region: &spec.region,
                     velocity: &velocity,
                     theta: (!f.frame.is_lagrangian()).then_some(&theta[..]),
+                    contact: contact_sides,
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }
@@ -232,6 +235,7 @@ impl Simulation {
                     region: &spec.region,
                     velocity: &velocity,
                     theta: Some(&rest),
+                    contact: contact_sides,
                 })
                 .map_err(|m| Error::invalid(format!("fields.{}", f.name), m))?;
         }

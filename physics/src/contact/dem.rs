@@ -32,8 +32,9 @@
 //! equal to the normal one, so a sticking contact reverses its tangential velocity (the
 //! 3D spheres' value is 2/7).
 //!
-//! Walls (the non-periodic, non-outflow sides, as `repulsion`'s): a body touching a wall is
-//! a pair with a fixed body of infinite mass whose surface is the wall.
+//! Walls (every side that is not periodic, as `repulsion`'s: an inflow or an outflow of the
+//! fluid is a wall for the bodies, which keeps them in the domain of a fluidized bed): a
+//! body touching a wall is a pair with a fixed body of infinite mass whose surface is the wall.
 //!
 //! Hertzian normal law (`normal: "hertz"`): F_n = k δ^{3/2} − α sqrt(m_eff k) δ^{1/4} v_n,
 //! the 3D sphere's power law applied to disks as 2D DEM codes do (Tsuji, Kawaguchi & Tanaka,
@@ -414,7 +415,7 @@ impl Dem {
         for (i, a) in bodies.iter().enumerate() {
             let Some(mass) = effective_mass(a, None) else { continue };
             for (k, side) in Side::ALL.into_iter().enumerate() {
-                if matches!(ctx.boundaries.side(side), Boundary::Periodic | Boundary::Outflow { .. }) {
+                if ctx.boundaries.side(side) == Boundary::Periodic {
                     continue;
                 }
                 let x = a.position;
@@ -483,7 +484,7 @@ multifield_core::register!(
             name: "walls",
             unit: "-",
             default: "true",
-            doc: "whether walls (non-periodic, non-outflow sides) are contacts"
+            doc: "whether the sides (every non-periodic one, inflows and outflows included) are walls for the bodies"
         },
         ParamDoc {
             name: "steps_per_collision",
@@ -577,6 +578,10 @@ impl ContactModel for Dem {
     }
     fn needs_fluid_viscosity(&self) -> bool {
         self.lubrication
+    }
+    /// Every non-periodic side is a wall for the bodies, inflows and outflows included.
+    fn keeps_bodies_off_sides(&self) -> bool {
+        self.walls
     }
     fn history(&self) -> Vec<u8> {
         let mut b = Vec::with_capacity(8 + 24 * self.history.len());

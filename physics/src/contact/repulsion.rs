@@ -11,7 +11,8 @@
 //! ε = `stiffness`. The cap keeps the range a fraction of the bodies' size where the grid is
 //! coarse against them (point particles with d ≈ h), where 2h would push disks apart a
 //! diameter away; bodies resolved with 4 or more cells per radius never reach it. A wall acts through the mirror image
-//! of the body. Its stiffness k = 2c/(ερ) limits the step while bodies are in range:
+//! of the body; every side that is not periodic is a wall for the bodies, an inflow or an
+//! outflow of the fluid included (this keeps the bodies of a fluidized bed in the domain). Its stiffness k = 2c/(ερ) limits the step while bodies are in range:
 //! Δt ≤ `dt_factor` · sqrt(M/k) (docs/method.md §5).
 
 use multifield_core::boundary::{Boundary, Side};
@@ -35,7 +36,7 @@ pub struct Repulsion {
     /// bodies), force per unit depth.
     #[serde(default)]
     pub force_scale: Real,
-    /// Whether walls repel bodies.
+    /// Whether the sides repel bodies (every non-periodic one, inflows and outflows included).
     #[serde(default = "default_walls")]
     pub walls: bool,
     /// Fraction of sqrt(M/k) allowed as a time step while bodies are in range.
@@ -146,7 +147,7 @@ impl Repulsion {
             let hi = lo + ctx.grid.size();
             let x = bodies[i].position;
             for side in Side::ALL {
-                if matches!(ctx.boundaries.side(side), Boundary::Periodic | Boundary::Outflow { .. }) {
+                if ctx.boundaries.side(side) == Boundary::Periodic {
                     continue;
                 }
                 let image = match side {
@@ -177,7 +178,12 @@ multifield_core::register!(
             name: "stiffness", unit: "-", default: "1e-2", doc: "ε: force at full overlap = buoyant weight/ε"
         },
         ParamDoc { name: "force_scale", unit: "force/length", default: "0", doc: "c when the buoyant weight is zero" },
-        ParamDoc { name: "walls", unit: "-", default: "true", doc: "whether walls repel bodies" },
+        ParamDoc {
+            name: "walls",
+            unit: "-",
+            default: "true",
+            doc: "whether the sides (every non-periodic one, inflows and outflows included) repel bodies",
+        },
         ParamDoc { name: "dt_factor", unit: "-", default: "0.1", doc: "Δt ≤ dt_factor·sqrt(M/k) while in range" },
         ParamDoc {
             name: "max_range",
@@ -229,6 +235,10 @@ impl ContactModel for Repulsion {
     /// The step of [`ContactModel::stable_dt`] for the stiffest pair any two bodies (or a
     /// body and a wall) could form: the smallest mass and range against the largest force
     /// scale, dt_factor · sqrt(M_min ε ρ_min / (2 c_max)); equal to it for equal bodies.
+    /// Every non-periodic side is a wall for the bodies, inflows and outflows included.
+    fn keeps_bodies_off_sides(&self) -> bool {
+        self.walls
+    }
     fn substep_dt(&self, ctx: &ContactContext) -> Option<Real> {
         let bodies = ctx.bodies;
         if bodies.is_empty() || (bodies.len() == 1 && !self.walls) {
