@@ -35,6 +35,22 @@ pub struct Local {
     pub w: [Real; MAX_FIELDS],
 }
 
+impl Local {
+    /// `n` fields, all absent (mass 0, material density 1) and at rest.
+    pub fn empty(n: usize) -> Self {
+        Local {
+            n,
+            rho: [0.0; MAX_FIELDS],
+            rho_w: [0.0; MAX_FIELDS],
+            theta: [0.0; MAX_FIELDS],
+            material_density: [1.0; MAX_FIELDS],
+            u: [0.0; MAX_FIELDS],
+            u_old: [0.0; MAX_FIELDS],
+            w: [0.0; MAX_FIELDS],
+        }
+    }
+}
+
 /// Couplings at one location: `k[a][b]` is K (∞ for no-slip, 0 for none).
 pub type Coefficients = [[Real; MAX_FIELDS]; MAX_FIELDS];
 
@@ -233,16 +249,7 @@ mod tests {
     use super::*;
 
     fn local(rho: &[Real], theta: &[Real], u: &[Real]) -> Local {
-        let mut l = Local {
-            n: rho.len(),
-            rho: [0.0; MAX_FIELDS],
-            rho_w: [0.0; MAX_FIELDS],
-            theta: [0.0; MAX_FIELDS],
-            material_density: [1.0; MAX_FIELDS],
-            u: [0.0; MAX_FIELDS],
-            u_old: [0.0; MAX_FIELDS],
-            w: [0.0; MAX_FIELDS],
-        };
+        let mut l = Local::empty(rho.len());
         for i in 0..rho.len() {
             l.rho[i] = rho[i];
             l.rho_w[i] = rho[i];

@@ -85,16 +85,7 @@ impl Simulation {
                 let len = chunk.first().map_or(0, |f| f.u.len());
                 for i in 0..len {
                     let face = c * EXCHANGE_CHUNK + i;
-                    let mut loc = Local {
-                        n,
-                        rho: [0.0; MAX_FIELDS],
-                        rho_w: [0.0; MAX_FIELDS],
-                        theta: [0.0; MAX_FIELDS],
-                        material_density: [1.0; MAX_FIELDS],
-                        u: [0.0; MAX_FIELDS],
-                        u_old: [0.0; MAX_FIELDS],
-                        w: [0.0; MAX_FIELDS],
-                    };
+                    let mut loc = Local::empty(n);
                     for (k, f) in chunk.iter().enumerate() {
                         let (m, t) = (f.mass[i], f.theta[i]);
                         loc.rho[k] = m / area;

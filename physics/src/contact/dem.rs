@@ -625,6 +625,19 @@ mod tests {
     use multifield_core::grid::Grid;
     use std::f64::consts::PI;
 
+    /// The contact context in vacuum (no gravity, no fluid) of `bodies`.
+    fn vacuum<'a>(grid: &'a Grid, bc: &'a Boundaries, bodies: &'a [BodyState]) -> ContactContext<'a> {
+        ContactContext {
+            grid,
+            boundaries: bc,
+            gravity: Vector::zeros(),
+            fluid_density: 0.0,
+            fluid_viscosity: None,
+            bodies,
+            resolved: &[],
+        }
+    }
+
     fn dem(e: Real, tc: Real, mu: Real) -> Dem {
         let mut d: Dem = multifield_core::registry::parse_params(
             &serde_json::json!({ "restitution": e, "collision_time": tc, "friction": mu }),
@@ -660,15 +673,7 @@ mod tests {
         let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
         let (mut steps, mut touched, mut rose) = (0, false, 1.0 as Real);
         for _ in 0..1_000_000 {
-            let ctx = ContactContext {
-                grid: &grid,
-                boundaries: bc,
-                gravity: Vector::zeros(),
-                fluid_density: 0.0,
-                fluid_viscosity: None,
-                bodies,
-                resolved: &[],
-            };
+            let ctx = vacuum(&grid, bc, bodies);
             m.forces(&ctx, dt, &mut out);
             let touching = !m.history.is_empty();
             if touched && !touching {
@@ -782,15 +787,7 @@ mod tests {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let bodies = [disk(0.3, 0.095, 1.0, -1.0), disk(0.49, 0.099, -1.0, 0.0)];
-        let ctx = ContactContext {
-            grid: &grid,
-            boundaries: &bc,
-            gravity: Vector::zeros(),
-            fluid_density: 0.0,
-            fluid_viscosity: None,
-            bodies: &bodies,
-            resolved: &[],
-        };
+        let ctx = vacuum(&grid, &bc, &bodies);
         let mut a = dem(0.5, 1e-3, 0.5);
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         a.forces(&ctx, 1e-6, &mut out);
@@ -886,15 +883,7 @@ mod tests {
         let grid = Grid::new(10, 10, 0.1, Vector::zeros());
         let bc = Boundaries::default();
         let bodies = [disk(0.5, 0.5, 0.0, -16.0)];
-        let ctx = ContactContext {
-            grid: &grid,
-            boundaries: &bc,
-            gravity: Vector::zeros(),
-            fluid_density: 0.0,
-            fluid_viscosity: None,
-            bodies: &bodies,
-            resolved: &[],
-        };
+        let ctx = vacuum(&grid, &bc, &bodies);
         let dt = m.stable_dt(&ctx).unwrap();
         assert!((dt / (tc * 32.0_f64.powf(-0.2) / 20.0) - 1.0).abs() < 1e-12, "step {dt}");
     }
