@@ -21,6 +21,7 @@
 
 use crate::boundary::Boundaries;
 use crate::case::Domain;
+use crate::grid::Grid;
 use crate::math::{Real, Vector};
 
 /// The box the disks live in, and which of its axes are periodic.
@@ -42,6 +43,17 @@ impl SearchDomain {
         SearchDomain {
             origin: Vector::new(domain.origin[0], domain.origin[1]),
             size: Vector::new(domain.size[0], domain.size[1]),
+            periodic_x: boundaries.periodic_x(),
+            periodic_y: boundaries.periodic_y(),
+        }
+    }
+
+    /// The box of a grid (its origin and `size()`), periodic as `boundaries` say: what the
+    /// contact models search in.
+    pub fn of_grid(grid: &Grid, boundaries: &Boundaries) -> Self {
+        SearchDomain {
+            origin: grid.origin,
+            size: grid.size(),
             periodic_x: boundaries.periodic_x(),
             periodic_y: boundaries.periodic_y(),
         }

@@ -382,12 +382,7 @@ impl Dem {
     /// (i, j), then walls by body and side).
     fn touches(&mut self, ctx: &ContactContext) -> Vec<Touch> {
         let bodies = ctx.bodies;
-        let domain = SearchDomain {
-            origin: ctx.grid.origin,
-            size: ctx.grid.size(),
-            periodic_x: ctx.boundaries.periodic_x(),
-            periodic_y: ctx.boundaries.periodic_y(),
-        };
+        let domain = SearchDomain::of_grid(ctx.grid, ctx.boundaries);
         let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
         let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
         let range = self.range(ctx);

@@ -120,12 +120,7 @@ impl Repulsion {
         // 2ρ of any pair is at most 2 min(grid range, max_range · largest radius)
         let r_max = radii.iter().fold(0.0 as Real, |m, &r| m.max(r));
         let search = 2.0 * range(r_max);
-        let domain = SearchDomain {
-            origin: ctx.grid.origin,
-            size: ctx.grid.size(),
-            periodic_x: ctx.boundaries.periodic_x(),
-            periodic_y: ctx.boundaries.periodic_y(),
-        };
+        let domain = SearchDomain::of_grid(ctx.grid, ctx.boundaries);
         let candidates = pairs_within(&centres, &radii, search, &domain);
         let mut next = 0;
         for i in 0..bodies.len() {
