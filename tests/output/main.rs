@@ -3,6 +3,7 @@
 //!
 //! One test binary: `cargo test --release --test output [module::]`.
 
+mod common;
 mod driver;
 mod examples;
 mod generated_bodies;

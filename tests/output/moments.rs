@@ -1,6 +1,7 @@
 //! Output at chosen moments (issue 22, item 3): snapshots and pictures at a list of exact
 //! times, on which the step lands, and `at_end`.
 
+use super::common::load;
 use multifield::core::case::Case;
 use multifield::core::math::Real;
 use multifield::core::simulation::Status;
@@ -10,15 +11,7 @@ use multifield::snapshot::Snapshot;
 use std::path::{Path, PathBuf};
 
 fn out_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("moments").join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn load(file: &str, overrides: &[&str]) -> Case {
-    multifield::link_all();
-    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    Case::load(Path::new(file), &overrides).unwrap_or_else(|e| panic!("{e}"))
+    super::common::fresh_dir("moments", name)
 }
 
 fn run_into(case: &Case, dir: &Path) -> Outcome {

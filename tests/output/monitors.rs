@@ -11,10 +11,7 @@ use multifield::run::{run, Outcome, RunOptions};
 use std::path::{Path, PathBuf};
 
 fn out_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("monitors").join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::created_dir("monitors", name)
 }
 
 /// The case of `text` with `monitors` and `stop` added (RON lists' contents).

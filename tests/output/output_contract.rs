@@ -28,9 +28,7 @@ const CASE: &str = r#"(
 )"#;
 
 fn out_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("output_contract").join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    d
+    super::common::fresh_dir("output_contract", name)
 }
 
 fn run_with(name: &str, overrides: &[&str]) -> (Case, Outcome, serde_json::Value) {

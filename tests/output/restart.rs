@@ -13,6 +13,7 @@
 //!   an older format version are refused, each saying what is wrong and what to do;
 //! - a checkpoint of a case with another grid is refused with the entry that differs.
 
+use super::common::load;
 use multifield::checkpoint::{self, Checkpoint};
 use multifield::core::case::Case;
 use multifield::core::math::Real;
@@ -24,15 +25,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 fn out_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("restart").join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn load(file: &str, overrides: &[&str]) -> Case {
-    multifield::link_all();
-    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    Case::load(Path::new(file), &overrides).unwrap()
+    super::common::fresh_dir("restart", name)
 }
 
 fn run_into(case: &Case, dir: &Path, restart: Option<&Path>) -> Outcome {

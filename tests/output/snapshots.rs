@@ -44,10 +44,7 @@ fn case(end: Real, interval: Real) -> Case {
 }
 
 fn out_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("snapshots").join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::created_dir("snapshots", name)
 }
 
 fn snapshot_files(dir: &Path) -> Vec<PathBuf> {

@@ -49,10 +49,7 @@ const STUDY: &str = r#"// a small study: exchange integration × Δt/τ
 "#;
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study").join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    super::common::created_dir("study", name)
 }
 
 pub(crate) fn multifield(args: &[&str]) -> Output {
