@@ -6,7 +6,8 @@
 //! last checkpoint.
 //!
 //! The real-Slurm tests need `sbatch` on PATH and a running cluster (`.ci/slurm-local.sh
-//! start` makes a one-node one). Without `sbatch` they print why and pass, unless
+//! start` makes a one-node one). Without `sbatch`, or with the client tools but no
+//! controller answering `sinfo`, they print why and pass, unless
 //! `MULTIFIELD_REQUIRE_SLURM=1` (set by .ci/run, which starts the cluster): then they fail.
 
 use crate::study::{multifield, table, text};
@@ -29,16 +30,23 @@ fn multifield_on_path(args: &[&str], path: &Path) -> Output {
 
 /// Whether a Slurm cluster is there to test against; see the module's doc.
 fn slurm_present(test: &str) -> bool {
-    if multifield::slurm::tool("sbatch").is_some() {
-        return true;
-    }
+    let required = std::env::var("MULTIFIELD_REQUIRE_SLURM").as_deref() == Ok("1");
+    let why = if multifield::slurm::tool("sbatch").is_none() {
+        "`sbatch` is not on PATH".to_string()
+    } else {
+        // the client tools without a controller to answer them (installed, not started)
+        match Command::new("sinfo").arg("-h").output() {
+            Ok(o) if o.status.success() => return true,
+            Ok(o) => format!("`sinfo` finds no controller ({})", String::from_utf8_lossy(&o.stderr).trim()),
+            Err(e) => format!("`sinfo` does not run ({e})"),
+        }
+    };
     assert!(
-        std::env::var("MULTIFIELD_REQUIRE_SLURM").as_deref() != Ok("1"),
-        "{test}: MULTIFIELD_REQUIRE_SLURM=1 but `sbatch` is not on PATH: the local Slurm of .ci/slurm-local.sh \
-         did not come up"
+        !required,
+        "{test}: MULTIFIELD_REQUIRE_SLURM=1 but {why}: the local Slurm of .ci/slurm-local.sh did not come up"
     );
     eprintln!(
-        "{test}: skipped: `sbatch` is not on PATH (`.ci/slurm-local.sh start` runs a local Slurm; \
+        "{test}: skipped: {why} (`.ci/slurm-local.sh start` runs a local Slurm; \
          MULTIFIELD_REQUIRE_SLURM=1 turns this skip into a failure)"
     );
     false
