@@ -633,6 +633,11 @@ mod tests {
         }
     }
 
+    /// The contact context of resolved `bodies` in a fluid of density 1 and viscosity `mu`.
+    fn in_water<'a>(grid: &'a Grid, bc: &'a Boundaries, bodies: &'a [BodyState], mu: Real) -> ContactContext<'a> {
+        ContactContext { fluid_density: 1.0, fluid_viscosity: Some(mu), resolved: &[true], ..vacuum(grid, bc, bodies) }
+    }
+
     fn dem(e: Real, tc: Real, mu: Real) -> Dem {
         let mut d: Dem = multifield_core::registry::parse_params(
             &serde_json::json!({ "restitution": e, "collision_time": tc, "friction": mu }),
@@ -922,15 +927,7 @@ mod tests {
         let coefficient = LUBRICATION * mu * ((a / eps).powf(1.5) - (a / act).powf(1.5));
         let big = 100.0 * mass / coefficient;
         let mut out = [(Vector::zeros(), 0.0)];
-        let context = ContactContext {
-            grid: &grid,
-            boundaries: &bc,
-            gravity: Vector::zeros(),
-            fluid_density: 1.0,
-            fluid_viscosity: Some(mu),
-            bodies: &b,
-            resolved: &[true],
-        };
+        let context = in_water(&grid, &bc, &b, mu);
         m.forces(&context, big, &mut out);
         let v1 = b[0].velocity.y + big / mass * out[0].0.y;
         assert!((v1 / (-v0 / 101.0) - 1.0).abs() < 1e-12, "one large step: v = {v1}");
@@ -941,15 +938,7 @@ mod tests {
             let mut out = [(Vector::zeros(), 0.0)];
             let mut worst: Real = 0.0;
             for _ in 0..200_000 {
-                let ctx = ContactContext {
-                    grid: &grid,
-                    boundaries: &bc,
-                    gravity: Vector::zeros(),
-                    fluid_density: 1.0,
-                    fluid_viscosity: Some(mu),
-                    bodies: &b,
-                    resolved: &[true],
-                };
+                let ctx = in_water(&grid, &bc, &b, mu);
                 m.forces(&ctx, dt, &mut out);
                 b[0].velocity += dt / mass * out[0].0;
                 b[0].position += dt * b[0].velocity;
