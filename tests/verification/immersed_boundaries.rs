@@ -463,8 +463,8 @@ fn a_free_disk_settles_to_a_speed_that_converges_with_the_grid() {
 /// the floor of a closed 0.4 × 0.4 box of water: two side by side 0.001 apart, the third
 /// resting on both. Their markers lie within one kernel support of each other's (issue 15:
 /// the fluidized bed's `direct_forcing` blow-up in miniature). Runs `overrides` to t = 1
-/// and returns the largest kinetic energy of the step against the potential energy the
-/// disks can release, Σ (ρ_b − ρ_f) V g (y₀ − R): with the fluid and the disks at rest at
+/// and returns the largest kinetic energy of a step and the potential energy the disks can
+/// release, Σ (ρ_b − ρ_f) V g (y₀ − R): with the fluid and the disks at rest at
 /// the start and the walls doing no work, the kinetic energy can never exceed it.
 fn pyramid(overrides: &[&str]) -> (Real, Real) {
     multifield::link_all();
@@ -498,8 +498,9 @@ fn pyramid(overrides: &[&str]) -> (Real, Real) {
     let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     let case = Case::load(&file, &overrides).expect("valid case");
     std::fs::remove_dir_all(&dir).expect("removes the temporary directory");
+    let excess = case.fields[1].density - case.fields[0].density;
     let released: Real =
-        [0.06, 0.06, 0.148].iter().map(|y| 0.1 * std::f64::consts::PI * 0.05 * 0.05 * 981.0 * (y - 0.05)).sum();
+        [0.06, 0.06, 0.148].iter().map(|y| excess * std::f64::consts::PI * 0.05 * 0.05 * 981.0 * (y - 0.05)).sum();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
     let peak = pool.install(|| {
         let mut sim = Simulation::new(&case).expect("builds");
@@ -517,34 +518,23 @@ fn pyramid(overrides: &[&str]) -> (Real, Real) {
     (peak, released)
 }
 
-/// The pyramid's energy stays below what the disks can release where the markers of
-/// touching disks are far enough apart on the grid to be solved body by body: under
-/// `no_slip`, under `direct_forcing` with sweeps, and with the exact forcing at 8 cells
-/// per diameter. Measured peaks (t ≤ 1) of the 0.091 released: 0.027 (`no_slip`), 0.0091
-/// (sweeps), 0.0069 (8 cells per diameter); the exact forcing at 4 cells per diameter
-/// passes 1.4e3 (the ignored test below).
+/// The pyramid's energy stays below what the disks can release, under `no_slip`, and under
+/// `direct_forcing` exact and with sweeps, at 4 and 8 cells per diameter, and with the disks
+/// twice as heavy. Before the touching bodies were solved together (issue 15) the exact
+/// forcing at 4 cells per diameter blew up at t ≈ 0.47 s, passing 1.4e3 against 0.091
+/// released (at ρs/ρf = 2 at t ≈ 0.29 s), while `no_slip`, the sweeps and 8 cells per
+/// diameter held.
 #[test]
-fn touching_disks_keep_their_energy_where_direct_forcing_holds() {
+fn touching_disks_keep_their_energy_under_direct_forcing() {
     for overrides in [
-        &["exchange.0.model=\"no_slip\""][..],
-        &["exchange.0.params=(forcing: \"sweeps\")"][..],
+        &[][..],
+        &["fields.disks.density=2.0"][..],
         &["domain.cells=(32, 32)"][..],
+        &["exchange.0.params=(forcing: \"sweeps\")"][..],
+        &["exchange.0.model=\"no_slip\""][..],
     ] {
         let (peak, released) = pyramid(overrides);
         eprintln!("{overrides:?}: peak kinetic energy {peak:e} of {released:e} released");
         assert!(peak < released, "{overrides:?}: kinetic energy {peak:e} against {released:e} released");
     }
-}
-
-/// Issue 15, not fixed: the exact direct forcing at 4 cells per diameter blows up the
-/// pyramid at t ≈ 0.47 s (the run passes 1.4e3 against 0.091 released). Each free body's
-/// implicit velocity is solved with its own markers alone, and the markers of all bodies
-/// are then forced together: where two bodies' markers share faces, the joint solve's force
-/// on a body differs from the one its velocity was solved with, and the difference grows
-/// by about 2× a step (docs/method.md §6, "touching bodies under direct forcing").
-#[test]
-#[ignore = "issue 15: direct_forcing on touching disks at 4 cells per diameter blows up"]
-fn touching_disks_keep_their_energy_under_the_exact_direct_forcing() {
-    let (peak, released) = pyramid(&[]);
-    assert!(peak < released, "kinetic energy {peak:e} against {released:e} released");
 }
