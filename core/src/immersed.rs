@@ -630,6 +630,14 @@ fn force_sums(forces: &[Vector], markers: &[Marker], c: Vector) -> (Vector, Real
     (f, t)
 }
 
+/// Surfaces closer than this many cells put two bodies in one cluster of
+/// [`joint_motions`].
+pub const CLUSTER_GAP: Real = 1.0;
+
+/// A forcing of `markers` toward their targets from a velocity ([`direct_forcing`] or
+/// [`exact_forcing`] with the step's parameters).
+type ForceSolve<'a> = dyn Fn(&FaceVelocity, &[Marker], &[Vector]) -> Forcing + 'a;
+
 /// The free bodies' new motions (U', ω') where their markers share faces with another
 /// body's (issue 15): such bodies are solved together, one system of 3k unknowns per
 /// cluster of k free bodies, with the forcing's responses to each body's unit motions on
@@ -637,14 +645,17 @@ fn force_sums(forces: &[Vector], markers: &[Marker], c: Vector) -> (Vector, Real
 /// prescribed body's at its motion). Solving each alone, with its own markers only, left
 /// the force the joint forcing put on it different from the one its velocity was solved
 /// with: explicit between touching bodies, and the difference grew ×1.4–2 a step.
-/// `None` for a body alone (solved in [`couple`] as before) or not free. Two bodies
-/// are in one cluster when the boxes of their markers, widened by the kernel's 1.5 h,
-/// overlap (across a periodic side they are not looked for).
+/// `None` for a body alone (solved in [`couple`] as before) or not free. Two bodies are in
+/// one cluster when their surfaces are closer than [`CLUSTER_GAP`] cells (outer circles;
+/// across a periodic side they are not looked for). Bodies farther apart may still share
+/// faces (the kernels reach 3 h between markers) but weakly: they stay solved one by one,
+/// as the fluidized bed at 4 cells per diameter, where nearly every disk is within 3 h of
+/// another, could not afford clusters that large (over 30 times slower).
 #[allow(clippy::too_many_arguments)]
 fn joint_motions(
     grid: &Grid,
     bc: &Boundaries,
-    force: &dyn Fn(&FaceVelocity, &[Marker], &[Vector]) -> Forcing,
+    force: &ForceSolve,
     v: &FaceVelocity,
     zero: &FaceVelocity,
     retraction: Real,
@@ -671,13 +682,16 @@ fn joint_motions(
             (index, m)
         })
         .collect();
-    let reach = 1.5 * grid.h;
-    let boxes: Vec<Option<(Vector, Vector)>> = own
+    // the bodies' outer circles (those with markers inside the domain)
+    let circles: Vec<Option<(Vector, Real)>> = bodies
         .iter()
-        .map(|(_, m)| {
-            let first = m.first()?.position;
-            let (lo, hi) = m.iter().fold((first, first), |(lo, hi), k| (lo.inf(&k.position), hi.sup(&k.position)));
-            Some((lo - Vector::new(reach, reach), hi + Vector::new(reach, reach)))
+        .zip(&own)
+        .map(|(b, (_, m))| match b.shape {
+            _ if m.is_empty() => None,
+            BodyShape::Disk { radius, .. } | BodyShape::Annulus { outer_radius: radius, .. } => {
+                Some((b.center, radius))
+            }
+            BodyShape::Rectangle { .. } => None,
         })
         .collect();
     // union–find, the smallest index the root: clusters in body order
@@ -689,16 +703,18 @@ fn joint_motions(
         }
         i
     }
-    let mut order: Vec<usize> = (0..n).filter(|&i| boxes[i].is_some()).collect();
-    order.sort_by(|&a, &b| boxes[a].unwrap().0.x.total_cmp(&boxes[b].unwrap().0.x).then(a.cmp(&b)));
+    let gap = CLUSTER_GAP * grid.h;
+    let left = |i: usize| circles[i].map_or(0.0, |(c, r)| c.x - r);
+    let mut order: Vec<usize> = (0..n).filter(|&i| circles[i].is_some()).collect();
+    order.sort_by(|&a, &b| left(a).total_cmp(&left(b)).then(a.cmp(&b)));
     for (k, &a) in order.iter().enumerate() {
-        let (alo, ahi) = boxes[a].unwrap();
+        let (ca, ra) = circles[a].unwrap_or_default();
         for &b in &order[k + 1..] {
-            let (blo, bhi) = boxes[b].unwrap();
-            if blo.x > ahi.x {
+            let (cb, rb) = circles[b].unwrap_or_default();
+            if cb.x - rb > ca.x + ra + gap {
                 break;
             }
-            if blo.y <= ahi.y && alo.y <= bhi.y {
+            if (cb - ca).norm() < ra + rb + gap {
                 let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
                 if ra != rb {
                     parent[ra.max(rb)] = ra.min(rb);
