@@ -22,7 +22,10 @@
 //! (Kempe & Fröhlich, J. Comput. Phys. 231, 2012). A free body moves by Newton–Euler,
 //! implicit in the new velocity (the forcing's target is the body's new rigid motion, so
 //! the forcing shell's fluid mass and the fluid it leaves inside enter the body's inertia;
-//! Tschisgale, Kempe & Fröhlich, J. Comput. Phys. 339, 2017, for the idea):
+//! Tschisgale, Kempe & Fröhlich, J. Comput. Phys. 339, 2017, for the idea). Free bodies
+//! whose surfaces are closer than a cell are solved together, their markers' forces on the
+//! whole cluster's markers (issue 15: solved one by one, touching disks blew up;
+//! docs/method.md §6):
 //!
 //! ```text
 //!   M (U' − Uⁿ)/Δt = −ρ_f Σ_l F_l(U', ω') ΔV_l + ρ_f (P'(U', ω') − Pⁿ)/Δt + (M − ρ_f V) g + F_contact
