@@ -29,6 +29,7 @@ use crate::field::FieldState;
 use crate::geometry::disk_rectangle_area;
 use crate::grid::{FaceVelocity, Grid, Lattice};
 use crate::math::{cross, Real, Vector};
+use crate::neighbours::{pairs_within, SearchDomain};
 use crate::plugin::BodyStep;
 use std::f64::consts::PI;
 
@@ -672,29 +673,38 @@ fn joint_motions(
     if n < 2 || !bodies.iter().any(|b| b.motion == Motion::Free) {
         return Ok(out);
     }
-    // each body's markers inside the domain and their box widened by the kernel's reach
-    let own: Vec<(Vec<usize>, Vec<Marker>)> = bodies
-        .iter()
-        .map(|b| {
-            let all = b.markers(grid, retraction);
-            let index: Vec<usize> = (0..all.len()).filter(|&l| grid.contains(all[l].position)).collect();
-            let m = index.iter().map(|&l| all[l]).collect();
-            (index, m)
-        })
-        .collect();
-    // the bodies' outer circles (those with markers inside the domain)
-    let circles: Vec<Option<(Vector, Real)>> = bodies
-        .iter()
-        .zip(&own)
-        .map(|(b, (_, m))| match b.shape {
-            _ if m.is_empty() => None,
-            BodyShape::Disk { radius, .. } | BodyShape::Annulus { outer_radius: radius, .. } => {
-                Some((b.center, radius))
-            }
+    // the disks whose surfaces are within the gap of another's (outer circles; the cell-list
+    // search, not across periodic sides): the only bodies whose markers are needed here
+    let gap = CLUSTER_GAP * grid.h;
+    let disks: Vec<(usize, Real)> = (0..n)
+        .filter_map(|i| match bodies[i].shape {
+            BodyShape::Disk { radius, .. } | BodyShape::Annulus { outer_radius: radius, .. } => Some((i, radius)),
             BodyShape::Rectangle { .. } => None,
         })
         .collect();
-    // union–find, the smallest index the root: clusters in body order
+    let centres: Vec<Vector> = disks.iter().map(|&(i, _)| bodies[i].center).collect();
+    let radii: Vec<Real> = disks.iter().map(|&(_, r)| r).collect();
+    let domain = SearchDomain { origin: grid.origin, size: grid.size(), periodic_x: false, periodic_y: false };
+    let close: Vec<(usize, usize)> = pairs_within(&centres, &radii, gap, &domain)
+        .into_iter()
+        .filter(|p| p.distance < radii[p.i] + radii[p.j] + gap)
+        .map(|p| (disks[p.i].0, disks[p.j].0))
+        .collect();
+    // each such body's markers inside the domain (with their indices among all its markers)
+    let mut own: Vec<(Vec<usize>, Vec<Marker>)> = vec![(Vec::new(), Vec::new()); n];
+    let mut needed = vec![false; n];
+    for &(a, b) in &close {
+        needed[a] = true;
+        needed[b] = true;
+    }
+    for (i, b) in bodies.iter().enumerate().filter(|&(i, _)| needed[i]) {
+        let all = b.markers(grid, retraction);
+        let index: Vec<usize> = (0..all.len()).filter(|&l| grid.contains(all[l].position)).collect();
+        let m = index.iter().map(|&l| all[l]).collect();
+        own[i] = (index, m);
+    }
+    // union–find over the close pairs of bodies with markers in the domain, the smallest
+    // index the root: clusters in body order
     let mut parent: Vec<usize> = (0..n).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
         while parent[i] != i {
@@ -703,23 +713,10 @@ fn joint_motions(
         }
         i
     }
-    let gap = CLUSTER_GAP * grid.h;
-    let left = |i: usize| circles[i].map_or(0.0, |(c, r)| c.x - r);
-    let mut order: Vec<usize> = (0..n).filter(|&i| circles[i].is_some()).collect();
-    order.sort_by(|&a, &b| left(a).total_cmp(&left(b)).then(a.cmp(&b)));
-    for (k, &a) in order.iter().enumerate() {
-        let (ca, ra) = circles[a].unwrap_or_default();
-        for &b in &order[k + 1..] {
-            let (cb, rb) = circles[b].unwrap_or_default();
-            if cb.x - rb > ca.x + ra + gap {
-                break;
-            }
-            if (cb - ca).norm() < ra + rb + gap {
-                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-                if ra != rb {
-                    parent[ra.max(rb)] = ra.min(rb);
-                }
-            }
+    for &(a, b) in close.iter().filter(|&&(a, b)| !own[a].1.is_empty() && !own[b].1.is_empty()) {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        if ra != rb {
+            parent[ra.max(rb)] = ra.min(rb);
         }
     }
     let mut clusters: Vec<Vec<usize>> = vec![Vec::new(); n];
