@@ -695,14 +695,15 @@ impl Study {
             Reference::Run { labels, compare } => {
                 if labels.is_empty() {
                     let names: Vec<&str> = self.axes.iter().map(|a| a.name.as_str()).collect();
+                    let example = match (names.first(), points.first().and_then(|p| p.first())) {
+                        (Some(axis), Some(p)) => format!(", e.g. labels: {{\"{axis}\": \"{}\"}}", p.label),
+                        _ => String::new(),
+                    };
                     return Err(bad(
                         file,
                         "reference.labels",
                         format!(
-                            "name the reference run by a label on one axis or more, e.g. labels: {{\"{}\": \"{}\"}}; \
-                             axes: {}",
-                            names[0],
-                            points[0][0].label,
+                            "name the reference run by a label on one axis or more{example}; axes: {}",
                             names.join(", ")
                         ),
                     ));
