@@ -246,6 +246,28 @@ pub enum Reference {
         /// What is compared.
         compare: Compare,
     },
+    /// The run of the same group (equal labels on every axis not named here) whose labels
+    /// on the named axes are these: e.g. `{"representation": "resolved", "cells_per_d":
+    /// "16"}`, the finest resolved run at each solid fraction of a study that also sweeps
+    /// the solid fraction. [`Reference::Baseline`] is the case of one axis.
+    Run {
+        /// Axis name → the label of the reference run on it.
+        labels: BTreeMap<String, String>,
+        /// What is compared.
+        compare: Compare,
+    },
+    /// A known value of one of the study's metric columns for each label of one axis
+    /// (published or analytic values that vary along the axis: a settling velocity per
+    /// solid fraction, a bed height per inflow velocity): the error of a run is
+    /// |metric − value| / |value| with the value of its own label on `axis`.
+    Table {
+        /// The metric's column, e.g. `mean_s_settling_velocity_in_0.1_0.3`.
+        column: String,
+        /// The axis whose labels the values belong to.
+        axis: String,
+        /// (label, value) for every label of the axis.
+        values: Vec<(String, Real)>,
+    },
     /// A known value of one of the study's metric columns (a published or analytic drag
     /// coefficient, torque, terminal velocity): the error is |metric − value| / |value|.
     Exact {
@@ -285,6 +307,9 @@ pub enum Compare {
     /// A `diagnostics.csv` column: RMS of the difference at the reference's output times,
     /// over the largest |value| of the reference.
     Column(String),
+    /// One of the study's metric columns: |m − m_ref| / |m_ref| (a bed height or a mean
+    /// settling velocity over a window, against the reference run's).
+    Metric(String),
 }
 
 /// A chart of the results.
@@ -619,17 +644,7 @@ impl Study {
         match &self.reference {
             Reference::None => {}
             Reference::Exact { column: c, value } => {
-                let columns = metric_columns(&self.metrics);
-                if !columns.contains(c) {
-                    return Err(bad(
-                        file,
-                        "reference.column",
-                        format!(
-                            "`{c}` is not a metric column of this study; its metric columns: {}",
-                            if columns.is_empty() { "none (add `metrics`)".to_string() } else { columns.join(", ") }
-                        ),
-                    ));
-                }
+                self.check_metric_column(file, "reference.column", c)?;
                 if !(value.is_finite() && *value != 0.0) {
                     return Err(bad(file, "reference.value", format!("{value}: must be finite and not 0")));
                 }
@@ -675,8 +690,79 @@ impl Study {
                         ));
                     }
                 }
-                if let Compare::Column(c) = compare {
-                    column("reference.compare", c)?;
+                self.check_compare(file, compare, &column)?;
+            }
+            Reference::Run { labels, compare } => {
+                if labels.is_empty() {
+                    let names: Vec<&str> = self.axes.iter().map(|a| a.name.as_str()).collect();
+                    let example = match (names.first(), points.first().and_then(|p| p.first())) {
+                        (Some(axis), Some(p)) => format!(", e.g. labels: {{\"{axis}\": \"{}\"}}", p.label),
+                        _ => String::new(),
+                    };
+                    return Err(bad(
+                        file,
+                        "reference.labels",
+                        format!(
+                            "name the reference run by a label on one axis or more{example}; axes: {}",
+                            names.join(", ")
+                        ),
+                    ));
+                }
+                for (axis, label) in labels {
+                    let a = self.axis_index(file, "reference.labels", axis)?;
+                    if !points[a].iter().any(|p| &p.label == label) {
+                        let valid: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
+                        return Err(bad(
+                            file,
+                            &format!("reference.labels.{axis}"),
+                            format!(
+                                "axis `{axis}` has no value labelled `{label}`; labels: {}{}",
+                                valid.join(", "),
+                                crate::core::error::did_you_mean(label, valid.iter().copied())
+                            ),
+                        ));
+                    }
+                }
+                self.check_compare(file, compare, &column)?;
+            }
+            Reference::Table { column: c, axis, values } => {
+                self.check_metric_column(file, "reference.column", c)?;
+                let a = self.axis_index(file, "reference.axis", axis)?;
+                let valid: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
+                for (k, (label, value)) in values.iter().enumerate() {
+                    let path = format!("reference.values.{k}");
+                    if !valid.contains(&label.as_str()) {
+                        return Err(bad(
+                            file,
+                            &path,
+                            format!(
+                                "axis `{axis}` has no value labelled `{label}`; labels: {}{}",
+                                valid.join(", "),
+                                crate::core::error::did_you_mean(label, valid.iter().copied())
+                            ),
+                        ));
+                    }
+                    if values[..k].iter().any(|(l, _)| l == label) {
+                        return Err(bad(file, &path, format!("`{label}` is given twice: give one value per label")));
+                    }
+                    if !(value.is_finite() && *value != 0.0) {
+                        return Err(bad(file, &path, format!("`{label}`: {value} must be finite and not 0")));
+                    }
+                }
+                let missing: Vec<&str> =
+                    valid.iter().copied().filter(|l| !values.iter().any(|(v, _)| v == l)).collect();
+                if !missing.is_empty() {
+                    return Err(bad(
+                        file,
+                        "reference.values",
+                        format!(
+                            "no value for the label{} {} of axis `{axis}`: give (label, value) for every label \
+                             ({})",
+                            if missing.len() == 1 { "" } else { "s" },
+                            missing.join(", "),
+                            valid.join(", ")
+                        ),
+                    ));
                 }
             }
         }
@@ -705,6 +791,37 @@ impl Study {
             }
         }
         Ok(())
+    }
+
+    /// Checks that `c` is one of the study's metric columns.
+    fn check_metric_column(&self, file: &Path, path: &str, c: &str) -> Result<(), Error> {
+        let columns = metric_columns(&self.metrics);
+        if columns.iter().any(|m| m == c) {
+            return Ok(());
+        }
+        Err(bad(
+            file,
+            path,
+            format!(
+                "`{c}` is not a metric column of this study; its metric columns: {}{}",
+                if columns.is_empty() { "none (add `metrics`)".to_string() } else { columns.join(", ") },
+                crate::core::error::did_you_mean(c, columns.iter().map(String::as_str))
+            ),
+        ))
+    }
+
+    /// Checks what a reference run is compared by.
+    fn check_compare(
+        &self,
+        file: &Path,
+        compare: &Compare,
+        column: &dyn Fn(&str, &str) -> Result<(), Error>,
+    ) -> Result<(), Error> {
+        match compare {
+            Compare::Bodies => Ok(()),
+            Compare::Column(c) => column("reference.compare", c),
+            Compare::Metric(c) => self.check_metric_column(file, "reference.compare", c),
+        }
     }
 
     /// Checks the [`Metric::Monitor`] entries against the monitors of `case`.
@@ -1296,6 +1413,8 @@ pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<R
             }
             (n > 0).then(|| (sum / n as Real).sqrt())
         }
+        // the metrics are the rows' ([`rows`] compares them)
+        Compare::Metric(_) => None,
         Compare::Column(c) => {
             let a = Csv::read(&dir.join("diagnostics.csv"))?;
             let b = Csv::read(&reference.join("diagnostics.csv"))?;
@@ -1315,6 +1434,9 @@ pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<R
 
 /// The index of each run's reference run (Finest, Baseline), `None` for other references.
 pub fn reference_runs(plan: &Plan) -> Vec<Option<usize>> {
+    if let Reference::Run { labels, .. } = &plan.study.reference {
+        return named_reference_runs(plan, labels);
+    }
     let axis = match &plan.study.reference {
         Reference::Finest { axis, .. } | Reference::Baseline { axis, .. } => axis,
         _ => return vec![None; plan.runs.len()],
@@ -1340,6 +1462,36 @@ pub fn reference_runs(plan: &Plan) -> Vec<Option<usize>> {
     out
 }
 
+/// [`reference_runs`] for [`Reference::Run`]: the run with equal labels on every other axis
+/// and the given labels on the named ones (`None` when `--only` left it out of the plan).
+fn named_reference_runs(plan: &Plan, labels: &BTreeMap<String, String>) -> Vec<Option<usize>> {
+    let named: Vec<(usize, &String)> = labels
+        .iter()
+        .filter_map(|(axis, label)| plan.study.axes.iter().position(|x| &x.name == axis).map(|a| (a, label)))
+        .collect();
+    let key = |k: usize| {
+        let mut key = plan.runs[k].index.clone();
+        for (a, _) in &named {
+            key[*a] = usize::MAX;
+        }
+        key
+    };
+    let mut references: BTreeMap<Vec<usize>, usize> = BTreeMap::new();
+    for k in 0..plan.runs.len() {
+        if named.iter().all(|(a, label)| &plan.runs[k].labels[*a] == *label) {
+            references.insert(key(k), k);
+        }
+    }
+    (0..plan.runs.len()).map(|k| references.get(&key(k)).copied()).collect()
+}
+
+/// The relative difference |m − m_ref| / |m_ref| of metric column `column` between rows.
+fn metric_error(study: &Study, row: &Row, reference: &Row, column: &str) -> Option<Real> {
+    let i = metric_columns(&study.metrics).iter().position(|m| m == column)?;
+    let (m, r) = (row.metrics[i]?, reference.metrics[i]?);
+    Some(((m - r) / r).abs()).filter(|e| e.is_finite())
+}
+
 /// The rows of every combination as they stand.
 pub fn rows(plan: &Plan) -> Vec<Row> {
     let refs = reference_runs(plan);
@@ -1357,9 +1509,23 @@ pub fn rows(plan: &Plan) -> Vec<Row> {
             Reference::Analytic { column, law } => analytic_error(&c.dir, column, law),
             Reference::Uhlmann2005 => uhlmann(&c.dir, ReferenceCurves::Shipped),
             Reference::Uhlmann(d) => uhlmann(&c.dir, ReferenceCurves::Folder(plan.study.relative(&plan.file, d))),
-            Reference::Finest { compare, .. } | Reference::Baseline { compare, .. } => refs[k]
-                .filter(|&r| usable(&rows[r].status))
-                .and_then(|r| compare_runs(&c.dir, &plan.runs[r].dir, compare)),
+            Reference::Finest { compare, .. }
+            | Reference::Baseline { compare, .. }
+            | Reference::Run { compare, .. } => {
+                refs[k].filter(|&r| usable(&rows[r].status)).and_then(|r| match compare {
+                    Compare::Metric(m) => metric_error(&plan.study, &rows[k], &rows[r], m),
+                    _ => compare_runs(&c.dir, &plan.runs[r].dir, compare),
+                })
+            }
+            Reference::Table { column, axis, values } => {
+                let a = plan.study.axes.iter().position(|x| &x.name == axis);
+                let value = a.and_then(|a| values.iter().find(|(l, _)| l == &c.labels[a])).map(|(_, v)| *v);
+                let i = metric_columns(&plan.study.metrics).iter().position(|m| m == column);
+                match (value, i.and_then(|i| rows[k].metrics[i])) {
+                    (Some(v), Some(m)) => Some(((m - v) / v).abs()).filter(|e| e.is_finite()),
+                    _ => None,
+                }
+            }
             Reference::Exact { column, value } => metric_columns(&plan.study.metrics)
                 .iter()
                 .position(|m| m == column)

@@ -15,4 +15,5 @@ mod restart;
 mod slurm;
 mod snapshots;
 mod study;
+mod study_references;
 mod suspension;
