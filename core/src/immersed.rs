@@ -1311,4 +1311,41 @@ mod tests {
         assert!(slip < 1e-10, "slip {slip:e}");
         assert!((total - spread_total * h * h / dt).norm() < 1e-9 * total.norm(), "{total:?}");
     }
+
+    /// The hold of a free disk's forcing at a wall's clearance (issue 15): the centre is
+    /// kept a radius plus the clearance from every side that is not periodic, where it
+    /// stands and where the step ends; a body farther in, a fixed one and a periodic axis
+    /// are untouched, and a clearance of zero holds nothing.
+    #[test]
+    fn a_free_disk_is_forced_no_closer_to_a_wall_than_the_clearance() {
+        let g = Grid::new(20, 20, 0.05, Vector::zeros());
+        let (r, c) = (0.2, 0.05);
+        let walls = Boundaries::default();
+        let hold = ForcedBody::hold_box(&g, &walls, r, c);
+        assert_eq!(hold, Some((Vector::new(0.25, 0.25), Vector::new(0.75, 0.75))));
+        assert_eq!(ForcedBody::hold_box(&g, &walls, r, 0.0), None);
+        assert_eq!(ForcedBody::hold_box(&g, &walls, 0.45, c), None, "no room for the hold");
+        let body = |x: Real, y: Real, motion: Motion, hold| ForcedBody {
+            shape: BodyShape::Disk { center: [x, y], radius: r },
+            center: Vector::new(x, y),
+            motion,
+            velocity: Vector::new(0.0, -1.0),
+            angular_velocity: 0.0,
+            density: 2.0,
+            contact: Default::default(),
+            hold,
+        };
+        assert_eq!(body(0.5, 0.22, Motion::Free, hold).held().center, Vector::new(0.5, 0.25));
+        assert_eq!(body(0.8, 0.5, Motion::Free, hold).held().center, Vector::new(0.75, 0.5));
+        assert_eq!(body(0.5, 0.5, Motion::Free, hold).held().center, Vector::new(0.5, 0.5));
+        assert_eq!(body(0.5, 0.22, Motion::Fixed, hold).held().center, Vector::new(0.5, 0.22));
+        // where the step ends: 0.26 − 0.02 held at 0.25; without the hold at 0.24
+        let ahead = body(0.5, 0.26, Motion::Free, hold).ahead(0.02).center;
+        assert_eq!(ahead, Vector::new(0.5, 0.25));
+        assert!((body(0.5, 0.26, Motion::Free, None).ahead(0.02).center.y - 0.24).abs() < 1e-15);
+        // a periodic axis is not held
+        let bc = Boundaries { left: Boundary::Periodic, right: Boundary::Periodic, ..Boundaries::default() };
+        let hold = ForcedBody::hold_box(&g, &bc, r, c);
+        assert_eq!(body(0.1, 0.22, Motion::Free, hold).held().center, Vector::new(0.1, 0.25));
+    }
 }
