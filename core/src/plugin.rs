@@ -579,6 +579,15 @@ pub trait ContactModel: Send + Sync {
     fn keeps_bodies_off_sides(&self) -> bool {
         false
     }
+    /// The gap from a wall (a side that is not periodic) within which the model carries
+    /// the film between a resolved body and the wall (lubrication below the grid scale):
+    /// a direct forcing then forces a free disk closer than this to a wall where it would
+    /// stand at this gap ([`crate::immersed::ForcedBody::held`]), so that the grid's film
+    /// stops at the gap where the model's takes over. 0 by default: the forcing follows the
+    /// body to the wall. `h` is the grid spacing.
+    fn wall_clearance(&self, _h: Real) -> Real {
+        0.0
+    }
 }
 
 /// A solver for the pressure equation.

@@ -364,6 +364,8 @@ impl Simulation {
             return Vec::new();
         };
         let states = self.fields[p.bodies].frame.bodies();
+        // the contact model's clearance from the walls (lubrication below it), if any
+        let clearance = self.contact.as_ref().map_or(0.0, |c| c.wall_clearance(self.grid.h));
         specs
             .iter()
             .zip(&states)
@@ -382,6 +384,12 @@ impl Simulation {
                 angular_velocity: state.angular_velocity,
                 density: spec.density_or(self.fields[p.bodies].density),
                 contact: self.body_forces[p.bodies].get(j).copied().unwrap_or_default(),
+                hold: match spec.shape {
+                    BodyShape::Disk { radius, .. } => {
+                        crate::immersed::ForcedBody::hold_box(&self.grid, &self.boundaries, radius, clearance)
+                    }
+                    _ => None,
+                },
             })
             .collect()
     }
