@@ -193,8 +193,10 @@ impl Frame for MassPoint {
         let bc = ctx.boundaries;
         let periodic = [bc.periodic_x(), bc.periodic_y()];
         let s = &mut *ctx.state;
+        // the grid-wide passes elementwise in parallel (each value is the serial one)
+        const BLOCK: usize = 4096;
         for a in [&mut s.theta, &mut s.mass_u, &mut s.mass_v, &mut s.velocity.u, &mut s.velocity.v] {
-            a.fill(0.0);
+            a.par_chunks_mut(BLOCK).for_each(|a| a.fill(0.0));
         }
         let area = g.cell_area();
         if let Some(p) = self.points.iter().find(|p| !(p.state.position.x.is_finite() && p.state.position.y.is_finite())) {
@@ -223,15 +225,17 @@ impl Frame for MassPoint {
                 s.velocity.v[f] += scale * w * u.y;
             }
         }
-        for (u, m) in s.velocity.u.iter_mut().zip(&s.mass_u) {
-            *u = if *m > 0.0 { *u / m } else { 0.0 };
-        }
-        for (v, m) in s.velocity.v.iter_mut().zip(&s.mass_v) {
-            *v = if *m > 0.0 { *v / m } else { 0.0 };
+        for (u, m) in [(&mut s.velocity.u, &s.mass_u), (&mut s.velocity.v, &s.mass_v)] {
+            u.par_chunks_mut(BLOCK).zip(m.par_chunks(BLOCK)).for_each(|(u, m)| {
+                for (u, m) in u.iter_mut().zip(m) {
+                    *u = if *m > 0.0 { *u / m } else { 0.0 };
+                }
+            });
         }
         bc.enforce(g, &mut s.velocity);
-        s.velocity_old.u.copy_from_slice(&s.velocity.u);
-        s.velocity_old.v.copy_from_slice(&s.velocity.v);
+        for (old, u) in [(&mut s.velocity_old.u, &s.velocity.u), (&mut s.velocity_old.v, &s.velocity.v)] {
+            old.par_chunks_mut(BLOCK).zip(u.par_chunks(BLOCK)).for_each(|(o, u)| o.copy_from_slice(u));
+        }
         Ok(())
     }
 
