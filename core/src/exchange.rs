@@ -240,7 +240,8 @@ pub fn solve_pair(p: &Pair, k: Real, added: Real, dt: Real) -> ([Real; 2], [Real
     let t = [0.0 + p.theta[0], 0.0 + p.theta[1]];
     if k.is_infinite() {
         // no-slip: one cluster, the mass-weighted velocity
-        let (big_r, big_t, big_p, big_rw) = (r[0] + p.rho[1], t[0] + p.theta[1], mom[0] + p.rho[1] * p.u[1], rw[0] + p.rho_w[1]);
+        let (big_r, big_t, big_p, big_rw) =
+            (r[0] + p.rho[1], t[0] + p.theta[1], mom[0] + p.rho[1] * p.u[1], rw[0] + p.rho_w[1]);
         let rw = if big_rw > 0.0 { big_rw } else { big_r };
         let (u, w) = (big_p / big_r, big_t / rw);
         return ([u; 2], [w; 2]);

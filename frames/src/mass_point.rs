@@ -199,7 +199,9 @@ impl Frame for MassPoint {
             a.par_chunks_mut(BLOCK).for_each(|a| a.fill(0.0));
         }
         let area = g.cell_area();
-        if let Some(p) = self.points.iter().find(|p| !(p.state.position.x.is_finite() && p.state.position.y.is_finite())) {
+        if let Some(p) =
+            self.points.iter().find(|p| !(p.state.position.x.is_finite() && p.state.position.y.is_finite()))
+        {
             return Err(format!("point `{}` is at {:?}: the run has blown up", p.state.name, p.state.position));
         }
         // each point's footprint (the exact areas: most of the work) in parallel; the sums

@@ -297,7 +297,10 @@ pub fn fill_drag(
             // y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), columns clamped to the domain
             let (c0, c1) = (i.saturating_sub(1), i.min(nx - 1));
             let t = 0.25
-                * (dv(grid.yface(c0, j)) + dv(grid.yface(c1, j)) + dv(grid.yface(c0, j + 1)) + dv(grid.yface(c1, j + 1)));
+                * (dv(grid.yface(c0, j))
+                    + dv(grid.yface(c1, j))
+                    + dv(grid.yface(c0, j + 1))
+                    + dv(grid.yface(c1, j + 1)));
             *k = k_at(ctx.a.theta_u[f], du(f).hypot(t));
         }
     });
@@ -311,7 +314,10 @@ pub fn fill_drag(
             // x-faces (i, j−1), (i+1, j−1), (i, j), (i+1, j), rows clamped to the domain
             let (r0, r1) = (j.saturating_sub(1), j.min(ny - 1));
             let t = 0.25
-                * (du(grid.xface(i, r0)) + du(grid.xface(i + 1, r0)) + du(grid.xface(i, r1)) + du(grid.xface(i + 1, r1)));
+                * (du(grid.xface(i, r0))
+                    + du(grid.xface(i + 1, r0))
+                    + du(grid.xface(i, r1))
+                    + du(grid.xface(i + 1, r1)));
             *k = k_at(ctx.a.theta_v[f], dv(f).hypot(t));
         }
     });
@@ -501,7 +507,8 @@ mod tests {
             s.velocity.u.iter_mut().chain(s.velocity.v.iter_mut()).for_each(|x| *x = 2.0 * next() - 1.0);
         }
         a.theta_u.iter_mut().chain(a.theta_v.iter_mut()).for_each(|x| *x = 0.5 + 0.5 * next());
-        for (m, t) in b.mass_u.iter_mut().zip(b.theta_u.iter_mut()).chain(b.mass_v.iter_mut().zip(b.theta_v.iter_mut())) {
+        for (m, t) in b.mass_u.iter_mut().zip(b.theta_u.iter_mut()).chain(b.mass_v.iter_mut().zip(b.theta_v.iter_mut()))
+        {
             if next() < 0.5 {
                 (*t, *m) = (0.3 * next(), 1e-3 * next());
             }
@@ -521,7 +528,14 @@ mod tests {
             .zip(&b.mass_u)
             .zip(&b.theta_u)
             .map(|((((k, s), t), m), tb)| (k, s, t, m, tb))
-            .chain(ky.iter().zip(&sy).zip(&a.theta_v).zip(&b.mass_v).zip(&b.theta_v).map(|((((k, s), t), m), tb)| (k, s, t, m, tb)))
+            .chain(
+                ky.iter()
+                    .zip(&sy)
+                    .zip(&a.theta_v)
+                    .zip(&b.mass_v)
+                    .zip(&b.theta_v)
+                    .map(|((((k, s), t), m), tb)| (k, s, t, m, tb)),
+            )
         {
             if *mb == 0.0 && *tb == 0.0 {
                 assert_eq!(*k, 0.0);
