@@ -315,7 +315,8 @@ pub struct BodyOverlap {
 
 impl StopCheck for BodyOverlap {
     fn check(&mut self, sim: &Simulation, _d: &StepDiagnostics) -> Option<String> {
-        let bodies: Vec<BodyState> = sim.bodies().into_iter().map(|(_, b)| b).collect();
+        // the bodies of `Simulation::bodies`, without their fields' names
+        let bodies: Vec<BodyState> = sim.fields.iter().flat_map(|f| f.frame.bodies()).collect();
         let disks = match &self.disks {
             Some((n, mask)) if *n == bodies.len() => mask,
             _ => &self.disks.insert((bodies.len(), disk_mask(sim, &bodies))).1,
