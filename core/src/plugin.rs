@@ -504,7 +504,9 @@ pub trait ExchangeModel: Send + Sync {
     fn immersed_boundary(&self) -> Option<ImmersedBoundary> {
         None
     }
-    /// Fills K on every x-face (`kx`) and y-face (`ky`).
+    /// Fills K on every x-face (`kx`) and y-face (`ky`). K is read only where both fields
+    /// are present (and, explicit, weighed with both θ): a model may leave 0 on faces where
+    /// the second field has no mass and no θ.
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]);
 }
 

@@ -32,6 +32,7 @@ use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext};
 use multifield_core::quantity::{vorticity_at, PointSet};
 use multifield_core::registry::params_value;
 use multifield_core::state;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::any::Any;
 use std::borrow::Cow;
@@ -192,22 +193,31 @@ impl Frame for MassPoint {
         let bc = ctx.boundaries;
         let periodic = [bc.periodic_x(), bc.periodic_y()];
         let s = &mut *ctx.state;
+        // the grid-wide passes elementwise in parallel (each value is the serial one)
+        const BLOCK: usize = 4096;
         for a in [&mut s.theta, &mut s.mass_u, &mut s.mass_v, &mut s.velocity.u, &mut s.velocity.v] {
-            a.fill(0.0);
+            a.par_chunks_mut(BLOCK).for_each(|a| a.fill(0.0));
         }
         let area = g.cell_area();
-        for p in &mut self.points {
-            let scale = p.density * area;
-            let (x, r, u) = (p.state.position, p.state.radius, p.state.velocity);
-            if !(x.x.is_finite() && x.y.is_finite()) {
-                return Err(format!("point `{}` is at {x:?}: the run has blown up", p.state.name));
-            }
+        if let Some(p) =
+            self.points.iter().find(|p| !(p.state.position.x.is_finite() && p.state.position.y.is_finite()))
+        {
+            return Err(format!("point `{}` is at {:?}: the run has blown up", p.state.name, p.state.position));
+        }
+        // each point's footprint (the exact areas: most of the work) in parallel; the sums
+        // onto the grid after, point by point in order (bit-identical whatever the threads)
+        self.points.par_iter_mut().with_min_len(64).for_each(|p| {
+            let (x, r) = (p.state.position, p.state.radius);
             p.cells.clear();
             disk_cell_fractions(g, [x.x, x.y], r, periodic, &mut p.cells);
+            Self::footprint_faces(p, g, periodic);
+        });
+        for p in &self.points {
+            let scale = p.density * area;
+            let u = p.state.velocity;
             for &(c, t) in &p.cells {
                 s.theta[c] += t;
             }
-            Self::footprint_faces(p, g, periodic);
             for &(f, w) in &p.xfaces {
                 s.mass_u[f] += scale * w;
                 s.velocity.u[f] += scale * w * u.x;
@@ -217,15 +227,17 @@ impl Frame for MassPoint {
                 s.velocity.v[f] += scale * w * u.y;
             }
         }
-        for (u, m) in s.velocity.u.iter_mut().zip(&s.mass_u) {
-            *u = if *m > 0.0 { *u / m } else { 0.0 };
-        }
-        for (v, m) in s.velocity.v.iter_mut().zip(&s.mass_v) {
-            *v = if *m > 0.0 { *v / m } else { 0.0 };
+        for (u, m) in [(&mut s.velocity.u, &s.mass_u), (&mut s.velocity.v, &s.mass_v)] {
+            u.par_chunks_mut(BLOCK).zip(m.par_chunks(BLOCK)).for_each(|(u, m)| {
+                for (u, m) in u.iter_mut().zip(m) {
+                    *u = if *m > 0.0 { *u / m } else { 0.0 };
+                }
+            });
         }
         bc.enforce(g, &mut s.velocity);
-        s.velocity_old.u.copy_from_slice(&s.velocity.u);
-        s.velocity_old.v.copy_from_slice(&s.velocity.v);
+        for (old, u) in [(&mut s.velocity_old.u, &s.velocity.u), (&mut s.velocity_old.v, &s.velocity.v)] {
+            old.par_chunks_mut(BLOCK).zip(u.par_chunks(BLOCK)).for_each(|(o, u)| o.copy_from_slice(u));
+        }
         Ok(())
     }
 
@@ -240,7 +252,9 @@ impl Frame for MassPoint {
         }
         let lo = g.origin;
         let hi = g.origin + g.size();
-        for (k, p) in self.points.iter_mut().enumerate() {
+        // each point reads the grid and writes only itself: in parallel
+        let contact_walls = self.contact_walls;
+        self.points.par_iter_mut().with_min_len(64).enumerate().for_each(|(k, p)| {
             let st = &mut p.state;
             let (m, r) = (st.mass, st.radius);
             // mass-weighted velocity increment and fluid velocity over the footprint
@@ -315,7 +329,7 @@ impl Frame for MassPoint {
             // from the side, or, where the contact model meets the sides (as it does for
             // resolved bodies), only at the side itself, a backstop the contact never lets
             // it reach
-            let stop = if self.contact_walls { 0.0 } else { r };
+            let stop = if contact_walls { 0.0 } else { r };
             let mut x = st.position + dt * v_new;
             if contact.shift != Vector::zeros() {
                 // sub-stepped contact: where the sub-steps put the centre (docs/method.md §5)
@@ -336,7 +350,7 @@ impl Frame for MassPoint {
                 }
             }
             st.position = x;
-        }
+        });
         Ok(())
     }
 
