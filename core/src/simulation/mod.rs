@@ -378,7 +378,8 @@ impl Simulation {
                 Some(i) => {
                     let retraction = self.forcings[i].forcing.retraction;
                     let bodies = self.forced_bodies(i);
-                    out.extend((0..n).map(|j| match bodies.get(j).map(|b| (&b.shape, b.center)) {
+                    // the forcing held the body where its markers stood (ForcedBody::held)
+                    out.extend((0..n).map(|j| match bodies.get(j).map(|b| (&b.shape, b.clone().held().center)) {
                         Some((BodyShape::Disk { radius, .. }, center)) => Some(crate::immersed::disk_pressure_force(
                             &self.grid,
                             periodic,
