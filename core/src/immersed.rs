@@ -557,16 +557,18 @@ impl ForcedBody {
 
     /// The box of [`ForcedBody::hold`] for a free disk of radius `radius` whose forcing
     /// keeps `clearance` from every side that is not periodic, `None` for a clearance of
-    /// zero or a domain too narrow for it.
+    /// zero. An axis that is periodic, or too narrow to hold the disk off both of its
+    /// sides, is left free (the other axis is still held).
     pub fn hold_box(grid: &Grid, bc: &Boundaries, radius: Real, clearance: Real) -> Option<(Vector, Vector)> {
         if !(clearance > 0.0) {
             return None;
         }
         let (lo, hi, d) = (grid.origin, grid.origin + grid.size(), radius + clearance);
         let periodic = [bc.periodic_x(), bc.periodic_y()];
-        let a = Vector::from_fn(|k, _| if periodic[k] { Real::NEG_INFINITY } else { lo[k] + d });
-        let b = Vector::from_fn(|k, _| if periodic[k] { Real::INFINITY } else { hi[k] - d });
-        (a.x < b.x && a.y < b.y).then_some((a, b))
+        let free = |k: usize| periodic[k] || lo[k] + d >= hi[k] - d;
+        let a = Vector::from_fn(|k, _| if free(k) { Real::NEG_INFINITY } else { lo[k] + d });
+        let b = Vector::from_fn(|k, _| if free(k) { Real::INFINITY } else { hi[k] - d });
+        (a.x.is_finite() || a.y.is_finite()).then_some((a, b))
     }
 
     /// The body with its centre held in [`ForcedBody::hold`] (issue 15). Where a disk's
@@ -1325,6 +1327,10 @@ mod tests {
         assert_eq!(hold, Some((Vector::new(0.25, 0.25), Vector::new(0.75, 0.75))));
         assert_eq!(ForcedBody::hold_box(&g, &walls, r, 0.0), None);
         assert_eq!(ForcedBody::hold_box(&g, &walls, 0.45, c), None, "no room for the hold");
+        // a channel too narrow to hold the disk off both its walls: that axis is left
+        // free, the other is still held
+        let narrow = ForcedBody::hold_box(&Grid::new(20, 10, 0.05, Vector::zeros()), &walls, r, c);
+        assert_eq!(narrow, Some((Vector::new(0.25, Real::NEG_INFINITY), Vector::new(0.75, Real::INFINITY))));
         let body = |x: Real, y: Real, motion: Motion, hold| ForcedBody {
             shape: BodyShape::Disk { center: [x, y], radius: r },
             center: Vector::new(x, y),
