@@ -357,6 +357,9 @@ impl Dem {
     /// sub-step with too little of its speed lost once the sub-steps were those of a
     /// collision stretched over 10 fluid steps.
     fn lubrication_force(&self, c: &Touch, mu: Real, range: Real, dt: Real) -> Real {
+        if !(dt > 0.0) {
+            return 0.0; // no step, no impulse (and no 0/0 below)
+        }
         let (v, gap) = (c.v.dot(&c.n), -c.overlap);
         let g0 = self.film_integral(c, mu, range, gap);
         let f = |w: Real| c.mass * (w - v) + self.film_integral(c, mu, range, gap + dt * w) - g0;
