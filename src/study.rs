@@ -430,6 +430,24 @@ pub struct Report {
     pub charts: Vec<PathBuf>,
 }
 
+/// That `axis` (whose values are `points`) has a value labelled `label`, or the error
+/// at `path` listing the labels it has.
+fn check_label(file: &Path, path: &str, axis: &str, label: &str, points: &[Point]) -> Result<(), Error> {
+    if points.iter().any(|p| p.label == label) {
+        return Ok(());
+    }
+    let valid: Vec<&str> = points.iter().map(|p| p.label.as_str()).collect();
+    Err(bad(
+        file,
+        path,
+        format!(
+            "axis `{axis}` has no value labelled `{label}`; labels: {}{}",
+            valid.join(", "),
+            crate::core::error::did_you_mean(label, valid.iter().copied())
+        ),
+    ))
+}
+
 fn bad(file: &Path, path: &str, message: String) -> Error {
     Error::Invalid { file: file.to_path_buf(), path: path.to_string(), message }
 }
@@ -681,14 +699,7 @@ impl Study {
             Reference::Finest { axis, compare } | Reference::Baseline { axis, compare, .. } => {
                 let a = self.axis_index(file, "reference.axis", axis)?;
                 if let Reference::Baseline { value, .. } = &self.reference {
-                    if !points[a].iter().any(|p| &p.label == value) {
-                        let labels: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
-                        return Err(bad(
-                            file,
-                            "reference.value",
-                            format!("axis `{axis}` has no value labelled `{value}`; labels: {}", labels.join(", ")),
-                        ));
-                    }
+                    check_label(file, "reference.value", axis, value, &points[a])?;
                 }
                 self.check_compare(file, compare, &column)?;
             }
@@ -710,38 +721,16 @@ impl Study {
                 }
                 for (axis, label) in labels {
                     let a = self.axis_index(file, "reference.labels", axis)?;
-                    if !points[a].iter().any(|p| &p.label == label) {
-                        let valid: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
-                        return Err(bad(
-                            file,
-                            &format!("reference.labels.{axis}"),
-                            format!(
-                                "axis `{axis}` has no value labelled `{label}`; labels: {}{}",
-                                valid.join(", "),
-                                crate::core::error::did_you_mean(label, valid.iter().copied())
-                            ),
-                        ));
-                    }
+                    check_label(file, &format!("reference.labels.{axis}"), axis, label, &points[a])?;
                 }
                 self.check_compare(file, compare, &column)?;
             }
             Reference::Table { column: c, axis, values } => {
                 self.check_metric_column(file, "reference.column", c)?;
                 let a = self.axis_index(file, "reference.axis", axis)?;
-                let valid: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
                 for (k, (label, value)) in values.iter().enumerate() {
                     let path = format!("reference.values.{k}");
-                    if !valid.contains(&label.as_str()) {
-                        return Err(bad(
-                            file,
-                            &path,
-                            format!(
-                                "axis `{axis}` has no value labelled `{label}`; labels: {}{}",
-                                valid.join(", "),
-                                crate::core::error::did_you_mean(label, valid.iter().copied())
-                            ),
-                        ));
-                    }
+                    check_label(file, &path, axis, label, &points[a])?;
                     if values[..k].iter().any(|(l, _)| l == label) {
                         return Err(bad(file, &path, format!("`{label}` is given twice: give one value per label")));
                     }
@@ -749,6 +738,7 @@ impl Study {
                         return Err(bad(file, &path, format!("`{label}`: {value} must be finite and not 0")));
                     }
                 }
+                let valid: Vec<&str> = points[a].iter().map(|p| p.label.as_str()).collect();
                 let missing: Vec<&str> =
                     valid.iter().copied().filter(|l| !values.iter().any(|(v, _)| v == l)).collect();
                 if !missing.is_empty() {
@@ -1432,7 +1422,7 @@ pub fn compare_runs(dir: &Path, reference: &Path, compare: &Compare) -> Option<R
     }
 }
 
-/// The index of each run's reference run (Finest, Baseline), `None` for other references.
+/// The index of each run's reference run (Finest, Baseline, Run), `None` for other references.
 pub fn reference_runs(plan: &Plan) -> Vec<Option<usize>> {
     if let Reference::Run { labels, .. } = &plan.study.reference {
         return named_reference_runs(plan, labels);
@@ -1488,8 +1478,12 @@ fn named_reference_runs(plan: &Plan, labels: &BTreeMap<String, String>) -> Vec<O
 /// The relative difference |m − m_ref| / |m_ref| of metric column `column` between rows.
 fn metric_error(study: &Study, row: &Row, reference: &Row, column: &str) -> Option<Real> {
     let i = metric_columns(&study.metrics).iter().position(|m| m == column)?;
-    let (m, r) = (row.metrics[i]?, reference.metrics[i]?);
-    Some(((m - r) / r).abs()).filter(|e| e.is_finite())
+    relative_error(row.metrics[i]?, reference.metrics[i]?)
+}
+
+/// |m − v| / |v|, `None` where that is not a finite number (v = 0, or a metric that is not).
+fn relative_error(m: Real, v: Real) -> Option<Real> {
+    Some(((m - v) / v).abs()).filter(|e| e.is_finite())
 }
 
 /// The rows of every combination as they stand.
@@ -1522,7 +1516,7 @@ pub fn rows(plan: &Plan) -> Vec<Row> {
                 let value = a.and_then(|a| values.iter().find(|(l, _)| l == &c.labels[a])).map(|(_, v)| *v);
                 let i = metric_columns(&plan.study.metrics).iter().position(|m| m == column);
                 match (value, i.and_then(|i| rows[k].metrics[i])) {
-                    (Some(v), Some(m)) => Some(((m - v) / v).abs()).filter(|e| e.is_finite()),
+                    (Some(v), Some(m)) => relative_error(m, v),
                     _ => None,
                 }
             }
@@ -1530,7 +1524,7 @@ pub fn rows(plan: &Plan) -> Vec<Row> {
                 .iter()
                 .position(|m| m == column)
                 .and_then(|i| rows[k].metrics[i])
-                .map(|v| ((v - value) / value).abs()),
+                .and_then(|m| relative_error(m, *value)),
         };
     }
     rows
