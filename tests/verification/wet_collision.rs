@@ -165,7 +165,7 @@ fn sweep(st: Real, rho_s: Real, grids: &[usize]) -> Vec<(Real, Real, Bounce)> {
 /// law is the theory of the collision): at St 160 the film stops it (film law 0, and the
 /// disk stays within ε_act), at St 640 it rebounds with the film law's e within 0.02 at 8
 /// and 16 cells per diameter (measured 0.697/0.700 against 0.705/0.710) and the two grids
-/// agree within 0.02, and at St 10⁴ (the dry limit) e is the film law's within 0.01
+/// agree within 0.01, and at St 10⁴ (the dry limit) e is the film law's within 0.01
 /// (measured 0.949 against 0.952, e_dry 0.97).
 #[test]
 fn a_heavy_disk_rebounds_as_the_film_law_says_on_both_grids() {
@@ -177,7 +177,7 @@ fn a_heavy_disk_rebounds_as_the_film_law_says_on_both_grids() {
     for (e, film, _) in &r {
         assert!((e - film).abs() < 0.02, "St 640: e {e} against the film law's {film}");
     }
-    assert!((r[0].0 - r[1].0).abs() < 0.02, "St 640: e {} (8 cells) against {} (16)", r[0].0, r[1].0);
+    assert!((r[0].0 - r[1].0).abs() < 0.01, "St 640: e {} (8 cells) against {} (16)", r[0].0, r[1].0);
     let r = sweep(1e4, rho_s, &[8]);
     assert!((r[0].0 - r[0].1).abs() < 0.01, "St 10⁴: e {} against the film law's {}", r[0].0, r[0].1);
 }
@@ -186,7 +186,7 @@ fn a_heavy_disk_rebounds_as_the_film_law_says_on_both_grids() {
 /// also at 16): no rebound where the film law leaves none (St ≤ 160; its critical St is
 /// ≈ 240 here, far above the 3D experiments' ≈ 10, the 2D film being the stiffer), then e
 /// rises strictly with St; at St 640 it is the film law's within 0.03 on both grids
-/// (measured 0.569/0.571 against 0.576/0.590), which agree within 0.02. At St 10⁴ the
+/// (measured 0.569/0.571 against 0.576/0.590), which agree within 0.01. At St 10⁴ the
 /// fluid's inertia (the added mass, the wake) takes what the film law leaves out: e is
 /// below it (measured 0.80 against 0.89; docs/validation.md, "Wet collisions").
 #[test]
@@ -200,7 +200,7 @@ fn the_wet_restitution_falls_with_the_stokes_number_and_converges_with_the_grid(
             for (e, film, _) in &r {
                 assert!((e - film).abs() < 0.03, "St 640: e {e} against the film law's {film}");
             }
-            assert!((r[0].0 - r[1].0).abs() < 0.02, "St 640: e {} (8 cells) against {} (16)", r[0].0, r[1].0);
+            assert!((r[0].0 - r[1].0).abs() < 0.01, "St 640: e {} (8 cells) against {} (16)", r[0].0, r[1].0);
         }
         rows.push((st, r[0].0, r[0].1));
     }
@@ -214,7 +214,8 @@ fn the_wet_restitution_falls_with_the_stokes_number_and_converges_with_the_grid(
         assert!(w[1].1 > w[0].1, "e falls from St {} to {}: {} to {}", w[0].0, w[1].0, w[0].1, w[1].1);
     }
     let (_, e, film) = rows[rows.len() - 1];
-    assert!(e < film, "St 10⁴: e {e} above the film law's {film}");
+    // the fluid's inertia takes 5–15 % of what the film law leaves (measured 0.90 of it)
+    assert!(e < 0.95 * film && e > 0.85 * film, "St 10⁴: e {e} against the film law's {film}");
 }
 
 /// Without the lubrication (and so without the hold of the forcing at ε_act) the disk at
