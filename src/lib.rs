@@ -42,6 +42,7 @@ pub mod study_chart;
 pub fn link_all() {
     multifield_frames::link();
     multifield_physics::link();
+    multifield_core::mapping::set_snapshot_reader(snapshot::read_velocity);
 }
 
 /// The case run by `multifield` with no arguments (`examples/dkt_seed.ron`: the seed's

@@ -63,6 +63,7 @@
 //! | `/fields/<f>/velocity` | (NY, NX, 3) | length/time | the field's velocity, mean of the two faces |
 //! | `/fields/<f>/vorticity` | (NY, NX) | 1/time | vorticity of the field's velocity |
 //! | `/fields/<f>/density` | (NY, NX) | mass/volume | bulk density θ ρ⁰ |
+//! | `/fields/<f>/faces/u`, `faces/v` | (NY, NX + 1), (NY + 1, NX) | length/time | an Eulerian field's face velocities, the grid state itself; only with `faces: true` (for `velocity: FromSnapshot(...)`, [`read_velocity`]) |
 //! | `/fields/<f>/points/position` | (N, 3) | length | points (material points, or one per body of a mass-point field), z = 0 |
 //! | `/fields/<f>/points/velocity` | (N, 3) | length/time | z = 0 |
 //! | `/fields/<f>/points/volume` | (N) | volume | current volume det F · V⁰ (area × unit depth) |
@@ -100,6 +101,7 @@ use crate::core::case::SnapshotSpec;
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::Grid;
+use crate::core::mapping::{SampledVelocity, Samples};
 use crate::core::math::Real;
 use crate::core::monitor::suspension::{self, COLUMNS};
 use crate::core::monitor::Monitored;
@@ -174,6 +176,10 @@ pub struct FieldData {
     pub cells: Arrays,
     /// Its points, for a field that has points.
     pub points: Option<PointData>,
+    /// Its face velocities `u` ((NY, NX + 1), x fast) and `v` ((NY + 1, NX)), the grid
+    /// state itself, when the case asks for them (`output.snapshots.faces`; Eulerian
+    /// fields only).
+    pub faces: Option<[Vec<Real>; 2]>,
 }
 
 impl FieldData {
@@ -327,6 +333,8 @@ impl Snapshot {
                 }
                 None => None,
             };
+            let faces = (spec.faces && !f.frame.is_lagrangian())
+                .then(|| [sample.fields[k].faces.u.clone(), sample.fields[k].faces.v.clone()]);
             fields.push(FieldData {
                 name: f.name.clone(),
                 group,
@@ -334,6 +342,7 @@ impl Snapshot {
                 material_density: f.density,
                 cells,
                 points,
+                faces,
             });
         }
         let mut cells = Arrays::new();
@@ -454,6 +463,31 @@ impl Snapshot {
                     d.set_attr(k, v);
                 }
                 g.add_group(pg.finish());
+            }
+            if let Some([u, v]) = &f.faces {
+                let mut fg = g.create_group("faces");
+                let what = [
+                    (
+                        "u",
+                        u,
+                        [ny, nx + 1],
+                        "x velocity on the x faces (the grid state), face (i, j) at x0 + i h, y0 + (j + 1/2) h",
+                    ),
+                    (
+                        "v",
+                        v,
+                        [ny + 1, nx],
+                        "y velocity on the y faces (the grid state), face (i, j) at x0 + (i + 1/2) h, y0 + j h",
+                    ),
+                ];
+                for (name, data, shape, description) in what {
+                    let d = fg.create_dataset(name);
+                    d.with_f64_data(data).with_shape(&shape);
+                    for (k, v) in attrs(("length/time", description)) {
+                        d.set_attr(k, v);
+                    }
+                }
+                g.add_group(fg.finish());
             }
             fields.add_group(g.finish());
         }
@@ -583,6 +617,10 @@ impl Snapshot {
                 material_density: real(&a, "material_density")?,
                 cells: arrays(&format!("{base}/"), fg.datasets().map_err(err)?, &[])?,
                 points,
+                faces: match (f64s(&format!("{base}/faces/u")), f64s(&format!("{base}/faces/v"))) {
+                    (Ok(u), Ok(v)) => Some([u, v]),
+                    _ => None,
+                },
             });
         }
         Ok(Snapshot {
@@ -642,6 +680,91 @@ impl Snapshot {
             },
         })
     }
+}
+
+/// The velocity of the field named `field` in the snapshot `file`, for an initial velocity
+/// `FromSnapshot` ([`crate::core::mapping`]; registered by [`crate::link_all`]): its face
+/// velocities (`/fields/<f>/faces/u`, `/faces/v`) when the snapshot has them, else its
+/// cell-centred `velocity`. An error says what is wrong and how to fix it.
+pub fn read_velocity(file: &Path, field: &str) -> Result<SampledVelocity, String> {
+    let shown = file.display();
+    let how = "give the path of a snapshot a run wrote (`<run dir>/snapshots/snapshot_NNNNNN.h5`, \
+               relative to the directory multifield runs in)";
+    if !file.is_file() {
+        return Err(format!("snapshot `{shown}` does not exist; {how}"));
+    }
+    let h5 = hdf5_pure::File::open(file).map_err(|e| format!("`{shown}` is not an HDF5 file ({e}); {how}"))?;
+    let root = h5.root().attrs().map_err(|e| format!("`{shown}`: cannot read its attributes ({e}); {how}"))?;
+    let program = root.get("program").and_then(AttrValue::as_str).unwrap_or_default().to_string();
+    if !program.starts_with("multifield ") {
+        return Err(format!("`{shown}` was not written by multifield (its `program` attribute is `{program}`); {how}"));
+    }
+    let cells = root.get("cells").and_then(AttrValue::to_i64s).unwrap_or_default();
+    let origin = root.get("origin").and_then(AttrValue::to_f64s).unwrap_or_default();
+    let spacing = root.get("spacing").and_then(AttrValue::as_f64).unwrap_or(0.0);
+    if cells.len() != 2 || origin.len() != 2 {
+        return Err(format!(
+            "`{shown}` is not a 2D snapshot ({} cell counts and {} origin coordinates, written by `{program}`): \
+             this build maps only the 2D snapshots it writes; map from a snapshot of a 2D run",
+            cells.len(),
+            origin.len()
+        ));
+    }
+    let (nx, ny) = (cells[0].max(0) as usize, cells[1].max(0) as usize);
+    if nx < 2 || ny < 2 || !(spacing > 0.0 && spacing.is_finite()) {
+        return Err(format!(
+            "`{shown}` has {nx} × {ny} cells of side {spacing}: mapping needs at least 2 × 2 cells of positive side"
+        ));
+    }
+    let groups = root.get("fields").and_then(AttrValue::as_strings).map(<[String]>::to_vec).unwrap_or_default();
+    let mut names = Vec::new();
+    let mut found = None;
+    for g in &groups {
+        let a = h5.group(&format!("fields/{g}")).and_then(|g| g.attrs()).map_err(|e| format!("`{shown}`: {e}"))?;
+        let name = a.get("name").and_then(AttrValue::as_str).unwrap_or(g).to_string();
+        if name == field {
+            found = Some(g.clone());
+        }
+        names.push(name);
+    }
+    let Some(group) = found else {
+        return Err(format!(
+            "snapshot `{shown}` has no field `{field}`; its fields: {}; set `field` to one of them",
+            if names.is_empty() { "none".to_string() } else { names.join(", ") }
+        ));
+    };
+    let read = |name: &str| h5.dataset(&format!("fields/{group}/{name}")).and_then(|d| d.read_f64()).ok();
+    let [ox, oy] = [origin[0], origin[1]];
+    let h = spacing;
+    let at = |x0: Real, y0: Real, nx: usize, ny: usize, values: Vec<Real>| Samples { x0, y0, h, nx, ny, values };
+    let (u, v, faces) = match (read("faces/u"), read("faces/v")) {
+        (Some(u), Some(v)) if u.len() == (nx + 1) * ny && v.len() == nx * (ny + 1) => {
+            (at(ox, oy + 0.5 * h, nx + 1, ny, u), at(ox + 0.5 * h, oy, nx, ny + 1, v), true)
+        }
+        _ => {
+            let Some(c) = read("velocity") else {
+                return Err(format!(
+                    "field `{field}` of snapshot `{shown}` has no velocity (neither `faces/u`, `faces/v` nor \
+                     `velocity`); map from a snapshot written with `\"velocity\"` in `output.snapshots.fields`"
+                ));
+            };
+            if c.len() != 3 * nx * ny {
+                return Err(format!(
+                    "field `{field}` of snapshot `{shown}` has {} velocity values for {nx} × {ny} cells (3 each \
+                     expected): the file is damaged or not a snapshot of this program",
+                    c.len()
+                ));
+            }
+            let (x0, y0) = (ox + 0.5 * h, oy + 0.5 * h);
+            let u = c.chunks_exact(3).map(|w| w[0]).collect();
+            let v = c.chunks_exact(3).map(|w| w[1]).collect();
+            (at(x0, y0, nx, ny, u), at(x0, y0, nx, ny, v), false)
+        }
+    };
+    if u.values.iter().chain(&v.values).any(|x| !x.is_finite()) {
+        return Err(format!("field `{field}` of snapshot `{shown}` has a velocity that is not finite"));
+    }
+    Ok(SampledVelocity { u, v, origin: [ox, oy], size: [nx as Real * h, ny as Real * h], cells: [nx, ny], faces })
 }
 
 /// The statistics of the case's `Suspension` monitors at the simulation's current state
@@ -1064,6 +1187,7 @@ mod tests {
                 ("density", vec![0.0, 1.25]),
             ]),
             points: Some(PointData::default()),
+            faces: None,
         };
         let snap = Snapshot {
             case: "tiny".into(),

@@ -301,6 +301,21 @@ pub enum InitialVelocity {
     /// domain, e.g. `Parabolic`) carried across the whole domain: a channel starts developed.
     /// Refused when no side, or more than one, is an inflow.
     FromInflow,
+    /// Another run's result, mapped onto this grid (OpenFOAM's `mapFields`): the velocity of
+    /// the field `field` in the snapshot `file` (`<run dir>/snapshots/snapshot_NNNNNN.h5`,
+    /// relative to the directory the program runs in), interpolated bilinearly onto this
+    /// grid's faces (from the snapshot's face velocities when it has them, else from its
+    /// cell centres; [`crate::mapping`]). The snapshot's domain must cover this one; its grid
+    /// may differ. Bodies and the other fields start as the case says.
+    FromSnapshot {
+        /// The snapshot file.
+        file: std::path::PathBuf,
+        /// The field of the snapshot whose velocity is taken (e.g. this field's name).
+        field: String,
+        /// The velocity read (by [`InitialVelocity::resolved`]); not in case files.
+        #[serde(skip)]
+        sampled: Option<std::sync::Arc<crate::mapping::SampledVelocity>>,
+    },
     /// `FromInflow` resolved by the core ([`InitialVelocity::resolved`]): the velocity of
     /// `side` at the fraction `(coordinate − start)/length` along it. Not in case files.
     #[serde(skip)]
@@ -326,6 +341,7 @@ impl InitialVelocity {
     /// Velocity at `(x, y)` given the domain origin.
     pub fn at(&self, x: Real, y: Real, origin: [Real; 2]) -> [Real; 2] {
         match *self {
+            InitialVelocity::FromSnapshot { ref sampled, .. } => sampled.as_ref().map_or([0.0, 0.0], |s| s.at(x, y)),
             InitialVelocity::Uniform(u) => u,
             InitialVelocity::TaylorGreen { amplitude } => {
                 let (x, y) = (x - origin[0], y - origin[1]);
@@ -352,6 +368,20 @@ impl InitialVelocity {
     /// `boundaries` in `domain`; an error (the fix, without the entry's path) when no side,
     /// or more than one, is an inflow.
     pub fn resolved(&self, boundaries: &Boundaries, domain: &Domain) -> std::result::Result<InitialVelocity, String> {
+        if let InitialVelocity::FromSnapshot { file, field, sampled } = self {
+            let sampled = match sampled {
+                Some(s) => {
+                    s.check_covers(domain)?;
+                    s.clone()
+                }
+                None => std::sync::Arc::new(crate::mapping::read(file, field, domain)?),
+            };
+            return Ok(InitialVelocity::FromSnapshot {
+                file: file.clone(),
+                field: field.clone(),
+                sampled: Some(sampled),
+            });
+        }
         if *self != InitialVelocity::FromInflow {
             return Ok(self.clone());
         }
@@ -379,6 +409,23 @@ impl InitialVelocity {
             Side::Bottom | Side::Top => (domain.origin[0], domain.size[0]),
         };
         Ok(InitialVelocity::Inflow { boundaries: *boundaries, side, start, length })
+    }
+}
+
+impl Case {
+    /// This case with the snapshot of every `FromSnapshot` initial velocity read
+    /// ([`crate::mapping`]); an error names the entry, what is wrong and the fix.
+    pub fn with_snapshots_read(&self) -> crate::Result<Case> {
+        let mut case = self.clone();
+        for f in &mut case.fields {
+            if matches!(f.velocity, InitialVelocity::FromSnapshot { sampled: None, .. }) {
+                f.velocity = f
+                    .velocity
+                    .resolved(&self.boundaries, &self.domain)
+                    .map_err(|m| crate::Error::invalid(format!("fields.{}.velocity", f.name), m))?;
+            }
+        }
+        Ok(case)
     }
 }
 
@@ -599,6 +646,12 @@ pub struct SnapshotSpec {
     /// position, velocity, volume, stress.
     #[serde(default = "default_point_quantities", skip_serializing_if = "is_default_points")]
     pub points: Vec<QuantityName>,
+    /// Also each Eulerian field's face velocities, the grid state itself
+    /// (`/fields/<f>/faces/u` and `faces/v`): a run started from the snapshot
+    /// (`velocity: FromSnapshot(...)`) maps them instead of the cell-centred means, and on
+    /// the same grid takes them unchanged. Default false.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub faces: bool,
 }
 
 fn names(v: &[&str]) -> Vec<QuantityName> {
@@ -639,6 +692,7 @@ impl SnapshotSpec {
             mixture: default_mixture_quantities(),
             fields: default_field_quantities(),
             points: default_point_quantities(),
+            faces: false,
         }
     }
 }

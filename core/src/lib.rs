@@ -21,6 +21,7 @@ pub mod grid;
 pub mod immersed;
 pub mod input;
 pub mod limits;
+pub mod mapping;
 pub mod math;
 pub mod monitor;
 pub mod neighbours;

@@ -14,6 +14,7 @@ mod eulerian;
 mod immersed_boundaries;
 mod inflow_outflow;
 mod lagrangian;
+mod mapping;
 mod mpm88;
 mod multifield_coupling;
 mod point_particles;

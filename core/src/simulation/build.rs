@@ -6,6 +6,8 @@ use super::*;
 impl Simulation {
     /// Builds every model from the registries and seeds the initial state.
     pub fn new(case: &Case) -> Result<Simulation> {
+        // snapshots of `FromSnapshot` velocities are read once, here
+        let case = &case.with_snapshots_read()?;
         case.validate()?;
         // generated bodies become listed ones once, here, and are checked as those are
         let mut case = if case.has_generators() {
