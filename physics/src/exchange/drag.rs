@@ -224,13 +224,34 @@ pub fn drag_coefficient(
     }
 }
 
-/// Slip speed |u_a − u_b| on every x-face and y-face: the face's normal component and the
-/// tangential one averaged from the (up to) four nearest faces of the other lattice.
-pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<Real>) {
-    let g: &Grid = ctx.grid;
+/// Slip speed |u_a − u_b| on x-face `(i, j)`: its normal component and the tangential one
+/// averaged from the four nearest y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), columns
+/// clamped to the domain (`g.nx`, `g.ny` > 0).
+#[inline]
+fn xface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
+    let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
+    let dv = |f: usize| a.v[f] - b.v[f];
+    let (c0, c1) = (i.saturating_sub(1), i.min(g.nx - 1));
+    let t = 0.25 * (dv(g.yface(c0, j)) + dv(g.yface(c1, j)) + dv(g.yface(c0, j + 1)) + dv(g.yface(c1, j + 1)));
+    let f = g.xface(i, j);
+    (a.u[f] - b.u[f]).hypot(t)
+}
+
+/// Slip speed on y-face `(i, j)`, the tangential part from the x-faces (i, j−1), (i+1, j−1),
+/// (i, j), (i+1, j), rows clamped to the domain (as [`xface_slip`]).
+#[inline]
+fn yface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
     let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
     let du = |f: usize| a.u[f] - b.u[f];
-    let dv = |f: usize| a.v[f] - b.v[f];
+    let (r0, r1) = (j.saturating_sub(1), j.min(g.ny - 1));
+    let t = 0.25 * (du(g.xface(i, r0)) + du(g.xface(i + 1, r0)) + du(g.xface(i, r1)) + du(g.xface(i + 1, r1)));
+    let f = g.yface(i, j);
+    (a.v[f] - b.v[f]).hypot(t)
+}
+
+/// Slip speed |u_a − u_b| on every x-face and y-face ([`xface_slip`], [`yface_slip`]).
+pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<Real>) {
+    let g: &Grid = ctx.grid;
     sx.clear();
     sx.resize(g.n_xfaces(), 0.0);
     sy.clear();
@@ -240,20 +261,12 @@ pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<
     }
     for j in 0..g.ny {
         for i in 0..=g.nx {
-            // y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), columns clamped to the domain
-            let (c0, c1) = (i.saturating_sub(1), i.min(g.nx - 1));
-            let t = 0.25 * (dv(g.yface(c0, j)) + dv(g.yface(c1, j)) + dv(g.yface(c0, j + 1)) + dv(g.yface(c1, j + 1)));
-            let f = g.xface(i, j);
-            sx[f] = du(f).hypot(t);
+            sx[g.xface(i, j)] = xface_slip(ctx, g, i, j);
         }
     }
     for j in 0..=g.ny {
         for i in 0..g.nx {
-            // x-faces (i, j−1), (i+1, j−1), (i, j), (i+1, j), rows clamped to the domain
-            let (r0, r1) = (j.saturating_sub(1), j.min(g.ny - 1));
-            let t = 0.25 * (du(g.xface(i, r0)) + du(g.xface(i + 1, r0)) + du(g.xface(i, r1)) + du(g.xface(i + 1, r1)));
-            let f = g.yface(i, j);
-            sy[f] = dv(f).hypot(t);
+            sy[g.yface(i, j)] = yface_slip(ctx, g, i, j);
         }
     }
 }
@@ -282,43 +295,26 @@ pub fn fill_drag(
         return;
     }
     let rho_f = ctx.density[0];
-    let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
-    let du = |f: usize| a.u[f] - b.u[f];
-    let dv = |f: usize| a.v[f] - b.v[f];
     let empty = |m: &[Real], t: &[Real], f: usize| m[f] == 0.0 && t[f] == 0.0;
     let k_at = |t: Real, slip: Real| drag_coefficient(c, g, diameter, viscosity, rho_f, t, slip, di_felice);
     kx.par_chunks_mut(nx + 1).with_min_len(8).enumerate().for_each(|(j, row)| {
         for (i, k) in row.iter_mut().enumerate() {
             let f = grid.xface(i, j);
-            if empty(&ctx.b.mass_u, &ctx.b.theta_u, f) {
-                *k = 0.0;
-                continue;
-            }
-            // y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), columns clamped to the domain
-            let (c0, c1) = (i.saturating_sub(1), i.min(nx - 1));
-            let t = 0.25
-                * (dv(grid.yface(c0, j))
-                    + dv(grid.yface(c1, j))
-                    + dv(grid.yface(c0, j + 1))
-                    + dv(grid.yface(c1, j + 1)));
-            *k = k_at(ctx.a.theta_u[f], du(f).hypot(t));
+            *k = if empty(&ctx.b.mass_u, &ctx.b.theta_u, f) {
+                0.0
+            } else {
+                k_at(ctx.a.theta_u[f], xface_slip(ctx, grid, i, j))
+            };
         }
     });
     ky.par_chunks_mut(nx).with_min_len(8).enumerate().for_each(|(j, row)| {
         for (i, k) in row.iter_mut().enumerate() {
             let f = grid.yface(i, j);
-            if empty(&ctx.b.mass_v, &ctx.b.theta_v, f) {
-                *k = 0.0;
-                continue;
-            }
-            // x-faces (i, j−1), (i+1, j−1), (i, j), (i+1, j), rows clamped to the domain
-            let (r0, r1) = (j.saturating_sub(1), j.min(ny - 1));
-            let t = 0.25
-                * (du(grid.xface(i, r0))
-                    + du(grid.xface(i + 1, r0))
-                    + du(grid.xface(i, r1))
-                    + du(grid.xface(i + 1, r1)));
-            *k = k_at(ctx.a.theta_v[f], dv(f).hypot(t));
+            *k = if empty(&ctx.b.mass_v, &ctx.b.theta_v, f) {
+                0.0
+            } else {
+                k_at(ctx.a.theta_v[f], yface_slip(ctx, grid, i, j))
+            };
         }
     });
 }
