@@ -1,4 +1,4 @@
-//! Boundary conditions on the four sides of the domain.
+//! Boundary conditions on the sides of the domain (four in 2D, six in 3D).
 //!
 //! On the MAC grid a side holds the faces normal to it (their velocity is the wall's
 //! normal velocity, or free for an outflow) and sets ghost values for the tangential
@@ -6,7 +6,7 @@
 //! `u_inside` for a free-slip wall or an outflow.
 
 use crate::grid::{FaceVelocity, Grid};
-use crate::math::{Real, Vector};
+use crate::math::{Real, Vector, DIM, SIDES};
 use serde::{Deserialize, Serialize};
 
 /// One side of the rectangular domain.
@@ -20,11 +20,66 @@ pub enum Side {
     Bottom,
     /// y = y_max.
     Top,
+    /// z = z_min.
+    #[cfg(feature = "dim3")]
+    Back,
+    /// z = z_max.
+    #[cfg(feature = "dim3")]
+    Front,
+}
+
+/// Where along a side a point is: the fraction (0..1) of the way along each of the side's
+/// tangential axes, in axis order (one number in 2D, two in 3D).
+#[cfg(feature = "dim2")]
+pub type Along = Real;
+/// Where along a side a point is: the fraction (0..1) of the way along each of the side's
+/// tangential axes, in axis order (one number in 2D, two in 3D).
+#[cfg(feature = "dim3")]
+pub type Along = [Real; 2];
+
+/// The middle of a side.
+#[cfg(feature = "dim2")]
+pub const MIDDLE: Along = 0.5;
+/// The middle of a side.
+#[cfg(feature = "dim3")]
+pub const MIDDLE: Along = [0.5, 0.5];
+
+/// The axes along a side normal to `axis`, in order.
+pub fn tangential_axes(axis: usize) -> [usize; DIM - 1] {
+    let mut t = [0; DIM - 1];
+    for (k, a) in (0..DIM).filter(|&a| a != axis).enumerate() {
+        t[k] = a;
+    }
+    t
+}
+
+/// An [`Along`] from the fractions along a side's tangential axes.
+pub fn along(fractions: [Real; DIM - 1]) -> Along {
+    #[cfg(feature = "dim2")]
+    return fractions[0];
+    #[cfg(feature = "dim3")]
+    return fractions;
 }
 
 impl Side {
-    /// All four sides.
-    pub const ALL: [Side; 4] = [Side::Left, Side::Right, Side::Bottom, Side::Top];
+    /// All sides, axis by axis, the low side first.
+    #[cfg(feature = "dim2")]
+    pub const ALL: [Side; SIDES] = [Side::Left, Side::Right, Side::Bottom, Side::Top];
+    /// All sides, axis by axis, the low side first.
+    #[cfg(feature = "dim3")]
+    pub const ALL: [Side; SIDES] = [Side::Left, Side::Right, Side::Bottom, Side::Top, Side::Back, Side::Front];
+    /// The side of `axis` at its low (`high == false`) or high end.
+    pub fn of(axis: usize, high: bool) -> Side {
+        Side::ALL[2 * axis + high as usize]
+    }
+    /// The axis the side is normal to.
+    pub fn axis(self) -> usize {
+        self as usize / 2
+    }
+    /// Whether the side is at the high end of its axis.
+    pub fn high(self) -> bool {
+        self as usize % 2 == 1
+    }
     /// The side's name in a case file.
     pub fn name(self) -> &'static str {
         match self {
@@ -32,16 +87,15 @@ impl Side {
             Side::Right => "right",
             Side::Bottom => "bottom",
             Side::Top => "top",
+            #[cfg(feature = "dim3")]
+            Side::Back => "back",
+            #[cfg(feature = "dim3")]
+            Side::Front => "front",
         }
     }
     /// The side across the domain.
     pub fn opposite(self) -> Side {
-        match self {
-            Side::Left => Side::Right,
-            Side::Right => Side::Left,
-            Side::Bottom => Side::Top,
-            Side::Top => Side::Bottom,
-        }
+        Side::of(self.axis(), !self.high())
     }
 }
 
@@ -51,7 +105,8 @@ pub enum Profile {
     /// The same velocity along the whole side.
     #[default]
     Uniform,
-    /// A parabola vanishing at both ends of the side, equal to the given velocity at its middle.
+    /// A parabola vanishing at both ends of the side, equal to the given velocity at its
+    /// middle (in 3D the product of the parabolas along the side's two axes).
     Parabolic,
 }
 
@@ -68,13 +123,14 @@ pub enum Boundary {
     /// Prescribed velocity (length/time): a moving wall when the normal component is zero,
     /// an inflow when it points into the domain.
     Velocity {
-        /// Velocity `(u, v)` at the side (at its middle for a parabolic profile).
-        velocity: [Real; 2],
+        /// Velocity `(u, v)` (or `(u, v, w)`) at the side (at its middle for a parabolic
+        /// profile).
+        velocity: [Real; DIM],
         /// How the velocity varies along the side.
         #[serde(default)]
         profile: Profile,
     },
-    /// Open side at a fixed pressure (force/length in 2D).
+    /// Open side at a fixed pressure (force/length in 2D, force/area in 3D).
     Outflow {
         /// Pressure at the side.
         #[serde(default)]
@@ -82,7 +138,7 @@ pub enum Boundary {
     },
 }
 
-/// The conditions on all four sides.
+/// The conditions on all sides.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Boundaries {
@@ -94,11 +150,26 @@ pub struct Boundaries {
     pub bottom: Boundary,
     /// y = y_max.
     pub top: Boundary,
+    /// z = z_min.
+    #[cfg(feature = "dim3")]
+    pub back: Boundary,
+    /// z = z_max.
+    #[cfg(feature = "dim3")]
+    pub front: Boundary,
 }
 
 impl Default for Boundaries {
     fn default() -> Self {
-        Self { left: Boundary::NoSlip, right: Boundary::NoSlip, bottom: Boundary::NoSlip, top: Boundary::NoSlip }
+        Self {
+            left: Boundary::NoSlip,
+            right: Boundary::NoSlip,
+            bottom: Boundary::NoSlip,
+            top: Boundary::NoSlip,
+            #[cfg(feature = "dim3")]
+            back: Boundary::NoSlip,
+            #[cfg(feature = "dim3")]
+            front: Boundary::NoSlip,
+        }
     }
 }
 
@@ -110,15 +181,19 @@ impl Boundaries {
             Side::Right => self.right,
             Side::Bottom => self.bottom,
             Side::Top => self.top,
+            #[cfg(feature = "dim3")]
+            Side::Back => self.back,
+            #[cfg(feature = "dim3")]
+            Side::Front => self.front,
         }
     }
-    /// Periodic along x.
-    pub fn periodic_x(&self) -> bool {
-        self.left == Boundary::Periodic
+    /// Periodic along `axis`.
+    pub fn periodic(&self, axis: usize) -> bool {
+        self.side(Side::of(axis, false)) == Boundary::Periodic
     }
-    /// Periodic along y.
-    pub fn periodic_y(&self) -> bool {
-        self.bottom == Boundary::Periodic
+    /// Periodic along each axis.
+    pub fn periodic_axes(&self) -> [bool; DIM] {
+        std::array::from_fn(|a| self.periodic(a))
     }
     /// Whether any side fixes the pressure (otherwise it is defined up to a constant).
     pub fn has_dirichlet_pressure(&self) -> bool {
@@ -126,7 +201,7 @@ impl Boundaries {
     }
     /// Checks that periodic sides come in pairs.
     pub fn validate(&self) -> Result<(), String> {
-        for s in [Side::Left, Side::Bottom] {
+        for s in (0..DIM).map(|a| Side::of(a, false)) {
             let a = self.side(s) == Boundary::Periodic;
             let b = self.side(s.opposite()) == Boundary::Periodic;
             if a != b {
@@ -147,69 +222,76 @@ impl Boundaries {
     /// domain.
     pub fn is_inflow(&self, side: Side) -> bool {
         match self.side(side) {
-            Boundary::Velocity { velocity, .. } => match side {
-                Side::Left => velocity[0] > 0.0,
-                Side::Right => velocity[0] < 0.0,
-                Side::Bottom => velocity[1] > 0.0,
-                Side::Top => velocity[1] < 0.0,
-            },
+            Boundary::Velocity { velocity, .. } => {
+                let normal = velocity[side.axis()];
+                if side.high() {
+                    normal < 0.0
+                } else {
+                    normal > 0.0
+                }
+            }
             _ => false,
         }
     }
 
     /// Prescribed velocity of `side` at `s`, the fraction (0..1) of the way along it.
-    pub fn wall_velocity(&self, side: Side, s: Real) -> Vector {
+    pub fn wall_velocity(&self, side: Side, s: Along) -> Vector {
         match self.side(side) {
             Boundary::Velocity { velocity, profile } => {
+                #[cfg(feature = "dim2")]
                 let scale = match profile {
                     Profile::Uniform => 1.0,
                     Profile::Parabolic => 4.0 * s * (1.0 - s),
                 };
-                Vector::new(velocity[0], velocity[1]) * scale
+                #[cfg(feature = "dim3")]
+                let scale = match profile {
+                    Profile::Uniform => 1.0,
+                    Profile::Parabolic => 4.0 * s[0] * (1.0 - s[0]) * (4.0 * s[1] * (1.0 - s[1])),
+                };
+                Vector::from(velocity) * scale
             }
             _ => Vector::zeros(),
         }
     }
 
-    /// Ghost value of a tangential component half a cell outside `side`,
+    /// Ghost value of the tangential component half a cell outside `side`,
     /// given the value just inside and the fraction `s` along the side.
+    #[cfg(feature = "dim2")]
     #[inline]
-    pub fn tangential_ghost(&self, side: Side, inside: Real, s: Real) -> Real {
-        let tangential = |w: Vector| match side {
-            Side::Left | Side::Right => w.y,
-            Side::Bottom | Side::Top => w.x,
-        };
+    pub fn tangential_ghost(&self, side: Side, inside: Real, s: Along) -> Real {
+        self.ghost(side, tangential_axes(side.axis())[0], inside, s)
+    }
+
+    /// Ghost value of the tangential velocity component `component` half a cell outside
+    /// `side`, given the value just inside and the position `s` along the side.
+    #[inline]
+    pub fn ghost(&self, side: Side, component: usize, inside: Real, s: Along) -> Real {
         match self.side(side) {
             Boundary::NoSlip => -inside,
             Boundary::FreeSlip | Boundary::Outflow { .. } | Boundary::Periodic => inside,
-            Boundary::Velocity { .. } => 2.0 * tangential(self.wall_velocity(side, s)) - inside,
+            Boundary::Velocity { .. } => 2.0 * self.wall_velocity(side, s)[component] - inside,
         }
     }
 
     /// Normal velocity imposed on the faces of `side`, or `None` where it is free
     /// (outflow) or periodic.
     #[inline]
-    pub fn normal_velocity(&self, side: Side, s: Real) -> Option<Real> {
+    pub fn normal_velocity(&self, side: Side, s: Along) -> Option<Real> {
         match self.side(side) {
             Boundary::NoSlip | Boundary::FreeSlip => Some(0.0),
-            Boundary::Velocity { .. } => {
-                let w = self.wall_velocity(side, s);
-                Some(match side {
-                    Side::Left | Side::Right => w.x,
-                    Side::Bottom | Side::Top => w.y,
-                })
-            }
+            Boundary::Velocity { .. } => Some(self.wall_velocity(side, s)[side.axis()]),
             Boundary::Periodic | Boundary::Outflow { .. } => None,
         }
     }
 
     /// Sets the faces on the domain boundary: imposed normal velocities, and the copy of
     /// face 0 onto face n on periodic sides.
+    #[cfg(feature = "dim2")]
     pub fn enforce(&self, grid: &Grid, vel: &mut FaceVelocity) {
         let (nx, ny) = (grid.nx, grid.ny);
         for j in 0..ny {
             let s = (j as Real + 0.5) / ny as Real;
-            if self.periodic_x() {
+            if self.periodic(0) {
                 vel.u[grid.xface(nx, j)] = vel.u[grid.xface(0, j)];
             } else {
                 if let Some(w) = self.normal_velocity(Side::Left, s) {
@@ -222,7 +304,7 @@ impl Boundaries {
         }
         for i in 0..nx {
             let s = (i as Real + 0.5) / nx as Real;
-            if self.periodic_y() {
+            if self.periodic(1) {
                 vel.v[grid.yface(i, ny)] = vel.v[grid.yface(i, 0)];
             } else {
                 if let Some(w) = self.normal_velocity(Side::Bottom, s) {
@@ -235,14 +317,57 @@ impl Boundaries {
         }
     }
 
+    /// Sets the faces on the domain boundary: imposed normal velocities, and the copy of
+    /// face 0 onto face n on periodic sides.
+    #[cfg(feature = "dim3")]
+    pub fn enforce(&self, grid: &Grid, vel: &mut FaceVelocity) {
+        use crate::grid::Lattice;
+        let n = grid.n();
+        for a in 0..DIM {
+            let lattice = Lattice::face(a);
+            let [t0, t1] = tangential_axes(a);
+            for q in 0..n[t1] {
+                for p in 0..n[t0] {
+                    let s = [(p as Real + 0.5) / n[t0] as Real, (q as Real + 0.5) / n[t1] as Real];
+                    let at = |i: usize| {
+                        let mut at = [0; DIM];
+                        (at[a], at[t0], at[t1]) = (i, p, q);
+                        grid.index(lattice, at)
+                    };
+                    let (lo, hi) = (at(0), at(n[a]));
+                    if self.periodic(a) {
+                        vel[a][hi] = vel[a][lo];
+                    } else {
+                        if let Some(w) = self.normal_velocity(Side::of(a, false), s) {
+                            vel[a][lo] = w;
+                        }
+                        if let Some(w) = self.normal_velocity(Side::of(a, true), s) {
+                            vel[a][hi] = w;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether the faces normal to `axis` at position `i` along it have a fixed velocity
+    /// (wall or inflow), so that no force or pressure gradient acts on them.
+    #[inline]
+    pub fn face_fixed(&self, grid: &Grid, axis: usize, i: usize) -> bool {
+        (i == 0 && self.normal_velocity(Side::of(axis, false), MIDDLE).is_some())
+            || (i == grid.n()[axis] && self.normal_velocity(Side::of(axis, true), MIDDLE).is_some())
+    }
+
     /// Whether the x-face `(i, ·)` has a fixed velocity (wall or inflow), so that no force
     /// or pressure gradient acts on it.
+    #[cfg(feature = "dim2")]
     #[inline]
     pub fn xface_fixed(&self, grid: &Grid, i: usize) -> bool {
         (i == 0 && self.normal_velocity(Side::Left, 0.5).is_some())
             || (i == grid.nx && self.normal_velocity(Side::Right, 0.5).is_some())
     }
     /// Whether the y-face `(·, j)` has a fixed velocity.
+    #[cfg(feature = "dim2")]
     #[inline]
     pub fn yface_fixed(&self, grid: &Grid, j: usize) -> bool {
         (j == 0 && self.normal_velocity(Side::Bottom, 0.5).is_some())

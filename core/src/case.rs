@@ -7,7 +7,16 @@
 
 use crate::boundary::{Boundaries, Side};
 use crate::error::{Error, Result};
-use crate::math::Real;
+use crate::math::{Real, DIM};
+
+/// An angular velocity in a case file: counter-clockwise positive in 2D, `(ωx, ωy, ωz)`
+/// in 3D.
+#[cfg(feature = "dim2")]
+pub type AngularVelocity = Real;
+/// An angular velocity in a case file: counter-clockwise positive in 2D, `(ωx, ωy, ωz)`
+/// in 3D.
+#[cfg(feature = "dim3")]
+pub type AngularVelocity = [Real; 3];
 use crate::monitor::{MonitorSpec, StopSpec};
 use crate::quantity::Place;
 use serde::{Deserialize, Serialize};
@@ -45,16 +54,16 @@ impl PluginSpec {
 pub struct Domain {
     /// Lower-left corner (length).
     #[serde(default)]
-    pub origin: [Real; 2],
-    /// Width and height (length).
-    pub size: [Real; 2],
-    /// Cells along x and y; cells must be square.
-    pub cells: [usize; 2],
+    pub origin: [Real; DIM],
+    /// Width and height (and depth in 3D) (length).
+    pub size: [Real; DIM],
+    /// Cells along x and y (and z); cells must be square (cubes).
+    pub cells: [usize; DIM],
     /// The cells instead of `cells` when every field of bodies is represented by mass
     /// points ([`Case::cells`]): the grid of the mass points' own scale (d ≲ h), so that one
     /// entry (`representation`) switches a scene from resolved bodies to mass points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub point_cells: Option<[usize; 2]>,
+    pub point_cells: Option<[usize; DIM]>,
 }
 
 /// Time control.
@@ -276,8 +285,9 @@ impl Region {
 #[serde(deny_unknown_fields)]
 pub enum InitialVelocity {
     /// The same velocity everywhere.
-    Uniform([Real; 2]),
-    /// Taylor–Green vortex u = A sin x cos y, v = −A cos x sin y (x, y from the origin).
+    Uniform([Real; DIM]),
+    /// Taylor–Green vortex u = A sin x cos y, v = −A cos x sin y (x, y from the origin);
+    /// in 3D u = A sin x cos y cos z, v = −A cos x sin y cos z, w = 0.
     TaylorGreen {
         /// Amplitude A (length/time).
         amplitude: Real,
@@ -285,9 +295,10 @@ pub enum InitialVelocity {
     /// Rigid rotation about a centre.
     RigidRotation {
         /// Centre of rotation.
-        center: [Real; 2],
-        /// Angular velocity (1/time), counter-clockwise positive.
-        angular_velocity: Real,
+        center: [Real; DIM],
+        /// Angular velocity (1/time): counter-clockwise positive in 2D, the vector
+        /// `(ωx, ωy, ωz)` in 3D (u = ω × (x − c)).
+        angular_velocity: AngularVelocity,
     },
     /// A sine along x, u = A sin(k (x − x₀)), v = 0, with x₀ the domain origin: the first
     /// mode of a bar fixed at x₀ for k = π/(2L) (Bardenhagen's vibrating bar).
@@ -317,49 +328,64 @@ pub enum InitialVelocity {
         sampled: Option<std::sync::Arc<crate::mapping::SampledVelocity>>,
     },
     /// `FromInflow` resolved by the core ([`InitialVelocity::resolved`]): the velocity of
-    /// `side` at the fraction `(coordinate − start)/length` along it. Not in case files.
+    /// `side` at the fraction `(coordinate − origin)/size` along its tangential axes. Not
+    /// in case files.
     #[serde(skip)]
     Inflow {
         /// The case's boundaries.
         boundaries: Boundaries,
         /// The inflow side.
         side: Side,
-        /// Where the side starts (the domain origin's y for left and right, x otherwise).
-        start: Real,
-        /// The side's length.
-        length: Real,
+        /// The domain's origin.
+        origin: [Real; DIM],
+        /// The domain's size.
+        size: [Real; DIM],
     },
 }
 
 impl Default for InitialVelocity {
     fn default() -> Self {
-        InitialVelocity::Uniform([0.0, 0.0])
+        InitialVelocity::Uniform([0.0; DIM])
     }
 }
 
 impl InitialVelocity {
-    /// Velocity at `(x, y)` given the domain origin.
-    pub fn at(&self, x: Real, y: Real, origin: [Real; 2]) -> [Real; 2] {
+    /// Velocity at the point `p` given the domain origin.
+    pub fn at(&self, p: [Real; DIM], origin: [Real; DIM]) -> [Real; DIM] {
         match *self {
-            InitialVelocity::FromSnapshot { ref sampled, .. } => sampled.as_ref().map_or([0.0, 0.0], |s| s.at(x, y)),
+            InitialVelocity::FromSnapshot { ref sampled, .. } => sampled.as_ref().map_or([0.0; DIM], |s| s.at(p)),
             InitialVelocity::Uniform(u) => u,
+            #[cfg(feature = "dim2")]
             InitialVelocity::TaylorGreen { amplitude } => {
-                let (x, y) = (x - origin[0], y - origin[1]);
+                let (x, y) = (p[0] - origin[0], p[1] - origin[1]);
                 [amplitude * x.sin() * y.cos(), -amplitude * x.cos() * y.sin()]
             }
-            InitialVelocity::RigidRotation { center, angular_velocity } => {
-                [-angular_velocity * (y - center[1]), angular_velocity * (x - center[0])]
+            #[cfg(feature = "dim3")]
+            InitialVelocity::TaylorGreen { amplitude } => {
+                let (x, y, z) = (p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]);
+                [amplitude * x.sin() * y.cos() * z.cos(), -amplitude * x.cos() * y.sin() * z.cos(), 0.0]
             }
-            InitialVelocity::SineX { amplitude, wavenumber } => [amplitude * (wavenumber * (x - origin[0])).sin(), 0.0],
+            #[cfg(feature = "dim2")]
+            InitialVelocity::RigidRotation { center, angular_velocity } => {
+                [-angular_velocity * (p[1] - center[1]), angular_velocity * (p[0] - center[0])]
+            }
+            #[cfg(feature = "dim3")]
+            InitialVelocity::RigidRotation { center, angular_velocity } => {
+                let r = crate::math::vector(p) - crate::math::vector(center);
+                crate::math::vector(angular_velocity).cross(&r).into()
+            }
+            InitialVelocity::SineX { amplitude, wavenumber } => {
+                let mut u = [0.0; DIM];
+                u[0] = amplitude * (wavenumber * (p[0] - origin[0])).sin();
+                u
+            }
             // resolved before the fields start (`resolved`): unresolved it has no inflow
-            InitialVelocity::FromInflow => [0.0, 0.0],
-            InitialVelocity::Inflow { boundaries, side, start, length } => {
-                let along = match side {
-                    Side::Left | Side::Right => y,
-                    Side::Bottom | Side::Top => x,
-                };
-                let w = boundaries.wall_velocity(side, (along - start) / length);
-                [w.x, w.y]
+            InitialVelocity::FromInflow => [0.0; DIM],
+            InitialVelocity::Inflow { boundaries, side, origin, size } => {
+                let along = crate::boundary::along(
+                    crate::boundary::tangential_axes(side.axis()).map(|a| (p[a] - origin[a]) / size[a]),
+                );
+                boundaries.wall_velocity(side, along).into()
             }
         }
     }
@@ -404,11 +430,7 @@ impl InitialVelocity {
                 ));
             }
         };
-        let (start, length) = match side {
-            Side::Left | Side::Right => (domain.origin[1], domain.size[1]),
-            Side::Bottom | Side::Top => (domain.origin[0], domain.size[0]),
-        };
-        Ok(InitialVelocity::Inflow { boundaries: *boundaries, side, start, length })
+        Ok(InitialVelocity::Inflow { boundaries: *boundaries, side, origin: domain.origin, size: domain.size })
     }
 }
 
@@ -791,7 +813,7 @@ pub struct Case {
     pub boundaries: Boundaries,
     /// Gravity (length/time²).
     #[serde(default)]
-    pub gravity: [Real; 2],
+    pub gravity: [Real; DIM],
     /// Time control.
     pub time: TimeControl,
     /// The fields.
@@ -842,7 +864,7 @@ impl Case {
 
     /// The grid's cells: `domain.point_cells` when it is given and every field of bodies
     /// (a `region: Bodies`) is represented by mass points, else `domain.cells`.
-    pub fn cells(&self) -> [usize; 2] {
+    pub fn cells(&self) -> [usize; DIM] {
         let mut bodies = self.fields.iter().filter(|f| matches!(f.region, Region::Bodies(_))).peekable();
         match self.domain.point_cells {
             Some(cells) if bodies.peek().is_some() && bodies.all(|f| f.representation == Representation::MassPoint) => {

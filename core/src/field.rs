@@ -1,6 +1,6 @@
 //! A field's state on the grid: the scratch space every frame fills and reads back.
 
-use crate::grid::{FaceVelocity, Grid};
+use crate::grid::{FaceArrays, FaceVelocity, Grid};
 use crate::math::Real;
 use serde::{Deserialize, Serialize};
 
@@ -12,14 +12,11 @@ use serde::{Deserialize, Serialize};
 pub struct FieldState {
     /// Volume fraction θ at cell centres.
     pub theta: Vec<Real>,
-    /// Volume fraction on x-faces (mean of the two neighbouring cells).
-    pub theta_u: Vec<Real>,
-    /// Volume fraction on y-faces.
-    pub theta_v: Vec<Real>,
-    /// Mass in the control volume of each x-face (θρ⁰h² for a full face).
-    pub mass_u: Vec<Real>,
-    /// Mass in the control volume of each y-face.
-    pub mass_v: Vec<Real>,
+    /// Volume fraction on the faces (mean of the two neighbouring cells), one array per
+    /// face lattice.
+    pub theta_face: FaceArrays,
+    /// Mass in the control volume of each face (θρ⁰h² for a full face in 2D, θρ⁰h³ in 3D).
+    pub mass_face: FaceArrays,
     /// Grid velocity: u^n after particles to grid, then provisional, then final.
     pub velocity: FaceVelocity,
     /// Velocity at the start of the step (for FLIP increments).
@@ -39,10 +36,8 @@ impl FieldState {
     pub fn new(grid: &Grid) -> Self {
         Self {
             theta: vec![0.0; grid.n_cells()],
-            theta_u: vec![0.0; grid.n_xfaces()],
-            theta_v: vec![0.0; grid.n_yfaces()],
-            mass_u: vec![0.0; grid.n_xfaces()],
-            mass_v: vec![0.0; grid.n_yfaces()],
+            theta_face: FaceArrays::zeros(grid),
+            mass_face: FaceArrays::zeros(grid),
             velocity: FaceVelocity::zeros(grid),
             velocity_old: FaceVelocity::zeros(grid),
             pressure_acceleration: FaceVelocity::zeros(grid),
@@ -53,8 +48,10 @@ impl FieldState {
 
     /// Face volume fractions from the cell ones: the mean of the two neighbours, the
     /// inside cell on a wall, the wrapped neighbour on a periodic side.
-    pub fn update_face_fractions(&mut self, grid: &Grid, periodic_x: bool, periodic_y: bool) {
+    #[cfg(feature = "dim2")]
+    pub fn update_face_fractions(&mut self, grid: &Grid, periodic: [bool; crate::math::DIM]) {
         let (nx, ny) = (grid.nx, grid.ny);
+        let [periodic_x, periodic_y] = periodic;
         for j in 0..ny {
             for i in 0..=nx {
                 let l = if i > 0 {
@@ -76,7 +73,7 @@ impl FieldState {
                     (Some(c), None) | (None, Some(c)) => self.theta[grid.cell(c, j)],
                     (None, None) => 0.0,
                 };
-                self.theta_u[grid.xface(i, j)] = t;
+                self.theta_face.u[grid.xface(i, j)] = t;
             }
         }
         for j in 0..=ny {
@@ -100,7 +97,37 @@ impl FieldState {
                     (Some(c), None) | (None, Some(c)) => self.theta[grid.cell(i, c)],
                     (None, None) => 0.0,
                 };
-                self.theta_v[grid.yface(i, j)] = th;
+                self.theta_face.v[grid.yface(i, j)] = th;
+            }
+        }
+    }
+
+    /// Face volume fractions from the cell ones: the mean of the two neighbours, the
+    /// inside cell on a wall, the wrapped neighbour on a periodic side.
+    #[cfg(feature = "dim3")]
+    pub fn update_face_fractions(&mut self, grid: &Grid, periodic: [bool; crate::math::DIM]) {
+        use crate::grid::Lattice;
+        use crate::math::AXES;
+        let n = grid.n();
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            for f in 0..grid.n_faces(a) {
+                let at = grid.node(lattice, f);
+                let side = |c: Option<usize>| {
+                    c.map(|c| {
+                        let mut cell = at;
+                        cell[a] = c;
+                        self.theta[grid.index(Lattice::Cell, cell)]
+                    })
+                };
+                let i = at[a];
+                let l = if i > 0 { Some(i - 1) } else { periodic[a].then_some(n[a] - 1) };
+                let r = if i < n[a] { Some(i) } else { periodic[a].then_some(0) };
+                self.theta_face[a][f] = match (side(l), side(r)) {
+                    (Some(l), Some(r)) => 0.5 * (l + r),
+                    (Some(c), None) | (None, Some(c)) => c,
+                    (None, None) => 0.0,
+                };
             }
         }
     }

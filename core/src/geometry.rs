@@ -81,7 +81,7 @@ pub fn disk_cell_fractions(
     let j0 = ((center[1] - radius - oy) / h).floor() as i64;
     let j1 = ((center[1] + radius - oy) / h).floor() as i64;
     let (nx, ny) = (grid.nx as i64, grid.ny as i64);
-    let area = grid.cell_area();
+    let area = grid.cell_volume();
     for j in j0..=j1 {
         let jj = if periodic[1] { j.rem_euclid(ny) } else { j };
         if !(0..ny).contains(&jj) {
@@ -134,7 +134,7 @@ mod tests {
                 let c = [1.0 + 0.5 * t.sin(), 1.0 + 0.5 * (1.3 * t).cos()];
                 let mut out = Vec::new();
                 disk_cell_fractions(&g, c, r, [false, false], &mut out);
-                let sum: Real = out.iter().map(|(_, th)| th * g.cell_area()).sum();
+                let sum: Real = out.iter().map(|(_, th)| th * g.cell_volume()).sum();
                 assert!((sum - PI * r * r).abs() < 1e-14, "r {r} at {c:?}: {sum} vs {}", PI * r * r);
                 assert!(out.iter().all(|(_, th)| *th > 0.0 && *th <= 1.0));
             }

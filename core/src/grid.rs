@@ -2,9 +2,13 @@
 //!
 //! Pressure, volume fractions and densities live at cell centres; the x velocity
 //! component lives on the faces normal to x ("x-faces", `(nx + 1) × ny`), the y component
-//! on the faces normal to y ("y-faces", `nx × (ny + 1)`). Cells are square with side `h`.
+//! on the faces normal to y ("y-faces", `nx × (ny + 1)`), and in 3D the z component on the
+//! faces normal to z ("z-faces", `nx × ny × (nz + 1)`). Cells are squares (cubes) of side
+//! `h`. Every lattice is stored with x fastest, then y, then z: the index of node
+//! `(i, j, k)` of a lattice of shape `s` is `i + s₀ (j + s₁ k)`, so a 2D index is the 3D
+//! one with `k = 0`.
 
-use crate::math::{Real, Vector};
+use crate::math::{Index, Real, Vector, AXES, DIM};
 use serde::{Deserialize, Serialize};
 
 /// Which of the three staggered lattices a quantity lives on.
@@ -16,6 +20,32 @@ pub enum Lattice {
     XFace,
     /// Faces normal to y (y velocity component).
     YFace,
+    /// Faces normal to z (z velocity component).
+    #[cfg(feature = "dim3")]
+    ZFace,
+}
+
+impl Lattice {
+    /// The faces normal to `axis`.
+    pub fn face(axis: usize) -> Lattice {
+        match axis {
+            0 => Lattice::XFace,
+            1 => Lattice::YFace,
+            #[cfg(feature = "dim3")]
+            2 => Lattice::ZFace,
+            _ => panic!("axis {axis} of a {DIM}D grid"),
+        }
+    }
+    /// The axis a face lattice is normal to (`None` for cell centres).
+    pub fn axis(self) -> Option<usize> {
+        match self {
+            Lattice::Cell => None,
+            Lattice::XFace => Some(0),
+            Lattice::YFace => Some(1),
+            #[cfg(feature = "dim3")]
+            Lattice::ZFace => Some(2),
+        }
+    }
 }
 
 /// A uniform MAC grid.
@@ -25,6 +55,9 @@ pub struct Grid {
     pub nx: usize,
     /// Cells along y.
     pub ny: usize,
+    /// Cells along z.
+    #[cfg(feature = "dim3")]
+    pub nz: usize,
     /// Cell side (length).
     pub h: Real,
     /// Lower-left corner of the domain.
@@ -33,45 +66,128 @@ pub struct Grid {
 
 impl Grid {
     /// A grid of `nx × ny` square cells of side `h` starting at `origin`.
+    #[cfg(feature = "dim2")]
     pub fn new(nx: usize, ny: usize, h: Real, origin: Vector) -> Self {
         Self { nx, ny, h, origin }
     }
+    /// A grid of `n[0] × n[1] (× n[2])` cells of side `h` starting at `origin`.
+    pub fn from_cells(n: Index, h: Real, origin: Vector) -> Self {
+        #[cfg(feature = "dim2")]
+        return Self { nx: n[0], ny: n[1], h, origin };
+        #[cfg(feature = "dim3")]
+        return Self { nx: n[0], ny: n[1], nz: n[2], h, origin };
+    }
+    /// Cells along each axis.
+    pub fn n(&self) -> Index {
+        #[cfg(feature = "dim2")]
+        return [self.nx, self.ny];
+        #[cfg(feature = "dim3")]
+        return [self.nx, self.ny, self.nz];
+    }
     /// Number of cells.
     pub fn n_cells(&self) -> usize {
-        self.nx * self.ny
+        self.n().iter().product()
     }
     /// Number of x-faces.
     pub fn n_xfaces(&self) -> usize {
-        (self.nx + 1) * self.ny
+        self.n_faces(0)
     }
     /// Number of y-faces.
     pub fn n_yfaces(&self) -> usize {
-        self.nx * (self.ny + 1)
+        self.n_faces(1)
+    }
+    /// Number of faces normal to `axis`.
+    pub fn n_faces(&self, axis: usize) -> usize {
+        self.shape(Lattice::face(axis)).iter().product()
+    }
+    /// Nodes of a lattice along each axis: the cells, plus one along a face lattice's axis.
+    pub fn shape(&self, lattice: Lattice) -> Index {
+        let mut n = self.n();
+        if let Some(a) = lattice.axis() {
+            n[a] += 1;
+        }
+        n
+    }
+    /// Position in storage of node `at` of a lattice (x fastest, then y, then z).
+    #[inline]
+    pub fn index(&self, lattice: Lattice, at: Index) -> usize {
+        let s = self.shape(lattice);
+        let mut index = at[DIM - 1];
+        for a in (0..DIM - 1).rev() {
+            index = at[a] + s[a] * index;
+        }
+        index
+    }
+    /// Node of a lattice at a position in storage (the inverse of [`Grid::index`]).
+    #[inline]
+    pub fn node(&self, lattice: Lattice, mut index: usize) -> Index {
+        let s = self.shape(lattice);
+        let mut at = [0; DIM];
+        for a in AXES {
+            at[a] = index % s[a];
+            index /= s[a];
+        }
+        at
+    }
+    /// The nodes of a lattice in storage order, with their positions in storage:
+    /// `(index, at)` (no division per node, unlike [`Grid::node`]).
+    pub fn nodes(&self, lattice: Lattice) -> impl Iterator<Item = (usize, Index)> {
+        let s = self.shape(lattice);
+        let count: usize = s.iter().product();
+        let mut at = [0; DIM];
+        (0..count).map(move |index| {
+            let here = at;
+            for a in AXES {
+                at[a] += 1;
+                if at[a] < s[a] {
+                    break;
+                }
+                at[a] = 0;
+            }
+            (index, here)
+        })
+    }
+    /// Volume (area in 2D) of one cell.
+    pub fn cell_volume(&self) -> Real {
+        #[cfg(feature = "dim2")]
+        return self.h * self.h;
+        #[cfg(feature = "dim3")]
+        return self.h * self.h * self.h;
+    }
+    /// Position of node `at` of a lattice: cell centres at half-integer multiples of `h`,
+    /// faces on integer multiples along their axis.
+    pub fn position(&self, lattice: Lattice, at: Index) -> Vector {
+        self.origin
+            + Vector::from_fn(|a, _| {
+                let offset = if lattice.axis() == Some(a) { 0.0 } else { 0.5 };
+                (at[a] as Real + offset) * self.h
+            })
     }
     /// Index of cell `(i, j)`.
+    #[cfg(feature = "dim2")]
     #[inline]
     pub fn cell(&self, i: usize, j: usize) -> usize {
         i + j * self.nx
     }
     /// Index of x-face `(i, j)`: the face between cells `(i-1, j)` and `(i, j)`.
+    #[cfg(feature = "dim2")]
     #[inline]
     pub fn xface(&self, i: usize, j: usize) -> usize {
         i + j * (self.nx + 1)
     }
     /// Index of y-face `(i, j)`: the face between cells `(i, j-1)` and `(i, j)`.
+    #[cfg(feature = "dim2")]
     #[inline]
     pub fn yface(&self, i: usize, j: usize) -> usize {
         i + j * self.nx
     }
     /// Size of the domain.
     pub fn size(&self) -> Vector {
-        Vector::new(self.nx as Real * self.h, self.ny as Real * self.h)
-    }
-    /// Area of one cell.
-    pub fn cell_area(&self) -> Real {
-        self.h * self.h
+        let n = self.n();
+        Vector::from_fn(|a, _| n[a] as Real * self.h)
     }
     /// Shape `(columns, rows)` of a lattice.
+    #[cfg(feature = "dim2")]
     pub fn lattice_shape(&self, lattice: Lattice) -> (usize, usize) {
         match lattice {
             Lattice::Cell => (self.nx, self.ny),
@@ -80,6 +196,7 @@ impl Grid {
         }
     }
     /// Offset of a lattice's node `(0, 0)` from the origin, in cells.
+    #[cfg(feature = "dim2")]
     pub fn lattice_offset(&self, lattice: Lattice) -> (Real, Real) {
         match lattice {
             Lattice::Cell => (0.5, 0.5),
@@ -88,11 +205,13 @@ impl Grid {
         }
     }
     /// Position of node `(i, j)` of a lattice.
+    #[cfg(feature = "dim2")]
     pub fn node_position(&self, lattice: Lattice, i: usize, j: usize) -> Vector {
         let (ox, oy) = self.lattice_offset(lattice);
         self.origin + Vector::new((i as Real + ox) * self.h, (j as Real + oy) * self.h)
     }
     /// Centre of cell `(i, j)`.
+    #[cfg(feature = "dim2")]
     pub fn cell_center(&self, i: usize, j: usize) -> Vector {
         self.node_position(Lattice::Cell, i, j)
     }
@@ -100,26 +219,102 @@ impl Grid {
     pub fn contains(&self, p: Vector) -> bool {
         let q = p - self.origin;
         let s = self.size();
-        q.x >= 0.0 && q.y >= 0.0 && q.x <= s.x && q.y <= s.y
+        #[cfg(feature = "dim2")]
+        return q.x >= 0.0 && q.y >= 0.0 && q.x <= s.x && q.y <= s.y;
+        #[cfg(feature = "dim3")]
+        return AXES.iter().all(|&a| q[a] >= 0.0 && q[a] <= s[a]);
     }
 }
 
-/// Velocity components on the two face lattices of a grid.
+/// One array per face lattice: entry `a` on the faces normal to axis `a` (a velocity's
+/// component `a`, or a face volume fraction or mass). Named (`u`, `v`, `w`) and indexed by
+/// axis (`arrays[a]`) alike.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct FaceVelocity {
+pub struct FaceArrays {
     /// x component on x-faces.
     pub u: Vec<Real>,
     /// y component on y-faces.
     pub v: Vec<Real>,
+    /// z component on z-faces.
+    #[cfg(feature = "dim3")]
+    pub w: Vec<Real>,
 }
 
-impl FaceVelocity {
-    /// Zero velocity on `grid`.
+/// Velocity components on the face lattices.
+pub type FaceVelocity = FaceArrays;
+
+impl FaceArrays {
+    /// Zeros on `grid`.
     pub fn zeros(grid: &Grid) -> Self {
-        Self { u: vec![0.0; grid.n_xfaces()], v: vec![0.0; grid.n_yfaces()] }
+        Self {
+            u: vec![0.0; grid.n_xfaces()],
+            v: vec![0.0; grid.n_yfaces()],
+            #[cfg(feature = "dim3")]
+            w: vec![0.0; grid.n_faces(2)],
+        }
     }
     /// Largest absolute face component.
     pub fn max_abs(&self) -> Real {
-        self.u.iter().chain(self.v.iter()).fold(0.0, |m, x| m.max(x.abs()))
+        let m = self.u.iter().chain(self.v.iter()).fold(0.0, |m: Real, x| m.max(x.abs()));
+        #[cfg(feature = "dim3")]
+        let m = self.w.iter().fold(m, |m, x| m.max(x.abs()));
+        m
+    }
+}
+
+impl std::ops::Index<usize> for FaceArrays {
+    type Output = Vec<Real>;
+    #[inline]
+    fn index(&self, axis: usize) -> &Vec<Real> {
+        match axis {
+            0 => &self.u,
+            1 => &self.v,
+            #[cfg(feature = "dim3")]
+            2 => &self.w,
+            _ => panic!("component {axis} of a {DIM}D face velocity"),
+        }
+    }
+}
+
+impl std::ops::IndexMut<usize> for FaceArrays {
+    #[inline]
+    fn index_mut(&mut self, axis: usize) -> &mut Vec<Real> {
+        match axis {
+            0 => &mut self.u,
+            1 => &mut self.v,
+            #[cfg(feature = "dim3")]
+            2 => &mut self.w,
+            _ => panic!("component {axis} of a {DIM}D face velocity"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_generic_index_is_the_2d_one() {
+        let g = Grid::new(5, 3, 0.5, Vector::new(1.0, 2.0));
+        for j in 0..3 {
+            for i in 0..=5 {
+                assert_eq!(g.index(Lattice::XFace, [i, j]), g.xface(i, j));
+                assert_eq!(g.node(Lattice::XFace, g.xface(i, j)), [i, j]);
+                assert_eq!(g.position(Lattice::XFace, [i, j]), g.node_position(Lattice::XFace, i, j));
+            }
+        }
+        for j in 0..=3 {
+            for i in 0..5 {
+                assert_eq!(g.index(Lattice::YFace, [i, j]), g.yface(i, j));
+                assert_eq!(g.position(Lattice::YFace, [i, j]), g.node_position(Lattice::YFace, i, j));
+            }
+        }
+        assert_eq!((g.n_faces(0), g.n_faces(1), g.cell_volume()), (18, 20, 0.25));
+        assert_eq!(g.position(Lattice::Cell, [1, 2]), g.cell_center(1, 2));
+        for lattice in [Lattice::Cell, Lattice::XFace, Lattice::YFace] {
+            let nodes: Vec<_> = g.nodes(lattice).collect();
+            assert_eq!(nodes.len(), g.shape(lattice).iter().product::<usize>());
+            assert!(nodes.iter().all(|&(k, at)| g.node(lattice, k) == at && g.index(lattice, at) == k));
+        }
     }
 }

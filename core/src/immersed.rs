@@ -128,7 +128,7 @@ fn lattice(grid: &Grid, periodic: [bool; 2], component: usize) -> [Axis; 2] {
 /// Visits the faces of one lattice within the kernel's support around `x`, with the face
 /// index, whether it is fixed, and the weight `δ_h(x_f − x) h² = φ φ`.
 fn stencil(grid: &Grid, bc: &Boundaries, component: usize, x: Vector, mut visit: impl FnMut(usize, bool, Real)) {
-    let axes = lattice(grid, [bc.periodic_x(), bc.periodic_y()], component);
+    let axes = lattice(grid, [bc.periodic(0), bc.periodic(1)], component);
     let weights = |a: usize| {
         let s = axes[a].cells(x[a], grid.h);
         let k0 = (s.floor() as i64).saturating_sub(1);
@@ -170,7 +170,7 @@ pub fn interpolate(grid: &Grid, bc: &Boundaries, vel: &FaceVelocity, x: Vector) 
 /// Spreads `value` at `x` onto the faces (the adjoint of [`interpolate`]):
 /// `out_f += value δ_h(x_f − X) volume`. Fixed faces and periodic copies receive nothing.
 pub fn spread(grid: &Grid, bc: &Boundaries, x: Vector, value: Vector, volume: Real, out: &mut FaceVelocity) {
-    let scale = volume / grid.cell_area();
+    let scale = volume / grid.cell_volume();
     for (c, field) in [&mut out.u, &mut out.v].into_iter().enumerate() {
         stencil(grid, bc, c, x, |f, fixed, w| {
             if !fixed {
@@ -327,7 +327,7 @@ pub fn exact_forcing(
     let n = markers.len();
     let mut increment = FaceVelocity::zeros(grid);
     let mut marker_force = vec![Vector::zeros(); n];
-    let area = grid.cell_area();
+    let area = grid.cell_volume();
     let sd: Vec<Real> = markers.iter().map(|m| (m.volume / area).sqrt()).collect();
     for c in 0..2 {
         let field = if c == 0 { &vel.u } else { &vel.v };
@@ -408,12 +408,12 @@ pub fn exact_forcing(
 
 /// Sets face `n` of each periodic lattice to face 0.
 fn copy_periodic(grid: &Grid, bc: &Boundaries, vel: &mut FaceVelocity) {
-    if bc.periodic_x() {
+    if bc.periodic(0) {
         for j in 0..grid.ny {
             vel.u[grid.xface(grid.nx, j)] = vel.u[grid.xface(0, j)];
         }
     }
-    if bc.periodic_y() {
+    if bc.periodic(1) {
         for i in 0..grid.nx {
             vel.v[grid.yface(i, grid.ny)] = vel.v[grid.yface(i, 0)];
         }
@@ -467,7 +467,7 @@ pub fn disk_face_fractions(grid: &Grid, center: Vector, radius: Real, periodic: 
                 let a = disk_rectangle_area([center.x, center.y], radius, x0, x1, y0, y1);
                 if a > 0.0 {
                     let f = if c == 0 { grid.xface(ii, jj) } else { grid.yface(ii, jj) };
-                    out.push((f, (a / grid.cell_area()).min(1.0)));
+                    out.push((f, (a / grid.cell_volume()).min(1.0)));
                 }
             }
         }
@@ -485,7 +485,7 @@ pub fn disk_fluid_momentum(
     center: Vector,
     fractions: &FaceFractions,
 ) -> (Vector, Real) {
-    let (size, area) = (grid.size(), grid.cell_area());
+    let (size, area) = (grid.size(), grid.cell_volume());
     let arm = |p: Vector| {
         let d = p - center;
         d - size.component_mul(&d.component_div(&size).map(Real::round))
@@ -564,7 +564,7 @@ impl ForcedBody {
             return None;
         }
         let (lo, hi, d) = (grid.origin, grid.origin + grid.size(), radius + clearance);
-        let periodic = [bc.periodic_x(), bc.periodic_y()];
+        let periodic = [bc.periodic(0), bc.periodic(1)];
         let free = |k: usize| periodic[k] || lo[k] + d >= hi[k] - d;
         let a = Vector::from_fn(|k, _| if free(k) { Real::NEG_INFINITY } else { lo[k] + d });
         let b = Vector::from_fn(|k, _| if free(k) { Real::INFINITY } else { hi[k] - d });
@@ -765,7 +765,7 @@ fn joint_motions(
         let r = root(&mut parent, i);
         clusters[r].push(i);
     }
-    let periodic = [bc.periodic_x(), bc.periodic_y()];
+    let periodic = [bc.periodic(0), bc.periodic(1)];
     for members in clusters.iter().filter(|c| c.len() > 1) {
         let free: Vec<usize> = members.iter().copied().filter(|&i| bodies[i].motion == Motion::Free).collect();
         if free.is_empty() {
@@ -957,7 +957,7 @@ pub fn couple(
         // start of the step (uⁿ, the disk where it starts) and in ṽ
         let fractions = |c: Vector| match b.shape {
             BodyShape::Disk { radius, .. } => {
-                Some(disk_face_fractions(grid, c, radius, [bc.periodic_x(), bc.periodic_y()]))
+                Some(disk_face_fractions(grid, c, radius, [bc.periodic(0), bc.periodic(1)]))
             }
             _ => None,
         };
@@ -1110,7 +1110,7 @@ mod tests {
         FaceVelocity { u: fill(0, Lattice::XFace), v: fill(1, Lattice::YFace) }
     }
     fn sums(grid: &Grid, vel: &FaceVelocity) -> Vector {
-        Vector::new(vel.u.iter().sum(), vel.v.iter().sum()) * grid.cell_area()
+        Vector::new(vel.u.iter().sum(), vel.v.iter().sum()) * grid.cell_volume()
     }
 
     #[test]
@@ -1157,7 +1157,7 @@ mod tests {
             spread(&g, &bc, x, value, volume, &mut out);
             let s = sums(&g, &out);
             assert!((s - value * volume).norm() < 1e-15, "{x:?}: {s:?}");
-            if bc.periodic_x() {
+            if bc.periodic(0) {
                 assert!((0..16).all(|k| out.u[g.xface(16, k)] == 0.0 && out.v[g.yface(k, 16)] == 0.0));
             }
         }
@@ -1168,8 +1168,8 @@ mod tests {
         for x in [Vector::new(0.99, 0.03), Vector::new(0.5, 0.5), Vector::new(0.01, 0.97)] {
             let mut out = FaceVelocity::zeros(&g);
             spread(&g, &bc, x, value, volume, &mut out);
-            let lhs: Real =
-                w.u.iter().zip(&out.u).chain(w.v.iter().zip(&out.v)).map(|(a, b)| a * b).sum::<Real>() * g.cell_area();
+            let lhs: Real = w.u.iter().zip(&out.u).chain(w.v.iter().zip(&out.v)).map(|(a, b)| a * b).sum::<Real>()
+                * g.cell_volume();
             let rhs = value.dot(&interpolate(&g, &bc, &w, x)) * volume;
             assert!((lhs - rhs).abs() < 1e-16, "{x:?}: {lhs} vs {rhs}");
             assert!((0..16).all(|i| out.v[g.yface(i, 0)] == 0.0 && out.v[g.yface(i, 16)] == 0.0));
@@ -1230,7 +1230,7 @@ mod tests {
     fn face_fractions_cover_the_disk() {
         let g = Grid::new(32, 32, 1.0 / 32.0, Vector::new(-0.1, 0.2));
         let r = 0.17;
-        let area = |l: &[(usize, Real)]| l.iter().map(|(_, t)| t * g.cell_area()).sum::<Real>();
+        let area = |l: &[(usize, Real)]| l.iter().map(|(_, t)| t * g.cell_volume()).sum::<Real>();
         for (c, per) in [(Vector::new(0.41, 0.633), [false; 2]), (Vector::new(-0.05, 1.15), [true; 2])] {
             let (fx, fy) = disk_face_fractions(&g, c, r, per);
             assert!((area(&fx) - PI * r * r).abs() < 1e-12 && (area(&fy) - PI * r * r).abs() < 1e-12, "{c:?}");

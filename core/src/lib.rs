@@ -18,6 +18,7 @@ pub mod finite;
 pub mod generate;
 pub mod geometry;
 pub mod grid;
+#[cfg(feature = "dim2")]
 pub mod immersed;
 pub mod input;
 pub mod limits;

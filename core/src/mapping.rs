@@ -13,7 +13,7 @@
 //! it so, as it does any initial velocity.
 
 use crate::case::Domain;
-use crate::math::Real;
+use crate::math::{Real, DIM};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -84,9 +84,16 @@ pub struct SampledVelocity {
 }
 
 impl SampledVelocity {
-    /// The velocity at `(x, y)`.
-    pub fn at(&self, x: Real, y: Real) -> [Real; 2] {
-        [self.u.at(x, y), self.v.at(x, y)]
+    /// The velocity at the point `p`.
+    #[cfg(feature = "dim2")]
+    pub fn at(&self, p: [Real; DIM]) -> [Real; DIM] {
+        [self.u.at(p[0], p[1]), self.v.at(p[0], p[1])]
+    }
+    /// The velocity at the point `p`: never called in 3D, where [`read`] refuses (mapping
+    /// a snapshot comes with 3D output).
+    #[cfg(feature = "dim3")]
+    pub fn at(&self, _p: [Real; DIM]) -> [Real; DIM] {
+        [0.0; DIM]
     }
 
     /// An error (with the fix) unless the snapshot's domain covers `domain`.
@@ -124,14 +131,24 @@ pub fn set_snapshot_reader(reader: SnapshotReader) {
 
 /// The velocity of `field` in the snapshot `file`, checked to cover `domain`.
 pub fn read(file: &Path, field: &str, domain: &Domain) -> Result<SampledVelocity, String> {
-    let reader = READER.get().ok_or_else(|| {
-        "`FromSnapshot` needs a reader of snapshot files, and none is registered: call \
+    #[cfg(feature = "dim3")]
+    return Err(format!(
+        "`FromSnapshot` ({}, field `{field}`, onto a domain from {:?}) is not available in 3D yet \
+         (issue 17 brings 3D snapshots first); start from an initial velocity such as `Uniform(...)`",
+        file.display(),
+        domain.origin
+    ));
+    #[cfg(feature = "dim2")]
+    {
+        let reader = READER.get().ok_or_else(|| {
+            "`FromSnapshot` needs a reader of snapshot files, and none is registered: call \
          `multifield::link_all()` before building the case"
-            .to_string()
-    })?;
-    let sampled = reader(file, field)?;
-    sampled.check_covers(domain)?;
-    Ok(sampled)
+                .to_string()
+        })?;
+        let sampled = reader(file, field)?;
+        sampled.check_covers(domain)?;
+        Ok(sampled)
+    }
 }
 
 #[cfg(test)]

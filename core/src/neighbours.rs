@@ -43,8 +43,8 @@ impl SearchDomain {
         SearchDomain {
             origin: Vector::new(domain.origin[0], domain.origin[1]),
             size: Vector::new(domain.size[0], domain.size[1]),
-            periodic_x: boundaries.periodic_x(),
-            periodic_y: boundaries.periodic_y(),
+            periodic_x: boundaries.periodic(0),
+            periodic_y: boundaries.periodic(1),
         }
     }
 
@@ -54,8 +54,8 @@ impl SearchDomain {
         SearchDomain {
             origin: grid.origin,
             size: grid.size(),
-            periodic_x: boundaries.periodic_x(),
-            periodic_y: boundaries.periodic_y(),
+            periodic_x: boundaries.periodic(0),
+            periodic_y: boundaries.periodic(1),
         }
     }
 }

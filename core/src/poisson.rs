@@ -1,4 +1,5 @@
-//! The pressure equation as a symmetric positive (semi-)definite 5-point system.
+//! The pressure equation as a symmetric positive (semi-)definite 5-point (7-point in 3D)
+//! system.
 //!
 //! `Σ_faces c_f (p_i − p_neighbour) = b_i`, the discrete form of −∇·(c∇p) = b, with
 //! `c_f = Δt Σ_k θ_k w_k / h²` on each face. Walls have c = 0 (Neumann), an outflow side
@@ -7,8 +8,8 @@
 //! onto the compatible subspace and the solution shifted to zero mean.
 
 use crate::boundary::{Boundaries, Boundary, Side};
-use crate::grid::Grid;
-use crate::math::Real;
+use crate::grid::{FaceArrays, Grid, Lattice};
+use crate::math::{Index, Real, AXES, DIM, SIDES};
 use rayon::prelude::*;
 
 /// A pressure problem handed to a [`crate::plugin::PressureSolver`].
@@ -16,18 +17,16 @@ use rayon::prelude::*;
 pub struct PoissonProblem {
     /// The grid.
     pub grid: Grid,
-    /// Coefficients on x-faces, already divided by h².
-    pub cx: Vec<Real>,
-    /// Coefficients on y-faces, already divided by h².
-    pub cy: Vec<Real>,
+    /// Coefficients on the faces (entry `a` on the faces normal to axis `a`), already
+    /// divided by h².
+    pub c: FaceArrays,
     /// Right-hand side per cell, Dirichlet contributions included, compatible if singular.
     pub rhs: Vec<Real>,
-    /// Periodic along x.
-    pub periodic_x: bool,
-    /// Periodic along y.
-    pub periodic_y: bool,
-    /// Dirichlet sides (left, right, bottom, top): whether the side fixes p.
-    pub dirichlet: [bool; 4],
+    /// Periodic along each axis.
+    pub periodic: [bool; DIM],
+    /// Dirichlet sides, in the order of [`Side::ALL`] (left, right, bottom, top, back,
+    /// front): whether the side fixes p.
+    pub dirichlet: [bool; SIDES],
     /// |mean(b)| / rms(b) removed from a singular system (0 if nonsingular).
     pub incompatibility: Real,
 }
@@ -65,37 +64,29 @@ pub fn sum(a: &[Real]) -> Real {
 impl PoissonProblem {
     /// Assembles a problem from face coefficients `c` (not yet divided by h²) and the
     /// right-hand side `b`, with Dirichlet values from the outflow sides.
-    pub fn new(grid: &Grid, boundaries: &Boundaries, cx: Vec<Real>, cy: Vec<Real>, mut rhs: Vec<Real>) -> Self {
+    pub fn new(grid: &Grid, boundaries: &Boundaries, mut c: FaceArrays, mut rhs: Vec<Real>) -> Self {
         let h2 = grid.h * grid.h;
-        let cx: Vec<Real> = cx.into_iter().map(|c| c / h2).collect();
-        let cy: Vec<Real> = cy.into_iter().map(|c| c / h2).collect();
-        let mut dirichlet = [false; 4];
+        for a in AXES {
+            c[a].iter_mut().for_each(|c| *c /= h2);
+        }
+        let mut dirichlet = [false; SIDES];
+        let n = grid.n();
         for (k, side) in Side::ALL.iter().enumerate() {
             if let Boundary::Outflow { pressure } = boundaries.side(*side) {
                 dirichlet[k] = true;
-                let (nx, ny) = (grid.nx, grid.ny);
-                match side {
-                    Side::Left => (0..ny).for_each(|j| rhs[grid.cell(0, j)] += 2.0 * cx[grid.xface(0, j)] * pressure),
-                    Side::Right => {
-                        (0..ny).for_each(|j| rhs[grid.cell(nx - 1, j)] += 2.0 * cx[grid.xface(nx, j)] * pressure)
+                let a = side.axis();
+                let (cell_at, face_at) = if side.high() { (n[a] - 1, n[a]) } else { (0, 0) };
+                for (cell, mut at) in grid.nodes(Lattice::Cell) {
+                    if at[a] != cell_at {
+                        continue;
                     }
-                    Side::Bottom => (0..nx).for_each(|i| rhs[grid.cell(i, 0)] += 2.0 * cy[grid.yface(i, 0)] * pressure),
-                    Side::Top => {
-                        (0..nx).for_each(|i| rhs[grid.cell(i, ny - 1)] += 2.0 * cy[grid.yface(i, ny)] * pressure)
-                    }
+                    at[a] = face_at;
+                    rhs[cell] += 2.0 * c[a][grid.index(Lattice::face(a), at)] * pressure;
                 }
             }
         }
-        let mut p = Self {
-            grid: grid.clone(),
-            cx,
-            cy,
-            rhs,
-            periodic_x: boundaries.periodic_x(),
-            periodic_y: boundaries.periodic_y(),
-            dirichlet,
-            incompatibility: 0.0,
-        };
+        let mut p =
+            Self { grid: grid.clone(), c, rhs, periodic: boundaries.periodic_axes(), dirichlet, incompatibility: 0.0 };
         p.make_compatible();
         p
     }
@@ -117,58 +108,48 @@ impl PoissonProblem {
         self.rhs.par_iter_mut().for_each(|b| *b -= mean);
     }
 
-    /// Coefficient of the face to the left of cell (i, j) and the index of the neighbour.
+    /// The coefficient of the face of cell `at` on `side` and the index of the cell
+    /// across it: the neighbour, the wrapped one on a periodic side, or none on the
+    /// boundary (coefficient `2 c` on a Dirichlet side, 0 on a wall).
     #[inline]
-    fn west(&self, i: usize, j: usize) -> (Real, Option<usize>) {
+    fn neighbour(&self, at: Index, side: Side) -> (Real, Option<usize>) {
         let g = &self.grid;
-        let c = self.cx[g.xface(i, j)];
-        if i > 0 {
-            (c, Some(g.cell(i - 1, j)))
-        } else if self.periodic_x {
-            (c, Some(g.cell(g.nx - 1, j)))
+        let a = side.axis();
+        let n = g.n()[a];
+        let face = |i: usize| {
+            let mut f = at;
+            f[a] = i;
+            self.c[a][g.index(Lattice::face(a), f)]
+        };
+        let cell = |i: usize| {
+            let mut f = at;
+            f[a] = i;
+            Some(g.index(Lattice::Cell, f))
+        };
+        let i = at[a];
+        if !side.high() {
+            let c = face(i);
+            if i > 0 {
+                (c, cell(i - 1))
+            } else if self.periodic[a] {
+                (c, cell(n - 1))
+            } else {
+                (if self.dirichlet[side as usize] { 2.0 * c } else { 0.0 }, None)
+            }
+        } else if i + 1 < n {
+            (face(i + 1), cell(i + 1))
+        } else if self.periodic[a] {
+            (face(0), cell(0))
         } else {
-            (if self.dirichlet[0] { 2.0 * c } else { 0.0 }, None)
-        }
-    }
-    #[inline]
-    fn east(&self, i: usize, j: usize) -> (Real, Option<usize>) {
-        let g = &self.grid;
-        if i + 1 < g.nx {
-            (self.cx[g.xface(i + 1, j)], Some(g.cell(i + 1, j)))
-        } else if self.periodic_x {
-            (self.cx[g.xface(0, j)], Some(g.cell(0, j)))
-        } else {
-            (if self.dirichlet[1] { 2.0 * self.cx[g.xface(g.nx, j)] } else { 0.0 }, None)
-        }
-    }
-    #[inline]
-    fn south(&self, i: usize, j: usize) -> (Real, Option<usize>) {
-        let g = &self.grid;
-        let c = self.cy[g.yface(i, j)];
-        if j > 0 {
-            (c, Some(g.cell(i, j - 1)))
-        } else if self.periodic_y {
-            (c, Some(g.cell(i, g.ny - 1)))
-        } else {
-            (if self.dirichlet[2] { 2.0 * c } else { 0.0 }, None)
-        }
-    }
-    #[inline]
-    fn north(&self, i: usize, j: usize) -> (Real, Option<usize>) {
-        let g = &self.grid;
-        if j + 1 < g.ny {
-            (self.cy[g.yface(i, j + 1)], Some(g.cell(i, j + 1)))
-        } else if self.periodic_y {
-            (self.cy[g.yface(i, 0)], Some(g.cell(i, 0)))
-        } else {
-            (if self.dirichlet[3] { 2.0 * self.cy[g.yface(i, g.ny)] } else { 0.0 }, None)
+            (if self.dirichlet[side as usize] { 2.0 * face(n) } else { 0.0 }, None)
         }
     }
 
-    /// The five stencil entries of row (i, j): (diagonal, [(coefficient, neighbour)]).
+    /// The stencil entries of row `at` (five in 2D, seven in 3D): (diagonal,
+    /// [(coefficient, neighbour)] in the order of [`Side::ALL`]).
     #[inline]
-    pub fn row(&self, i: usize, j: usize) -> (Real, [(Real, Option<usize>); 4]) {
-        let nb = [self.west(i, j), self.east(i, j), self.south(i, j), self.north(i, j)];
+    pub fn row(&self, at: Index) -> (Real, [(Real, Option<usize>); SIDES]) {
+        let nb = Side::ALL.map(|side| self.neighbour(at, side));
         let diag = nb.iter().map(|(c, _)| c).sum();
         (diag, nb)
     }
@@ -176,16 +157,16 @@ impl PoissonProblem {
     /// The diagonal of the operator.
     pub fn diagonal(&self) -> Vec<Real> {
         let g = &self.grid;
-        (0..g.n_cells()).into_par_iter().map(|k| self.row(k % g.nx, k / g.nx).0).collect()
+        g.nodes(Lattice::Cell).map(|(_, at)| self.row(at).0).collect()
     }
 
     /// y = A x.
     pub fn apply(&self, x: &[Real], y: &mut [Real]) {
         let nx = self.grid.nx;
-        y.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
+        y.par_chunks_mut(nx).enumerate().for_each(|(r, row)| {
             for (i, out) in row.iter_mut().enumerate() {
-                let (diag, nb) = self.row(i, j);
-                let mut s = diag * x[i + j * nx];
+                let (diag, nb) = self.row(self.grid.node(Lattice::Cell, i + r * nx));
+                let mut s = diag * x[i + r * nx];
                 for (c, n) in nb {
                     if let Some(n) = n {
                         s -= c * x[n];

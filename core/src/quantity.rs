@@ -265,7 +265,7 @@ impl<'a> Sample<'a> {
 
     /// Whether the domain is periodic along x and along y.
     pub fn periodic(&self) -> [bool; 2] {
-        [self.sim.boundaries.periodic_x(), self.sim.boundaries.periodic_y()]
+        [self.sim.boundaries.periodic(0), self.sim.boundaries.periodic(1)]
     }
 
     /// The cell array of `q` for the mixture (`field` None) or for field `field`; None
@@ -349,13 +349,13 @@ pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
                 for j in 0..g.ny {
                     for i in 0..=g.nx {
                         let p = g.node_position(Lattice::XFace, i, j);
-                        vel.u[g.xface(i, j)] = velocity.at(p.x, p.y, origin)[0];
+                        vel.u[g.xface(i, j)] = velocity.at([p.x, p.y], origin)[0];
                     }
                 }
                 for j in 0..=g.ny {
                     for i in 0..g.nx {
                         let p = g.node_position(Lattice::YFace, i, j);
-                        vel.v[g.yface(i, j)] = velocity.at(p.x, p.y, origin)[1];
+                        vel.v[g.yface(i, j)] = velocity.at([p.x, p.y], origin)[1];
                     }
                 }
                 vel

@@ -381,7 +381,7 @@ impl Work {
             ny,
             h: grid.h,
             density,
-            periodic: (bc.periodic_x(), bc.periodic_y()),
+            periodic: (bc.periodic(0), bc.periodic(1)),
             fills_rest,
             steps: 0,
             theta: vec![0.0; grid.n_cells()],
@@ -772,13 +772,13 @@ impl Frame for Eulerian {
         for j in 0..g.ny {
             for i in 0..=g.nx {
                 let p = g.node_position(Lattice::XFace, i, j);
-                w.velocity.u[g.xface(i, j)] = ctx.velocity.at(p.x, p.y, origin)[0];
+                w.velocity.u[g.xface(i, j)] = ctx.velocity.at([p.x, p.y], origin)[0];
             }
         }
         for j in 0..=g.ny {
             for i in 0..g.nx {
                 let p = g.node_position(Lattice::YFace, i, j);
-                w.velocity.v[g.yface(i, j)] = ctx.velocity.at(p.x, p.y, origin)[1];
+                w.velocity.v[g.yface(i, j)] = ctx.velocity.at([p.x, p.y], origin)[1];
             }
         }
         ctx.boundaries.enforce(g, &mut w.velocity);

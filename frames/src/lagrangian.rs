@@ -484,7 +484,7 @@ impl Lagrangian {
     fn bodies_inside_periodic_sides(&self, g: &Grid, bc: &Boundaries) -> Result<(), String> {
         let (lo, hi) = (g.origin, g.origin + g.size());
         let pts = &self.points;
-        for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
+        for (axis, periodic) in [(0, bc.periodic(0)), (1, bc.periodic(1))] {
             if !periodic {
                 continue;
             }
@@ -686,8 +686,8 @@ fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j
     if inside {
         return arr[i as usize + j as usize * width];
     }
-    let (ii, mi) = scatter::map_axis(i, nx, x_faces, bc.periodic_x());
-    let (jj, mj) = scatter::map_axis(j, ny, !x_faces, bc.periodic_y());
+    let (ii, mi) = scatter::map_axis(i, nx, x_faces, bc.periodic(0));
+    let (jj, mj) = scatter::map_axis(j, ny, !x_faces, bc.periodic(1));
     let val = arr[ii as usize + jj as usize * width];
     // normal component mirrored across its wall: odd; tangential: the wall's ghost rule
     let mut out = val;
@@ -842,7 +842,7 @@ impl Frame for Lagrangian {
         }
         let g = ctx.grid;
         let n = self.points_per_cell;
-        let dv = g.cell_area() / (n * n) as Real;
+        let dv = g.cell_volume() / (n * n) as Real;
         let origin = [g.origin.x, g.origin.y];
         if let Region::Bodies(specs) = ctx.region {
             // each body on its own lattice, symmetric about the body's centre, so that the
@@ -875,7 +875,7 @@ impl Frame for Lagrangian {
                             let x = g.origin.x + (i as Real + (a as Real + 0.5) / n as Real) * g.h;
                             let y = g.origin.y + (j as Real + (b as Real + 0.5) / n as Real) * g.h;
                             if ctx.region.contains(x, y) {
-                                let v = ctx.velocity.at(x, y, origin);
+                                let v = ctx.velocity.at([x, y], origin);
                                 self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
                             }
                         }
@@ -925,7 +925,7 @@ impl Frame for Lagrangian {
             let d = 1e-6 * g.h;
             for p in 0..self.points.len() {
                 let x = self.points.x[p];
-                let at = |dx: Real, dy: Real| ctx.velocity.at(x.x + dx, x.y + dy, origin);
+                let at = |dx: Real, dy: Real| ctx.velocity.at([x.x + dx, x.y + dy], origin);
                 let (xp, xm, yp, ym) = (at(d, 0.0), at(-d, 0.0), at(0.0, d), at(0.0, -d));
                 self.points.c_u[p] = Vector::new(xp[0] - xm[0], yp[0] - ym[0]) / (2.0 * d);
                 self.points.c_v[p] = Vector::new(xp[1] - xm[1], yp[1] - ym[1]) / (2.0 * d);
@@ -992,7 +992,7 @@ impl Frame for Lagrangian {
             },
         );
         let s = &mut *ctx.state;
-        let area = g.cell_area();
+        let area = g.cell_volume();
         let tiny = 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max);
         for j in 0..g.ny {
             let theta = &mut s.theta[g.cell(0, j)..g.cell(0, j) + g.nx];
@@ -1014,7 +1014,7 @@ impl Frame for Lagrangian {
         for j in 0..g.ny {
             let r = g.xface(0, j)..g.xface(0, j) + nu;
             faces(
-                &mut s.mass_u[r.clone()],
+                &mut s.mass_face.u[r.clone()],
                 &mut s.velocity_old.u[r.clone()],
                 &mut s.velocity.u[r],
                 scatter.row(scatter::MASS_U, j, nu),
@@ -1025,7 +1025,7 @@ impl Frame for Lagrangian {
         for j in 0..=g.ny {
             let r = g.yface(0, j)..g.yface(0, j) + g.nx;
             faces(
-                &mut s.mass_v[r.clone()],
+                &mut s.mass_face.v[r.clone()],
                 &mut s.velocity_old.v[r.clone()],
                 &mut s.velocity.v[r],
                 scatter.row(scatter::MASS_V, j, g.nx),
@@ -1114,7 +1114,7 @@ impl Frame for Lagrangian {
                 }
                 *x += dt * upic;
                 // keep points in the domain: wrap periodic sides, stop at walls
-                for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
+                for (axis, periodic) in [(0, bc.periodic(0)), (1, bc.periodic(1))] {
                     let len = hi[axis] - lo[axis];
                     if periodic {
                         if x[axis] < lo[axis] || x[axis] >= hi[axis] {

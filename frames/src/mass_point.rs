@@ -119,7 +119,7 @@ impl MassPoint {
         let at = |i: usize, j: usize| {
             [0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]), 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)])]
         };
-        vorticity_at(g, [bc.periodic_x(), bc.periodic_y()], at, c % g.nx, c / g.nx)
+        vorticity_at(g, [bc.periodic(0), bc.periodic(1)], at, c % g.nx, c / g.nx)
     }
 }
 
@@ -191,14 +191,14 @@ impl Frame for MassPoint {
     fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
         let g = ctx.grid;
         let bc = ctx.boundaries;
-        let periodic = [bc.periodic_x(), bc.periodic_y()];
+        let periodic = [bc.periodic(0), bc.periodic(1)];
         let s = &mut *ctx.state;
         // the grid-wide passes elementwise in parallel (each value is the serial one)
         const BLOCK: usize = 4096;
-        for a in [&mut s.theta, &mut s.mass_u, &mut s.mass_v, &mut s.velocity.u, &mut s.velocity.v] {
+        for a in [&mut s.theta, &mut s.mass_face.u, &mut s.mass_face.v, &mut s.velocity.u, &mut s.velocity.v] {
             a.par_chunks_mut(BLOCK).for_each(|a| a.fill(0.0));
         }
-        let area = g.cell_area();
+        let area = g.cell_volume();
         if let Some(p) =
             self.points.iter().find(|p| !(p.state.position.x.is_finite() && p.state.position.y.is_finite()))
         {
@@ -219,15 +219,15 @@ impl Frame for MassPoint {
                 s.theta[c] += t;
             }
             for &(f, w) in &p.xfaces {
-                s.mass_u[f] += scale * w;
+                s.mass_face.u[f] += scale * w;
                 s.velocity.u[f] += scale * w * u.x;
             }
             for &(f, w) in &p.yfaces {
-                s.mass_v[f] += scale * w;
+                s.mass_face.v[f] += scale * w;
                 s.velocity.v[f] += scale * w * u.y;
             }
         }
-        for (u, m) in [(&mut s.velocity.u, &s.mass_u), (&mut s.velocity.v, &s.mass_v)] {
+        for (u, m) in [(&mut s.velocity.u, &s.mass_face.u), (&mut s.velocity.v, &s.mass_face.v)] {
             u.par_chunks_mut(BLOCK).zip(m.par_chunks(BLOCK)).for_each(|(u, m)| {
                 for (u, m) in u.iter_mut().zip(m) {
                     *u = if *m > 0.0 { *u / m } else { 0.0 };
@@ -335,7 +335,7 @@ impl Frame for MassPoint {
                 // sub-stepped contact: where the sub-steps put the centre (docs/method.md §5)
                 x += contact.shift;
             }
-            for (axis, periodic) in [(0, bc.periodic_x()), (1, bc.periodic_y())] {
+            for (axis, periodic) in [(0, bc.periodic(0)), (1, bc.periodic(1))] {
                 let len = hi[axis] - lo[axis];
                 if periodic {
                     if x[axis] < lo[axis] || x[axis] >= hi[axis] {

@@ -14,7 +14,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use multifield_core::boundary::Boundaries;
-use multifield_core::grid::Grid;
+use multifield_core::grid::{FaceArrays, Grid};
 use multifield_core::math::{Real, Vector};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::PoissonProblem;
@@ -55,7 +55,7 @@ pub fn dkt(n: usize, rho_disk: Real) -> PoissonProblem {
             (3.0 * PI * c.x).sin() * (2.0 * PI * c.y).cos() + 0.3 * (c.x - c.y)
         })
         .collect();
-    PoissonProblem::new(&g, &Boundaries::default(), cx, cy, rhs)
+    PoissonProblem::new(&g, &Boundaries::default(), FaceArrays { u: cx, v: cy }, rhs)
 }
 
 type Make = fn() -> Box<dyn PressureSolver>;

@@ -3,7 +3,7 @@
 //! multigrid-PCG iteration counts, boundary kinds, singular systems, thread independence.
 
 use multifield_core::boundary::{Boundaries, Boundary};
-use multifield_core::grid::Grid;
+use multifield_core::grid::{FaceArrays, Grid};
 use multifield_core::math::{Real, Vector};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::PoissonProblem;
@@ -69,7 +69,7 @@ fn dkt(n: usize, rho_disk: Real) -> PoissonProblem {
     };
     let (cx, cy) = faces(&g, |x, y| 1.0 / rho(x, y));
     let rhs = cells(&g, |x, y| (3.0 * PI * x).sin() * (2.0 * PI * y).cos() + 0.3 * (x - y));
-    PoissonProblem::new(&g, &Boundaries::default(), cx, cy, rhs)
+    PoissonProblem::new(&g, &Boundaries::default(), FaceArrays { u: cx, v: cy }, rhs)
 }
 
 /// Smooth coefficient β = 1 + ½ sin πx sin πy, walls (pure Neumann), u = cos πx cos πy.
@@ -82,7 +82,7 @@ fn smooth_neumann(n: usize) -> (PoissonProblem, Vec<Real>) {
         2.0 * PI * PI * beta(x, y) * u(x, y)
             + PI * PI * (PI * x).sin() * (PI * x).cos() * (PI * y).sin() * (PI * y).cos()
     });
-    (PoissonProblem::new(&g, &Boundaries::default(), cx, cy, rhs), cells(&g, u))
+    (PoissonProblem::new(&g, &Boundaries::default(), FaceArrays { u: cx, v: cy }, rhs), cells(&g, u))
 }
 
 /// β = β₁ for x < ½, β₂ for x > ½ (the interface on faces, harmonic mean there);
@@ -107,7 +107,10 @@ fn layered(n: usize, beta1: Real, beta2: Real) -> (PoissonProblem, Vec<Real>) {
         right: Boundary::Outflow { pressure: 0.0 },
         ..Boundaries::default()
     };
-    (PoissonProblem::new(&g, &bc, cx, cy, rhs), cells(&g, |x, y| psi(x) / beta(x) * (PI * y).cos()))
+    (
+        PoissonProblem::new(&g, &bc, FaceArrays { u: cx, v: cy }, rhs),
+        cells(&g, |x, y| psi(x) / beta(x) * (PI * y).cos()),
+    )
 }
 
 /// Periodic in x, Dirichlet u = 0 at y = 0 and y = 1; β = 2 + cos 2πx, u = sin 2πx sin πy.
@@ -126,7 +129,7 @@ fn periodic_dirichlet(n: usize) -> (PoissonProblem, Vec<Real>) {
         bottom: Boundary::Outflow { pressure: 0.0 },
         top: Boundary::Outflow { pressure: 0.0 },
     };
-    (PoissonProblem::new(&g, &bc, cx, cy, rhs), cells(&g, u))
+    (PoissonProblem::new(&g, &bc, FaceArrays { u: cx, v: cy }, rhs), cells(&g, u))
 }
 
 /// Observed orders of convergence of every solver on three grids.
@@ -230,8 +233,10 @@ fn all_solvers_agree() {
         PoissonProblem::new(
             &g,
             &bc,
-            disks.cx.iter().map(|c| c * g.h * g.h).collect(),
-            disks.cy.iter().map(|c| c * g.h * g.h).collect(),
+            FaceArrays {
+                u: disks.c.u.iter().map(|c| c * g.h * g.h).collect(),
+                v: disks.c.v.iter().map(|c| c * g.h * g.h).collect(),
+            },
             disks.rhs.clone(),
         )
     };
@@ -268,7 +273,7 @@ fn incompatible_neumann_rhs_is_reported() {
     let g = Grid::new(n, n, 1.0 / n as Real, Vector::zeros());
     let (cx, cy) = faces(&g, |_, _| 1.0);
     let rhs = cells(&g, |x, _| 1.0 + (PI * x).cos());
-    let prob = PoissonProblem::new(&g, &Boundaries::default(), cx, cy, rhs);
+    let prob = PoissonProblem::new(&g, &Boundaries::default(), FaceArrays { u: cx, v: cy }, rhs);
     let expected = 1.0 / (1.0 + 0.5 as Real).sqrt(); // mean 1, rms √(1 + ½) (discrete sums agree to round-off)
     assert!((prob.incompatibility - expected).abs() < 1e-3, "{}", prob.incompatibility);
     for (name, mut s) in solvers(1e-10) {
@@ -300,7 +305,7 @@ fn odd_sizes_rectangles_and_blocked_cells() {
         }
         let bc = Boundaries { right: Boundary::Outflow { pressure: 0.5 }, ..Boundaries::default() };
         let rhs = cells(&g, |x, y| if inside(x, y) { 0.0 } else { (2.0 * PI * x).sin() + y });
-        let prob = PoissonProblem::new(&g, &bc, cx, cy, rhs);
+        let prob = PoissonProblem::new(&g, &bc, FaceArrays { u: cx, v: cy }, rhs);
         let mut reference = vec![0.0; nx * ny];
         Cholesky::new(1e-12, 5).solve(&prob, &mut reference).unwrap();
         let mut mg = Pcg::new(PreconditionerKind::Multigrid, 1e-10, 200);
@@ -310,7 +315,7 @@ fn odd_sizes_rectangles_and_blocked_cells() {
         assert!(st.iterations <= 25, "{nx}×{ny}: {st:?}, levels {levels:?}");
         let diff = p.iter().zip(&reference).fold(0.0, |m: Real, (a, b)| m.max((a - b).abs()));
         assert!(diff < 1e-6, "{nx}×{ny}: differs from Cholesky by {diff:e}");
-        let blocked = (0..nx * ny).filter(|&k| prob.row(k % nx, k / nx).0 == 0.0).count();
+        let blocked = (0..nx * ny).filter(|&k| prob.row([k % nx, k / nx]).0 == 0.0).count();
         assert!(blocked > 0 || nx < 10, "{nx}×{ny}: the body blocks no cell");
         let last = *levels.last().unwrap();
         assert!(last.0 % 2 == 1 || last.1 % 2 == 1 || last.0 < 4 || last.1 < 4, "{levels:?}");

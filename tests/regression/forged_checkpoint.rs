@@ -76,7 +76,7 @@ fn a_forged_eulerian_grid_state_is_refused_on_loading() {
                 vec!["field `fluid`: velocity on x-faces[12] is NaN, not a finite number"],
             ),
             (
-                Box::new(|s: &mut Simulation| s.fields[0].state.mass_v[7] = Real::NEG_INFINITY),
+                Box::new(|s: &mut Simulation| s.fields[0].state.mass_face.v[7] = Real::NEG_INFINITY),
                 vec!["field `fluid`: y-face mass[7] is -inf, not a finite number"],
             ),
             (
@@ -90,11 +90,11 @@ fn a_forged_eulerian_grid_state_is_refused_on_loading() {
                 vec!["field `fluid`: volume fraction[40] is -0.5, outside [-0.000001, 2]"],
             ),
             (
-                Box::new(|s: &mut Simulation| s.fields[0].state.theta_u[3] = 7.0),
+                Box::new(|s: &mut Simulation| s.fields[0].state.theta_face.u[3] = 7.0),
                 vec!["field `fluid`: x-face volume fraction[3] is 7, outside [-0.000001, 2]"],
             ),
             (
-                Box::new(|s: &mut Simulation| s.fields[0].state.mass_u[5] = -1.0),
+                Box::new(|s: &mut Simulation| s.fields[0].state.mass_face.u[5] = -1.0),
                 vec!["field `fluid`: x-face mass[5] is -1, outside", "a mass is not negative"],
             ),
             (

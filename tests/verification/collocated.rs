@@ -316,14 +316,14 @@ fn the_refreshed_grid_state_holds_the_points_volume_and_momentum() {
     assert!(sim.grid_state_stale());
     sim.refresh_grid_state().unwrap();
     assert!(!sim.grid_state_stale());
-    let h2 = sim.grid.cell_area();
+    let h2 = sim.grid.cell_volume();
     let s = &sim.fields[0].state;
     let p = &frame(&sim).points;
     let volume: Real = (0..p.len()).map(|k| p.vol0[k] * p.f[k].determinant()).sum();
     let theta: Real = s.theta.iter().sum::<Real>() * h2;
     let momentum = p.m.iter().zip(&p.v).fold(Vector::zeros(), |a, (m, v)| a + *m * v);
     let faces = |m: &[Real], u: &[Real]| m.iter().zip(u).map(|(m, u)| m * u).sum::<Real>();
-    let (mx, my) = (faces(&s.mass_u, &s.velocity.u), faces(&s.mass_v, &s.velocity.v));
+    let (mx, my) = (faces(&s.mass_face.u, &s.velocity.u), faces(&s.mass_face.v, &s.velocity.v));
     eprintln!(
         "volume {volume:.12} against Σθh² {theta:.12}; momentum ({:.3e}, {:.6}) against faces ({mx:.3e}, {my:.6})",
         momentum.x, momentum.y

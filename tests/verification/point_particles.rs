@@ -103,7 +103,7 @@ fn spreading_conserves_volume_at_any_position() {
                 theta[cell] += th;
             }
             assert!(theta.iter().all(|t| *t <= 1.0 + 1e-15), "θ > 1 for r = {r} at {c:?}");
-            let v: Real = theta.iter().sum::<Real>() * g.cell_area();
+            let v: Real = theta.iter().sum::<Real>() * g.cell_volume();
             worst = worst.max((v - PI * r * r).abs() / (PI * r * r));
         }
     }

@@ -100,7 +100,7 @@ impl Geometry {
         Self {
             origin,
             size,
-            periodic: [boundaries.periodic_x(), boundaries.periodic_y()],
+            periodic: [boundaries.periodic(0), boundaries.periodic(1)],
             walls: [wall(Side::Left), wall(Side::Right), wall(Side::Bottom), wall(Side::Top)],
             down,
             axis,

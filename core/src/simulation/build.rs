@@ -10,6 +10,7 @@ impl Simulation {
         let case = &case.with_snapshots_read()?;
         case.validate()?;
         // generated bodies become listed ones once, here, and are checked as those are
+        #[cfg(feature = "dim2")]
         let mut case = if case.has_generators() {
             let (expanded, _) = case.expand_generators()?;
             expanded.validate()?;
@@ -17,12 +18,14 @@ impl Simulation {
         } else {
             case.clone()
         };
+        #[cfg(feature = "dim3")]
+        let mut case = case.clone();
         // the caps on cells, points, bodies and lists before the grid is allocated
         case.check_counts()?;
         let d = &case.domain;
-        let [nx, ny] = case.cells();
-        let h = d.size[0] / nx as Real;
-        let grid = Grid::new(nx, ny, h, vector(d.origin));
+        let cells = case.cells();
+        let h = d.size[0] / cells[0] as Real;
+        let grid = Grid::from_cells(cells, h, vector(d.origin));
         let boundaries = case.boundaries;
         let mut fields = Vec::new();
         for (k, spec) in case.fields.iter_mut().enumerate() {
@@ -181,7 +184,7 @@ impl Simulation {
             let forced = forcings.iter().any(|p| p.bodies == k);
             let spec = &case.fields[k];
             let theta: Vec<Real> = if spec.representation == Representation::MassPoint {
-                mass_point_fraction(&spec.region, &grid, [boundaries.periodic_x(), boundaries.periodic_y()])
+                mass_point_fraction(&spec.region, &grid, [boundaries.periodic(0), boundaries.periodic(1)])
             } else {
                 region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect()
             };
@@ -318,8 +321,7 @@ fn overlap(
     forcings: &[ForcedPair],
     name: &str,
 ) -> Error {
-    let (i, j) = (c % grid.nx, c / grid.nx);
-    let x = grid.cell_center(i, j);
+    let x = grid.position(Lattice::Cell, grid.node(Lattice::Cell, c));
     let others: Vec<String> = before
         .iter()
         .enumerate()

@@ -112,10 +112,10 @@ impl Simulation {
             let (s, g) = (&mut f.state, &c.grid);
             for (a, b, q) in [
                 (&mut s.theta, &g.theta, "volume fraction"),
-                (&mut s.theta_u, &g.theta_u, "x-face volume fraction"),
-                (&mut s.theta_v, &g.theta_v, "y-face volume fraction"),
-                (&mut s.mass_u, &g.mass_u, "x-face mass"),
-                (&mut s.mass_v, &g.mass_v, "y-face mass"),
+                (&mut s.theta_face.u, &g.theta_face.u, "x-face volume fraction"),
+                (&mut s.theta_face.v, &g.theta_face.v, "y-face volume fraction"),
+                (&mut s.mass_face.u, &g.mass_face.u, "x-face mass"),
+                (&mut s.mass_face.v, &g.mass_face.v, "y-face mass"),
             ] {
                 state::copy_into(a, b, &what(q))?;
             }
@@ -138,13 +138,13 @@ impl Simulation {
             let why = "a volume fraction lies in [0, 1], to round-off and coupling.max_volume_fraction_error";
             for (t, q) in [
                 (&s.theta, "volume fraction"),
-                (&s.theta_u, "x-face volume fraction"),
-                (&s.theta_v, "y-face volume fraction"),
+                (&s.theta_face.u, "x-face volume fraction"),
+                (&s.theta_face.v, "y-face volume fraction"),
             ] {
                 state::within(t, -THETA_ROUND_OFF, hi, &what(q), why)?;
             }
-            let m0 = -THETA_ROUND_OFF * f.density * grid.cell_area();
-            for (m, q) in [(&s.mass_u, "x-face mass"), (&s.mass_v, "y-face mass")] {
+            let m0 = -THETA_ROUND_OFF * f.density * grid.cell_volume();
+            for (m, q) in [(&s.mass_face.u, "x-face mass"), (&s.mass_face.v, "y-face mass")] {
                 state::within(m, m0, Real::INFINITY, &what(q), "a mass is not negative")?;
             }
             f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;

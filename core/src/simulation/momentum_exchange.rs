@@ -29,7 +29,7 @@ impl Simulation {
             return;
         }
         let n = self.fields.len();
-        let area = self.grid.cell_area();
+        let area = self.grid.cell_volume();
         for e in &mut self.exchanges {
             let [a, b] = e.fields;
             let ctx = ExchangeContext {
@@ -66,9 +66,9 @@ impl Simulation {
                 let own = f.own_densities;
                 let s = &mut f.state;
                 let (u, w, mass, theta, u_old) = if lattice == 0 {
-                    (&mut s.velocity.u, &mut s.specific_volume.u, &s.mass_u, &s.theta_u, &s.velocity_old.u)
+                    (&mut s.velocity.u, &mut s.specific_volume.u, &s.mass_face.u, &s.theta_face.u, &s.velocity_old.u)
                 } else {
-                    (&mut s.velocity.v, &mut s.specific_volume.v, &s.mass_v, &s.theta_v, &s.velocity_old.v)
+                    (&mut s.velocity.v, &mut s.specific_volume.v, &s.mass_face.v, &s.theta_face.v, &s.velocity_old.v)
                 };
                 let parts = u
                     .chunks_mut(EXCHANGE_CHUNK)
@@ -167,14 +167,15 @@ impl Simulation {
     /// The specific volumes of fields that exchange nothing: what [`exchange::solve`] gives
     /// without coupling, face by face, without building its local system.
     pub(super) fn uncoupled_specific_volumes(&mut self) {
-        let area = self.grid.cell_area();
+        let area = self.grid.cell_volume();
         for f in &mut self.fields {
             let rho0 = f.density;
             let own = f.own_densities;
             let s = &mut f.state;
-            for (w, m, t) in
-                [(&mut s.specific_volume.u, &s.mass_u, &s.theta_u), (&mut s.specific_volume.v, &s.mass_v, &s.theta_v)]
-            {
+            for (w, m, t) in [
+                (&mut s.specific_volume.u, &s.mass_face.u, &s.theta_face.u),
+                (&mut s.specific_volume.v, &s.mass_face.v, &s.theta_face.v),
+            ] {
                 for ((w, m), t) in w.iter_mut().zip(m.iter()).zip(t.iter()) {
                     let rho = m / area;
                     let rho_w = if own { rho } else { t * rho0 };

@@ -16,90 +16,69 @@ impl Simulation {
         };
         let g = &self.grid;
         let bc = &self.boundaries;
-        let mut cx = vec![0.0; g.n_xfaces()];
-        let mut cy = vec![0.0; g.n_yfaces()];
+        let mut c = FaceArrays::zeros(g);
         for f in &self.fields {
             let s = &f.state;
-            for (c, (t, w)) in cx.iter_mut().zip(s.theta_u.iter().zip(&s.specific_volume.u)) {
-                *c += dt * t * w;
-            }
-            for (c, (t, w)) in cy.iter_mut().zip(s.theta_v.iter().zip(&s.specific_volume.v)) {
-                *c += dt * t * w;
-            }
-        }
-        for j in 0..g.ny {
-            for i in [0, g.nx] {
-                if bc.xface_fixed(g, i) {
-                    cx[g.xface(i, j)] = 0.0;
+            for a in AXES {
+                for (c, (t, w)) in c[a].iter_mut().zip(s.theta_face[a].iter().zip(&s.specific_volume[a])) {
+                    *c += dt * t * w;
                 }
             }
         }
-        for j in [0, g.ny] {
-            if bc.yface_fixed(g, j) {
-                for i in 0..g.nx {
-                    cy[g.yface(i, j)] = 0.0;
+        let n = g.n();
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            for i in [0, n[a]] {
+                if bc.face_fixed(g, a, i) {
+                    for (f, at) in g.nodes(lattice) {
+                        if at[a] == i {
+                            c[a][f] = 0.0;
+                        }
+                    }
                 }
             }
         }
         let residual = constraint_of(g, &self.fields, self.case.coupling.volume_fraction_relaxation, dt);
         let rhs: Vec<Real> = residual.iter().map(|r| -r).collect();
-        let problem = PoissonProblem::new(g, bc, cx, cy, rhs);
+        let problem = PoissonProblem::new(g, bc, c, rhs);
         let stats = solver.solve(&problem, &mut self.pressure)?;
         problem.fix_constant(&mut self.pressure);
         // corrector: u_k = ū_k − Δt w_k ∇p
         let p = &self.pressure;
-        let (nx, ny) = (g.nx, g.ny);
         let outflow = |side| match bc.side(side) {
             crate::boundary::Boundary::Outflow { pressure } => Some(pressure),
             _ => None,
         };
-        let (pl, pr, pb, pt) = (
-            outflow(crate::boundary::Side::Left),
-            outflow(crate::boundary::Side::Right),
-            outflow(crate::boundary::Side::Bottom),
-            outflow(crate::boundary::Side::Top),
-        );
-        let mut gx = vec![0.0; g.n_xfaces()];
-        let mut gy = vec![0.0; g.n_yfaces()];
-        for j in 0..ny {
-            for i in 0..=nx {
-                let grad = if i > 0 && i < nx {
-                    (p[g.cell(i, j)] - p[g.cell(i - 1, j)]) / g.h
-                } else if bc.periodic_x() {
-                    (p[g.cell(0, j)] - p[g.cell(nx - 1, j)]) / g.h
+        let mut gradient = FaceArrays::zeros(g);
+        for a in AXES {
+            let (lo, hi) = (outflow(Side::of(a, false)), outflow(Side::of(a, true)));
+            let periodic = bc.periodic(a);
+            for (f, at) in g.nodes(Lattice::face(a)) {
+                let cell = |i: usize| {
+                    let mut c = at;
+                    c[a] = i;
+                    p[g.index(Lattice::Cell, c)]
+                };
+                let i = at[a];
+                gradient[a][f] = if i > 0 && i < n[a] {
+                    (cell(i) - cell(i - 1)) / g.h
+                } else if periodic {
+                    (cell(0) - cell(n[a] - 1)) / g.h
                 } else if i == 0 {
-                    pl.map_or(0.0, |pd| 2.0 * (p[g.cell(0, j)] - pd) / g.h)
+                    lo.map_or(0.0, |pd| 2.0 * (cell(0) - pd) / g.h)
                 } else {
-                    pr.map_or(0.0, |pd| 2.0 * (pd - p[g.cell(nx - 1, j)]) / g.h)
+                    hi.map_or(0.0, |pd| 2.0 * (pd - cell(n[a] - 1)) / g.h)
                 };
-                gx[g.xface(i, j)] = grad;
-            }
-        }
-        for j in 0..=ny {
-            for i in 0..nx {
-                let grad = if j > 0 && j < ny {
-                    (p[g.cell(i, j)] - p[g.cell(i, j - 1)]) / g.h
-                } else if bc.periodic_y() {
-                    (p[g.cell(i, 0)] - p[g.cell(i, ny - 1)]) / g.h
-                } else if j == 0 {
-                    pb.map_or(0.0, |pd| 2.0 * (p[g.cell(i, 0)] - pd) / g.h)
-                } else {
-                    pt.map_or(0.0, |pd| 2.0 * (pd - p[g.cell(i, ny - 1)]) / g.h)
-                };
-                gy[g.yface(i, j)] = grad;
             }
         }
         for f in &mut self.fields {
             let s = &mut f.state;
-            for (k, g) in gx.iter().enumerate() {
-                let a = -s.specific_volume.u[k] * g;
-                s.pressure_acceleration.u[k] = a;
-                s.velocity.u[k] += dt * a;
-            }
-            for (k, g) in gy.iter().enumerate() {
-                let a = -s.specific_volume.v[k] * g;
-                s.pressure_acceleration.v[k] = a;
-                s.velocity.v[k] += dt * a;
+            for a in AXES {
+                for (k, g) in gradient[a].iter().enumerate() {
+                    let acceleration = -s.specific_volume[a][k] * g;
+                    s.pressure_acceleration[a][k] = acceleration;
+                    s.velocity[a][k] += dt * acceleration;
+                }
             }
             bc.enforce(g, &mut s.velocity);
         }
@@ -125,33 +104,42 @@ impl Simulation {
     }
 }
 
-/// Volume flux Σθu on x-faces and y-faces.
-fn mixture_flux(grid: &Grid, fields: &[Field]) -> (Vec<Real>, Vec<Real>) {
-    let mut fx = vec![0.0; grid.n_xfaces()];
-    let mut fy = vec![0.0; grid.n_yfaces()];
+/// Volume flux Σθu on the faces.
+fn mixture_flux(grid: &Grid, fields: &[Field]) -> FaceArrays {
+    let mut flux = FaceArrays::zeros(grid);
     for f in fields {
         let s = &f.state;
-        for (o, (t, u)) in fx.iter_mut().zip(s.theta_u.iter().zip(&s.velocity.u)) {
-            *o += t * u;
-        }
-        for (o, (t, v)) in fy.iter_mut().zip(s.theta_v.iter().zip(&s.velocity.v)) {
-            *o += t * v;
+        for a in AXES {
+            for (o, (t, u)) in flux[a].iter_mut().zip(s.theta_face[a].iter().zip(&s.velocity[a])) {
+                *o += t * u;
+            }
         }
     }
-    (fx, fy)
+    flux
 }
 
 /// ∇·(Σθu) − β(Σθ − 1)/Δt per cell: the residual of the constraint the pressure enforces.
 pub fn constraint_of(g: &Grid, fields: &[Field], beta: Real, dt: Real) -> Vec<Real> {
-    let (fx, fy) = mixture_flux(g, fields);
+    let flux = mixture_flux(g, fields);
     let mut out = vec![0.0; g.n_cells()];
-    for j in 0..g.ny {
-        for i in 0..g.nx {
-            let div = (fx[g.xface(i + 1, j)] - fx[g.xface(i, j)] + fy[g.yface(i, j + 1)] - fy[g.yface(i, j)]) / g.h;
-            let c = g.cell(i, j);
-            let sum: Real = fields.iter().map(|f| f.state.theta[c]).sum();
-            out[c] = div - beta * (sum - 1.0) / dt;
+    for (c, at) in g.nodes(Lattice::Cell) {
+        // (low, high) face flux along axis a
+        let faces = |a: usize| {
+            let mut face = at;
+            let lo = flux[a][g.index(Lattice::face(a), face)];
+            face[a] += 1;
+            (lo, flux[a][g.index(Lattice::face(a), face)])
+        };
+        // ((x_hi − x_lo) + y_hi) − y_lo (+ z_hi − z_lo): the 2D expression's order
+        let (lo, hi) = faces(0);
+        let mut div = hi - lo;
+        for a in 1..DIM {
+            let (lo, hi) = faces(a);
+            div = div + hi - lo;
         }
+        let div = div / g.h;
+        let sum: Real = fields.iter().map(|f| f.state.theta[c]).sum();
+        out[c] = div - beta * (sum - 1.0) / dt;
     }
     out
 }

@@ -121,10 +121,12 @@ impl Simulation {
         }
         self.particles_to_grid(dt)?;
         let (volume_fraction_error, max_volume_fraction) = self.volume_fractions();
+        #[cfg(feature = "dim2")]
         self.carry_immersed_forces();
         self.predictor(dt)?;
         self.exchange(dt);
         self.contact_forces(dt)?;
+        #[cfg(feature = "dim2")]
         self.immersed_boundaries(dt)?;
         let (iterations, residual) = self.pressure_projection(dt)?;
         let max_divergence = self.max_divergence(dt);
@@ -267,6 +269,7 @@ impl Simulation {
         self.frame_phase_of(dt, "particles to grid", |k| !forced.contains(&k), |fr, ctx| fr.to_grid(ctx))
     }
 
+    #[cfg(feature = "dim2")]
     /// Phase 4b (after the exchange and the contact forces, before the pressure): every
     /// direct forcing moves its free bodies and forces its fluid towards the bodies' rigid
     /// motion on their surfaces ([`crate::immersed::couple`]).
@@ -328,6 +331,7 @@ impl Simulation {
         Ok(())
     }
 
+    #[cfg(feature = "dim2")]
     /// Phase 2b (before the predictors): every direct forcing's fluid takes the last
     /// step's marker forces spread from where its bodies' markers stand now
     /// ([`crate::immersed::spread_lagged`]), the lagged force its predictor sees.
@@ -344,6 +348,7 @@ impl Simulation {
         }
     }
 
+    #[cfg(feature = "dim2")]
     /// The fluids of the direct forcings, in the order of their first forcing, each with
     /// its forcings' indices in order.
     fn forcings_by_fluid(&self) -> Vec<(usize, Vec<usize>)> {
@@ -357,6 +362,7 @@ impl Simulation {
         out
     }
 
+    #[cfg(feature = "dim2")]
     /// The bodies of direct forcing `k` as they stand now.
     pub(super) fn forced_bodies(&self, k: usize) -> Vec<crate::immersed::ForcedBody> {
         let p = &self.forcings[k];
@@ -404,24 +410,23 @@ impl Simulation {
                 *o += t;
             }
         }
-        let (px, py) = (self.boundaries.periodic_x(), self.boundaries.periodic_y());
-        let area = self.grid.cell_area();
+        let periodic = self.boundaries.periodic_axes();
+        let volume = self.grid.cell_volume();
         for f in &mut self.fields {
             if f.fills_rest {
                 for (t, o) in f.state.theta.iter_mut().zip(&others) {
                     *t = (1.0 - o).max(0.0);
                 }
             }
-            f.state.update_face_fractions(&self.grid, px, py);
+            f.state.update_face_fractions(&self.grid, periodic);
             // An Eulerian field's face mass follows from θ; a Lagrangian field keeps the
             // mass its points put there, so that momentum is conserved between frames.
             if !f.frame.is_lagrangian() {
                 let s = &mut f.state;
-                for (m, t) in s.mass_u.iter_mut().zip(&s.theta_u) {
-                    *m = t * f.density * area;
-                }
-                for (m, t) in s.mass_v.iter_mut().zip(&s.theta_v) {
-                    *m = t * f.density * area;
+                for a in AXES {
+                    for (m, t) in s.mass_face[a].iter_mut().zip(&s.theta_face[a]) {
+                        *m = t * f.density * volume;
+                    }
                 }
             }
         }

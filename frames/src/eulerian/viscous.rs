@@ -57,7 +57,7 @@ impl LatticeOperator {
     /// The operator of the x-face lattice (`x_faces`) or the y-face lattice.
     fn new(grid: &Grid, bc: &Boundaries, x_faces: bool) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
-        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (px, py) = (bc.periodic(0), bc.periodic(1));
         // lattice shape and the index of node (i, j); the normal axis is x for x-faces
         let (cols, rows) = if x_faces { (nx + 1, ny) } else { (nx, ny + 1) };
         let idx = |i: usize, j: usize| (i + j * cols) as u32;

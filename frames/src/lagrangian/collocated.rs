@@ -182,7 +182,7 @@ impl Collocated {
         let mut stress = std::mem::take(&mut pts.stress);
         let mut state = std::mem::take(&mut pts.model_state);
         let input = ScatterIn { pts, apic: transfer == Transfer::Apic, dt, grid, models, density };
-        self.scatter(&input, &mut stress, &mut state, [bc.periodic_x(), bc.periodic_y()]);
+        self.scatter(&input, &mut stress, &mut state, [bc.periodic(0), bc.periodic(1)]);
         pts.stress = stress;
         pts.model_state = state;
         // the points' masses never change
@@ -283,7 +283,7 @@ impl Collocated {
     /// part's scatter): u = (mu + Δt f)/m + Δt g from the two parts, the walls; then the
     /// ghost nodes of `vel` filled. It only reads `acc`.
     fn update(&mut self, bc: &Boundaries, dt: Real, gravity: Vector, tiny: Real) {
-        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (px, py) = (bc.periodic(0), bc.periodic(1));
         let (nx, ny) = (self.nx as isize, self.ny as isize);
         let pad = PAD as isize;
         // periodic along y: ghosts wrap to rows far away; update every row
@@ -391,7 +391,7 @@ impl Collocated {
         velocity_gradient: bool,
         dt: Real,
     ) -> FrameFigures {
-        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (px, py) = (bc.periodic(0), bc.periodic(1));
         let fin = Finish {
             dt,
             ih: 1.0 / grid.h,

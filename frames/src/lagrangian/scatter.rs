@@ -206,7 +206,7 @@ impl Scatter {
     /// Folds ghost contributions into the domain: wrap on periodic sides, mirror at walls
     /// (the normal momentum changes sign in its mirror image).
     fn fold(&mut self, grid: &Grid, bc: &Boundaries) {
-        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (px, py) = (bc.periodic(0), bc.periodic(1));
         let (nx, ny) = (grid.nx as isize, grid.ny as isize);
         // per channel: (nodes along x are faces?, nodes along y are faces?, normal axis for sign)
         let layout = |c: usize| -> (bool, bool, Option<usize>) {
@@ -476,9 +476,9 @@ mod tests {
                 let fresh = run(&mut Scatter::new(&g), &g, &bc, shape, &b);
                 assert!(first != fresh, "the two point sets must scatter differently");
                 let same = again.iter().zip(&fresh).all(|(x, y)| x.to_bits() == y.to_bits());
-                assert!(same, "{shape:?}, periodic {}: the reused scatter differs", bc.periodic_x());
+                assert!(same, "{shape:?}, periodic {}: the reused scatter differs", bc.periodic(0));
                 // and the masses add up: Σ over the x-faces (the periodic copy at i = nx once)
-                let faces = if bc.periodic_x() { g.nx } else { g.nx + 1 };
+                let faces = if bc.periodic(0) { g.nx } else { g.nx + 1 };
                 let mut mass = 0.0;
                 for j in 0..g.ny as isize {
                     for i in 0..faces as isize {

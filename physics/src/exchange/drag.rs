@@ -51,7 +51,7 @@
 //! At θ_f = 1 it is the uncorrected law exactly.
 //!
 //!
-//! **On a MAC face** K uses the face's θ_f (`theta_u`/`theta_v` of the fluid, floored at
+//! **On a MAC face** K uses the face's θ_f (`theta_face` of the fluid, floored at
 //! [`THETA_FLOOR`]) and, in the slip-dependent laws, |Δu| from the face's normal slip and the
 //! tangential slip averaged from the four nearest faces of the other lattice (one-sided
 //! at the domain edges). Re is floored at [`RE_FLOOR`] (the Re → 0 limit; Lamb's law
@@ -300,20 +300,20 @@ pub fn fill_drag(
     kx.par_chunks_mut(nx + 1).with_min_len(8).enumerate().for_each(|(j, row)| {
         for (i, k) in row.iter_mut().enumerate() {
             let f = grid.xface(i, j);
-            *k = if empty(&ctx.b.mass_u, &ctx.b.theta_u, f) {
+            *k = if empty(&ctx.b.mass_face.u, &ctx.b.theta_face.u, f) {
                 0.0
             } else {
-                k_at(ctx.a.theta_u[f], xface_slip(ctx, grid, i, j))
+                k_at(ctx.a.theta_face.u[f], xface_slip(ctx, grid, i, j))
             };
         }
     });
     ky.par_chunks_mut(nx).with_min_len(8).enumerate().for_each(|(j, row)| {
         for (i, k) in row.iter_mut().enumerate() {
             let f = grid.yface(i, j);
-            *k = if empty(&ctx.b.mass_v, &ctx.b.theta_v, f) {
+            *k = if empty(&ctx.b.mass_face.v, &ctx.b.theta_face.v, f) {
                 0.0
             } else {
-                k_at(ctx.a.theta_v[f], yface_slip(ctx, grid, i, j))
+                k_at(ctx.a.theta_face.v[f], yface_slip(ctx, grid, i, j))
             };
         }
     });
@@ -459,10 +459,10 @@ impl<C: DragCorrelation> ExchangeModel for Drag<C> {
     fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
         if C::CONSTANT_CD_RE.is_some() && !self.di_felice {
             // independent of the slip
-            for (k, t) in kx.iter_mut().zip(&ctx.a.theta_u) {
+            for (k, t) in kx.iter_mut().zip(&ctx.a.theta_face.u) {
                 *k = self.coefficient(0.0, ctx.density[0], *t);
             }
-            for (k, t) in ky.iter_mut().zip(&ctx.a.theta_v) {
+            for (k, t) in ky.iter_mut().zip(&ctx.a.theta_face.v) {
                 *k = self.coefficient(0.0, ctx.density[0], *t);
             }
         } else {
@@ -502,8 +502,13 @@ mod tests {
         for s in [&mut a, &mut b] {
             s.velocity.u.iter_mut().chain(s.velocity.v.iter_mut()).for_each(|x| *x = 2.0 * next() - 1.0);
         }
-        a.theta_u.iter_mut().chain(a.theta_v.iter_mut()).for_each(|x| *x = 0.5 + 0.5 * next());
-        for (m, t) in b.mass_u.iter_mut().zip(b.theta_u.iter_mut()).chain(b.mass_v.iter_mut().zip(b.theta_v.iter_mut()))
+        a.theta_face.u.iter_mut().chain(a.theta_face.v.iter_mut()).for_each(|x| *x = 0.5 + 0.5 * next());
+        for (m, t) in b
+            .mass_face
+            .u
+            .iter_mut()
+            .zip(b.theta_face.u.iter_mut())
+            .chain(b.mass_face.v.iter_mut().zip(b.theta_face.v.iter_mut()))
         {
             if next() < 0.5 {
                 (*t, *m) = (0.3 * next(), 1e-3 * next());
@@ -520,16 +525,16 @@ mod tests {
         for (k, s, t, mb, tb) in kx
             .iter()
             .zip(&sx)
-            .zip(&a.theta_u)
-            .zip(&b.mass_u)
-            .zip(&b.theta_u)
+            .zip(&a.theta_face.u)
+            .zip(&b.mass_face.u)
+            .zip(&b.theta_face.u)
             .map(|((((k, s), t), m), tb)| (k, s, t, m, tb))
             .chain(
                 ky.iter()
                     .zip(&sy)
-                    .zip(&a.theta_v)
-                    .zip(&b.mass_v)
-                    .zip(&b.theta_v)
+                    .zip(&a.theta_face.v)
+                    .zip(&b.mass_face.v)
+                    .zip(&b.theta_face.v)
                     .map(|((((k, s), t), m), tb)| (k, s, t, m, tb)),
             )
         {

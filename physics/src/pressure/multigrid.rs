@@ -704,7 +704,7 @@ impl Hierarchy {
     /// Fills the level operators for `problem` and factors the coarsest one.
     pub fn setup(&mut self, problem: &PoissonProblem) -> std::result::Result<(), String> {
         let g = &problem.grid;
-        let key = (g.nx, g.ny, [problem.periodic_x, problem.periodic_y], problem.dirichlet);
+        let key = (g.nx, g.ny, problem.periodic, problem.dirichlet);
         if self.key != Some(key) {
             self.build(key.0, key.1, key.2, key.3);
         }

@@ -339,7 +339,7 @@ impl PressureSolver for Pcg {
 mod tests {
     use super::*;
     use multifield_core::boundary::{Boundaries, Boundary};
-    use multifield_core::grid::Grid;
+    use multifield_core::grid::{FaceArrays, Grid};
     use multifield_core::math::Vector;
 
     /// Manufactured solution p = cos(πx) cos(πy) on the unit square with walls
@@ -368,7 +368,7 @@ mod tests {
                 cyw[g.yface(i, 0)] = 0.0;
                 cyw[g.yface(i, n)] = 0.0;
             }
-            let prob = PoissonProblem::new(&g, &bc, cxw, cyw, rhs);
+            let prob = PoissonProblem::new(&g, &bc, FaceArrays { u: cxw, v: cyw }, rhs);
             let mut p = vec![0.0; g.n_cells()];
             let mut s = Pcg::new(PreconditionerKind::Jacobi, 1e-12, 10_000);
             s.solve(&prob, &mut p).unwrap();
@@ -395,7 +395,7 @@ mod tests {
             cy[g.yface(i, n)] = 0.0;
         }
         // −p'' = 0 with p = 2 on the right and no flux elsewhere: p ≡ 2
-        let prob = PoissonProblem::new(&g, &bc, cx, cy, vec![0.0; g.n_cells()]);
+        let prob = PoissonProblem::new(&g, &bc, FaceArrays { u: cx, v: cy }, vec![0.0; g.n_cells()]);
         let mut p = vec![0.0; g.n_cells()];
         let mut s = Pcg::new(PreconditionerKind::Jacobi, 1e-12, 10_000);
         s.solve(&prob, &mut p).unwrap();

@@ -83,37 +83,37 @@ impl Stencil {
     /// Fills the stencil from a pressure problem (same rows as [`PoissonProblem::row`]).
     pub fn assign(&mut self, p: &PoissonProblem) {
         let (nx, ny) = (p.grid.nx, p.grid.ny);
-        self.resize(nx, ny, [p.periodic_x, p.periodic_y], p.dirichlet);
+        self.resize(nx, ny, p.periodic, p.dirichlet);
         let [px, py] = self.periodic;
         let d = p.dirichlet;
         self.ax.par_chunks_mut(nx + 1).enumerate().for_each(|(j, row)| {
-            let src = &p.cx[j * (nx + 1)..(j + 1) * (nx + 1)];
+            let src = &p.c.u[j * (nx + 1)..(j + 1) * (nx + 1)];
             row.copy_from_slice(src);
             row[0] = if px { src[0] } else { 0.0 };
             row[nx] = if px { src[0] } else { 0.0 };
         });
-        self.ay.copy_from_slice(&p.cy);
+        self.ay.copy_from_slice(&p.c.v);
         for i in 0..nx {
-            self.ay[i] = if py { p.cy[i] } else { 0.0 };
-            self.ay[i + ny * nx] = if py { p.cy[i] } else { 0.0 };
+            self.ay[i] = if py { p.c.v[i] } else { 0.0 };
+            self.ay[i + ny * nx] = if py { p.c.v[i] } else { 0.0 };
         }
         self.extra.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
             row.fill(0.0);
             if !px {
                 if d[0] {
-                    row[0] += 2.0 * p.cx[j * (nx + 1)];
+                    row[0] += 2.0 * p.c.u[j * (nx + 1)];
                 }
                 if d[1] {
-                    row[nx - 1] += 2.0 * p.cx[nx + j * (nx + 1)];
+                    row[nx - 1] += 2.0 * p.c.u[nx + j * (nx + 1)];
                 }
             }
             if !py {
                 for (i, e) in row.iter_mut().enumerate() {
                     if d[2] && j == 0 {
-                        *e += 2.0 * p.cy[i];
+                        *e += 2.0 * p.c.v[i];
                     }
                     if d[3] && j == ny - 1 {
-                        *e += 2.0 * p.cy[i + ny * nx];
+                        *e += 2.0 * p.c.v[i + ny * nx];
                     }
                 }
             }
@@ -308,7 +308,7 @@ pub(crate) fn next(k: usize, n: usize, periodic: bool) -> usize {
 mod tests {
     use super::*;
     use multifield_core::boundary::{Boundaries, Boundary};
-    use multifield_core::grid::Grid;
+    use multifield_core::grid::{FaceArrays, Grid};
     use multifield_core::math::Vector;
 
     /// The stored stencil applies exactly the operator of `PoissonProblem` for walls,
@@ -336,7 +336,7 @@ mod tests {
             let g = Grid::new(nx, ny, 0.1, Vector::zeros());
             let cx: Vec<Real> = (0..g.n_xfaces()).map(|k| 1.0 + (k % 7) as Real * 0.3).collect();
             let cy: Vec<Real> = (0..g.n_yfaces()).map(|k| 2.0 + (k % 5) as Real * 0.7).collect();
-            let prob = PoissonProblem::new(&g, &bc, cx, cy, vec![1.0; g.n_cells()]);
+            let prob = PoissonProblem::new(&g, &bc, FaceArrays { u: cx, v: cy }, vec![1.0; g.n_cells()]);
             let mut s = Stencil::default();
             s.assign(&prob);
             let x: Vec<Real> = (0..g.n_cells()).map(|k| ((k * 37) % 11) as Real - 3.0).collect();

@@ -74,7 +74,7 @@ impl StressModel for Newtonian {
         let bc = ctx.boundaries;
         let (nx, ny) = (g.nx, g.ny);
         let k = ctx.dt * self.viscosity / (ctx.density * g.h * g.h);
-        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (px, py) = (bc.periodic(0), bc.periodic(1));
         // x component on x-faces: (nx+1) × ny
         let u = ctx.state.velocity.u.clone();
         for j in 0..ny {

@@ -121,7 +121,7 @@ impl StressModel for PowerLaw {
         let g = ctx.grid;
         let bc = ctx.boundaries;
         let (nx, ny, h) = (g.nx, g.ny, g.h);
-        let (px, py) = (bc.periodic_x(), bc.periodic_y());
+        let (px, py) = (bc.periodic(0), bc.periodic(1));
         let u = ctx.state.velocity.u.clone();
         let v = ctx.state.velocity.v.clone();
         // shear ∂u/∂y + ∂v/∂x at the (nx+1) × (ny+1) corners
