@@ -4,7 +4,8 @@
 Reads postProcessing/energy/0/volFieldValue.dat (volume averages of magSqr(U) and of the
 enstrophy 0.5|curl U|^2, every time step), writes energy.csv (t, kinetic_energy,
 dissipation_rate = -dE_k/dt by centred differences, enstrophy, 2 nu enstrophy) and prints
-the epsilon peak and the misfits against ../spectral_re1600_512.csv when that file is
+the epsilon peak and the misfits against spectral_re1600_512.csv (in the folder above
+this one) when that file is
 present. Run from anywhere: python3 energy.py [case directory]
 """
 
