@@ -97,8 +97,7 @@ fn bench(c: &mut Criterion) {
         };
         let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
         let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
-        let domain =
-            SearchDomain { origin: Vector::zeros(), size: Vector::new(l, l), periodic_x: false, periodic_y: false };
+        let domain = SearchDomain { origin: Vector::zeros(), size: Vector::new(l, l), periodic: [false, false] };
         let search = 0.1;
         let mut dem = build_contact("dem", &params, "contact").expect("dem");
         let mut repulsion =

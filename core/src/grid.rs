@@ -289,7 +289,7 @@ impl std::ops::IndexMut<usize> for FaceArrays {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
 

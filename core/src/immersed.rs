@@ -725,7 +725,7 @@ fn joint_motions(
         .collect();
     let centres: Vec<Vector> = disks.iter().map(|&(i, _)| bodies[i].center).collect();
     let radii: Vec<Real> = disks.iter().map(|&(_, r)| r).collect();
-    let domain = SearchDomain { origin: grid.origin, size: grid.size(), periodic_x: false, periodic_y: false };
+    let domain = SearchDomain { origin: grid.origin, size: grid.size(), periodic: [false, false] };
     let close: Vec<(usize, usize)> = pairs_within(&centres, &radii, gap, &domain)
         .into_iter()
         .filter(|p| p.distance < radii[p.i] + radii[p.j] + gap)

@@ -16,6 +16,7 @@ pub mod exchange;
 pub mod field;
 pub mod finite;
 pub mod generate;
+#[cfg(feature = "dim2")]
 pub mod geometry;
 pub mod grid;
 #[cfg(feature = "dim2")]

@@ -126,6 +126,7 @@ impl MemoryLimit {
 }
 
 /// Cells, x-faces and y-faces of an `nx × ny` grid, saturating.
+#[cfg(feature = "dim2")]
 fn lattice(nx: u64, ny: u64) -> (u64, u64, u64) {
     (nx.saturating_mul(ny), nx.saturating_add(1).saturating_mul(ny), nx.saturating_mul(ny.saturating_add(1)))
 }
@@ -162,16 +163,18 @@ impl Case {
     /// The number of cells, nx × ny, or an error naming `domain.cells` when it exceeds
     /// [`MAX_CELLS`] (checked, so that no product of counts can overflow).
     pub fn cell_count(&self) -> Result<u64> {
-        let [nx, ny] = self.cells();
-        let cells = (nx as u64).checked_mul(ny as u64).filter(|&c| c <= MAX_CELLS);
+        let n = self.cells();
+        let cells = n.iter().try_fold(1u64, |c, &k| c.checked_mul(k as u64)).filter(|&c| c <= MAX_CELLS);
         cells.ok_or_else(|| {
             Error::invalid(
                 "domain.cells",
-                format!(
-                    "{nx} × {ny} cells: at most {MAX_CELLS} cells ({} × {}) in all; reduce domain.cells",
-                    1u64 << 15,
-                    1u64 << 15
-                ),
+                format!("{} cells: at most {MAX_CELLS} cells ({}) in all; reduce domain.cells", times(&n), {
+                    #[cfg(feature = "dim2")]
+                    let largest = "32768 × 32768";
+                    #[cfg(feature = "dim3")]
+                    let largest = "1024 × 1024 × 1024";
+                    largest
+                }),
             )
         })
     }
@@ -208,6 +211,7 @@ impl Case {
     /// and each frame's own arrays), the material points, the exchanges' coefficients, the
     /// pressure solver with its multigrid levels, and the output's buffers. A frame of
     /// another crate is counted as an Eulerian one. Saturates instead of overflowing.
+    #[cfg(feature = "dim2")]
     pub fn memory_estimate(&self) -> MemoryEstimate {
         let [nx, ny] = self.cells().map(|n| n as u64);
         let (c, x, y) = lattice(nx, ny);
@@ -302,6 +306,71 @@ impl Case {
             }
             parts.push((format!("pressure solver {}", p.model), b));
         }
+        self.with_output(parts, c, points_total)
+    }
+
+    /// [`Case::memory_estimate`] in 3D, where every field is Eulerian (the 2D count with
+    /// three face lattices, the padded lattices of two ghost layers on every axis, nine
+    /// momentum fluxes, and multigrid levels an eighth of the one above each).
+    #[cfg(feature = "dim3")]
+    pub fn memory_estimate(&self) -> MemoryEstimate {
+        let n = self.cells().map(|n| n as u64);
+        let product = |m: [u64; 3]| m.iter().fold(1u64, |a, &b| a.saturating_mul(b));
+        let lattices = |m: [u64; 3]| {
+            let faces = (0..3).map(|a| {
+                let mut f = m;
+                f[a] = f[a].saturating_add(1);
+                product(f)
+            });
+            (product(m), faces.fold(0, u64::saturating_add))
+        };
+        let (c, faces) = lattices(n);
+        let mut parts: Vec<(String, u64)> = vec![("pressure and seeding".into(), mul(3 * R, c))];
+        for f in &self.fields {
+            // FieldState: θ at cells; θ and mass on faces, five face velocities; the seeding's θ
+            let mut b = mul(2 * R, c).saturating_add(mul(7 * R, faces));
+            // θ, θ¹, its rate; four face velocities; four padded lattices (two ghost layers);
+            // the nine momentum fluxes and the θ fluxes (about a lattice each)
+            let padded = product(n.map(|k| k.saturating_add(5)));
+            let work =
+                mul(3, c).saturating_add(mul(4, faces)).saturating_add(mul(4, padded)).saturating_add(mul(12, c));
+            b = b.saturating_add(mul(R, work));
+            let viscous = f.stress.iter().any(|s| s.model == "newtonian");
+            let implicit = f.frame.params.get("diffusion").and_then(|v| v.as_str()) != Some("explicit");
+            if viscous && implicit {
+                // activity, six neighbours of 24 bytes, and six CG vectors per face
+                b = b.saturating_add(mul(faces, 1 + 6 * 24 + 6 * R));
+            }
+            parts.push((format!("field {}", f.name), b));
+        }
+        let exchanges = self.exchange.len() as u64;
+        if exchanges > 0 {
+            parts.push(("exchange coefficients".into(), mul(mul(exchanges, R), faces)));
+        }
+        if let Some(p) = &self.pressure {
+            let mut b = mul(R, faces).saturating_add(mul(R, c)).saturating_add(mul(3 * R + 2 * 4, c));
+            if p.model == "cholesky" {
+                b = b.saturating_add(cholesky_bytes(c));
+            } else {
+                let mut m = n;
+                loop {
+                    let (lc, lf) = lattices(m);
+                    b = b.saturating_add(mul(R, lf).saturating_add(mul(3 * R, lc)));
+                    if !m.iter().all(|&k| k.is_multiple_of(2) && k >= 4) {
+                        b = b.saturating_add(cholesky_bytes(lc));
+                        break;
+                    }
+                    b = b.saturating_add(mul(4, mul(lc, 4 + 3)).saturating_add(mul(4, lc / 4)));
+                    m = m.map(|k| k / 2);
+                }
+            }
+            parts.push((format!("pressure solver {}", p.model), b));
+        }
+        self.with_output(parts, c, 0)
+    }
+
+    /// The estimate from the parts of the run, with the output's buffers added.
+    fn with_output(&self, mut parts: Vec<(String, u64)>, c: u64, points_total: u64) -> MemoryEstimate {
         let o = &self.output;
         let fields = self.fields.len() as u64;
         let mut out = 0u64;
@@ -380,7 +449,7 @@ impl Case {
     pub fn check_resources(&self, limit: &MemoryLimit) -> Result<MemoryEstimate> {
         let estimate = self.memory_estimate();
         if estimate.bytes > limit.bytes {
-            let [nx, ny] = self.cells();
+            let n = self.cells();
             let fix = match limit.source {
                 LimitSource::Option => "raise --max-memory",
                 LimitSource::Environment => "raise MULTIFIELD_MAX_MEMORY (or give --max-memory)",
@@ -389,10 +458,9 @@ impl Case {
             return Err(Error::invalid(
                 "domain.cells",
                 format!(
-                    "{} needed for {} × {} cells{}; {}; reduce domain.cells (or points_per_cell), or {fix}",
+                    "{} needed for {} cells{}; {}; reduce domain.cells (or points_per_cell), or {fix}",
                     bytes_text(estimate.bytes),
-                    group(nx as u64),
-                    group(ny as u64),
+                    n.map(|k| group(k as u64)).join(" × "),
                     if estimate.points > 0 {
                         format!(" and about {} points", group(estimate.points))
                     } else {
@@ -413,6 +481,11 @@ impl Case {
 fn cholesky_bytes(n: u64) -> u64 {
     let log = 64 - n.max(2).leading_zeros() as u64;
     mul(n, mul(8 + 2 * log, 2 * R + 8))
+}
+
+/// Cells as "nx × ny" (or "nx × ny × nz").
+fn times(n: &[usize]) -> String {
+    n.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(" × ")
 }
 
 /// 2000000 as "2,000,000".

@@ -13,7 +13,7 @@
 //! it so, as it does any initial velocity.
 
 use crate::case::Domain;
-use crate::math::{Real, DIM};
+use crate::math::{axis_name, Real, DIM};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -74,11 +74,11 @@ pub struct SampledVelocity {
     /// y component.
     pub v: Samples,
     /// Lower-left corner of the snapshot's domain.
-    pub origin: [Real; 2],
+    pub origin: [Real; DIM],
     /// Its size.
-    pub size: [Real; 2],
+    pub size: [Real; DIM],
     /// Cells of the snapshot's grid.
-    pub cells: [usize; 2],
+    pub cells: [usize; DIM],
     /// Whether the samples are the snapshot's face velocities (else cell centres).
     pub faces: bool,
 }
@@ -98,21 +98,22 @@ impl SampledVelocity {
 
     /// An error (with the fix) unless the snapshot's domain covers `domain`.
     pub fn check_covers(&self, domain: &Domain) -> Result<(), String> {
-        let tol = 1e-9 * domain.size[0].max(domain.size[1]).max(self.size[0]).max(self.size[1]);
-        let covers = (0..2).all(|k| {
+        let tol = 1e-9 * domain.size.iter().chain(&self.size).fold(0.0, |m: Real, &s| m.max(s));
+        let covers = (0..DIM).all(|k| {
             self.origin[k] <= domain.origin[k] + tol
                 && self.origin[k] + self.size[k] >= domain.origin[k] + domain.size[k] - tol
         });
         if covers {
             return Ok(());
         }
-        let span = |o: [Real; 2], s: [Real; 2]| format!("x {}..{}, y {}..{}", o[0], o[0] + s[0], o[1], o[1] + s[1]);
+        let span = |o: [Real; DIM], s: [Real; DIM]| {
+            (0..DIM).map(|a| format!("{} {}..{}", axis_name(a), o[a], o[a] + s[a])).collect::<Vec<_>>().join(", ")
+        };
         Err(format!(
-            "the snapshot covers {} ({} × {} cells), which does not cover the case's domain ({}); map from \
+            "the snapshot covers {} ({} cells), which does not cover the case's domain ({}); map from \
              a run whose domain contains this one (the same or a larger box), or change `domain`",
             span(self.origin, self.size),
-            self.cells[0],
-            self.cells[1],
+            self.cells.map(|n| n.to_string()).join(" × "),
             span(domain.origin, domain.size),
         ))
     }

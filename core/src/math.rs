@@ -70,7 +70,7 @@ pub fn axis_name(axis: usize) -> &'static str {
     ["x", "y", "z"][axis]
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
 

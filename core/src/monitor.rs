@@ -63,7 +63,7 @@ use crate::case::{BodyShape, Case, QuantityName, Region, Representation};
 use crate::driver::{number, resume_csv};
 use crate::error::{Error, Result};
 use crate::grid::{FaceVelocity, Grid, Lattice};
-use crate::math::Real;
+use crate::math::{Index, Real, AXES, DIM};
 use crate::quantity::{Place, Quantity, Sample};
 use crate::simulation::Simulation;
 use crate::table::Table;
@@ -160,7 +160,7 @@ pub enum Monitored {
         #[serde(default)]
         field: Option<String>,
         /// The points.
-        points: Vec<[Real; 2]>,
+        points: Vec<[Real; DIM]>,
     },
     /// A quantity along a segment.
     Line {
@@ -170,9 +170,9 @@ pub enum Monitored {
         #[serde(default)]
         field: Option<String>,
         /// First point.
-        from: [Real; 2],
+        from: [Real; DIM],
         /// Last point.
-        to: [Real; 2],
+        to: [Real; DIM],
         /// Number of points (at least 2).
         points: usize,
     },
@@ -184,9 +184,9 @@ pub enum Monitored {
         #[serde(default)]
         field: Option<String>,
         /// First point.
-        from: [Real; 2],
+        from: [Real; DIM],
         /// Second point.
-        to: [Real; 2],
+        to: [Real; DIM],
     },
     /// The mean of a quantity over the cells whose centres lie in a rectangle.
     Average {
@@ -196,9 +196,9 @@ pub enum Monitored {
         #[serde(default)]
         field: Option<String>,
         /// Lower-left corner.
-        min: [Real; 2],
+        min: [Real; DIM],
         /// Upper-right corner.
-        max: [Real; 2],
+        max: [Real; DIM],
     },
     /// The running time average of a cell quantity over the whole grid, from `start` on,
     /// written into every snapshot as `/averages/<monitor name>` (the trapezoid rule over
@@ -378,7 +378,7 @@ impl MonitorSpec {
     }
 
     /// The points a monitor samples (Probes, Line, Difference).
-    pub fn points(&self) -> Vec<[Real; 2]> {
+    pub fn points(&self) -> Vec<[Real; DIM]> {
         match &self.of {
             Monitored::Probes { points, .. } => points.clone(),
             Monitored::Line { from, to, points, .. } => {
@@ -386,7 +386,7 @@ impl MonitorSpec {
                 (0..n)
                     .map(|k| {
                         let s = k as Real / (n - 1) as Real;
-                        [from[0] + s * (to[0] - from[0]), from[1] + s * (to[1] - from[1])]
+                        std::array::from_fn(|a| from[a] + s * (to[a] - from[a]))
                     })
                     .collect()
             }
@@ -491,7 +491,7 @@ fn bodies_of(case: &Case) -> Vec<(&str, Vec<&str>)> {
 /// fictitious one, and the mixture's value there is the body's). `None` when the point may
 /// be sampled. Points on a body's edge (within 10⁻⁶ of a cell) are the fluid's; a `Line` may
 /// cross bodies (docs/monitors.md).
-fn inside_a_body(case: &Case, m: &MonitorSpec, q: [Real; 2]) -> Option<String> {
+fn inside_a_body(case: &Case, m: &MonitorSpec, q: [Real; DIM]) -> Option<String> {
     if !matches!(m.of, Monitored::Probes { .. } | Monitored::Difference { .. }) {
         return None;
     }
@@ -548,9 +548,9 @@ fn choices<'a>(name: &str, names: impl Iterator<Item = &'a str> + Clone) -> Stri
 pub fn validate(case: &Case) -> Result<()> {
     let bad = |path: String, message: String| Err(Error::invalid(path, message));
     let d = &case.domain;
-    let (x0, y0) = (d.origin[0], d.origin[1]);
-    let (x1, y1) = (x0 + d.size[0], y0 + d.size[1]);
-    let inside = |p: &[Real; 2]| p[0] >= x0 && p[0] <= x1 && p[1] >= y0 && p[1] <= y1;
+    let inside = |p: &[Real; DIM]| AXES.iter().all(|&a| p[a] >= d.origin[a] && p[a] <= d.origin[a] + d.size[a]);
+    // the domain as "[x0, x1] × [y0, y1]" (× [z0, z1])
+    let domain = AXES.map(|a| format!("[{}, {}]", d.origin[a], d.origin[a] + d.size[a])).join(" × ");
     let bodies = bodies_of(case);
     let all_bodies = || bodies.iter().flat_map(|(_, b)| b.iter().copied());
     for (k, m) in case.monitors.iter().enumerate() {
@@ -671,19 +671,20 @@ pub fn validate(case: &Case) -> Result<()> {
                 }
             }
             Monitored::Average { min, max, .. } => {
-                if !(min[0] < max[0] && min[1] < max[1]) {
+                if !AXES.iter().all(|&a| min[a] < max[a]) {
                     return bad(p("of"), format!("rectangle min {min:?} must lie below and left of max {max:?}"));
                 }
                 let h = d.size[0] / case.cells()[0] as Real;
                 let centres =
                     |lo: Real, hi: Real, o: Real| ((hi - o) / h - 0.5).floor() - ((lo - o) / h - 0.5).ceil() + 1.0;
-                if centres(min[0], max[0], x0) < 1.0 || centres(min[1], max[1], y0) < 1.0 {
+                if AXES.iter().any(|&a| centres(min[a], max[a], d.origin[a]) < 1.0) {
                     return bad(p("of"), format!("the rectangle {min:?}–{max:?} holds no cell centre; make it larger"));
                 }
                 if !inside(min) || !inside(max) {
-                    return bad(p("of"), format!(
-                        "the rectangle {min:?}–{max:?} reaches outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside"
-                    ));
+                    return bad(
+                        p("of"),
+                        format!("the rectangle {min:?}–{max:?} reaches outside the domain {domain}; move it inside"),
+                    );
                 }
             }
         }
@@ -693,8 +694,8 @@ pub fn validate(case: &Case) -> Result<()> {
                 return bad(
                     p(what),
                     format!(
-                        "the point ({}, {}) lies outside the domain [{x0}, {x1}] × [{y0}, {y1}]; move it inside",
-                        q[0], q[1]
+                        "the point ({}) lies outside the domain {domain}; move it inside",
+                        q.map(|x| x.to_string()).join(", ")
                     ),
                 );
             }
@@ -805,26 +806,19 @@ impl<'a> View<'a> {
             None => &self.sim.fields[k].state.velocity,
         }
     }
-    /// Component `c` of the face velocity of `field` (None: the mixture) at node (i, j) of
+    /// Component `c` of the face velocity of `field` (None: the mixture) at node `at` of
     /// its lattice.
-    fn face(&self, field: Option<usize>, c: usize, i: usize, j: usize) -> Real {
+    fn face(&self, field: Option<usize>, c: usize, at: Index) -> Real {
         let g = &self.sim.grid;
-        let (lattice, index) = if c == 0 { (Lattice::XFace, g.xface(i, j)) } else { (Lattice::YFace, g.yface(i, j)) };
-        let value = |k: usize| {
-            let f = self.faces(k);
-            if c == 0 {
-                f.u.get(index).copied().unwrap_or(0.0)
-            } else {
-                f.v.get(index).copied().unwrap_or(0.0)
-            }
-        };
+        let index = g.index(Lattice::face(c), at);
+        let value = |k: usize| self.faces(k)[c].get(index).copied().unwrap_or(0.0);
         match field {
             Some(k) => value(k),
             None if self.sim.fields.len() == 1 => value(0),
             None => {
                 let (mut num, mut den) = (0.0, 0.0);
                 for k in 0..self.sim.fields.len() {
-                    let t = crate::quantity::face_theta(g, self.theta(k), lattice, i, j);
+                    let t = crate::quantity::face_theta(g, self.theta(k), c, at);
                     num += t * value(k);
                     den += t;
                 }
@@ -847,15 +841,16 @@ impl<'a> View<'a> {
         }
         self.arrays[key].as_deref().expect("made above")
     }
-    /// Component `c` of `s` at cell (i, j).
-    fn cell(&mut self, s: Source, c: usize, i: usize, j: usize) -> Real {
+    /// Component `c` of `s` at cell `at`.
+    fn cell(&mut self, s: Source, c: usize, at: Index) -> Real {
         let g = &self.sim.grid;
-        let cell = g.cell(i, j);
+        let cell = g.index(Lattice::Cell, at);
         match s {
             Source::Pressure => self.sim.pressure.get(cell).copied().unwrap_or(0.0),
             Source::Faces(field) => {
-                let (a, b) = if c == 0 { ((i, j), (i + 1, j)) } else { ((i, j), (i, j + 1)) };
-                0.5 * (self.face(field, c, a.0, a.1) + self.face(field, c, b.0, b.1))
+                let mut next = at;
+                next[c] += 1;
+                0.5 * (self.face(field, c, at) + self.face(field, c, next))
             }
             Source::Cells { quantity, .. } => {
                 let n = quantity.components;
@@ -863,24 +858,36 @@ impl<'a> View<'a> {
             }
         }
     }
-    /// Component `c` of `s` at `(x, y)`, bilinear on its lattice (module doc).
-    fn at(&mut self, s: Source, c: usize, x: Real, y: Real) -> Real {
+    /// Component `c` of `s` at the point `p`, multilinear on its lattice (module doc):
+    /// along x first, then y (then z).
+    fn at(&mut self, s: Source, c: usize, p: [Real; DIM]) -> Real {
         let lattice = match s {
-            Source::Faces(_) if c == 0 => Lattice::XFace,
-            Source::Faces(_) => Lattice::YFace,
+            Source::Faces(_) => Lattice::face(c),
             _ => Lattice::Cell,
         };
         let g: &Grid = &self.sim.grid;
-        let (cols, rows) = g.lattice_shape(lattice);
-        let (ox, oy) = g.lattice_offset(lattice);
-        let (i0, i1, a) = corner((x - g.origin.x) / g.h - ox, cols);
-        let (j0, j1, b) = corner((y - g.origin.y) / g.h - oy, rows);
-        let mut node = |i: usize, j: usize| match s {
-            Source::Faces(field) => self.face(field, c, i, j),
-            _ => self.cell(s, c, i, j),
-        };
-        let (v00, v10, v01, v11) = (node(i0, j0), node(i1, j0), node(i0, j1), node(i1, j1));
-        (1.0 - b) * ((1.0 - a) * v00 + a * v10) + b * ((1.0 - a) * v01 + a * v11)
+        let shape = g.shape(lattice);
+        let mut nodes = [(0, 0); DIM];
+        let mut weight = [0.0; DIM];
+        for a in AXES {
+            let offset = if lattice.axis() == Some(a) { 0.0 } else { 0.5 };
+            let (lo, hi, w) = corner((p[a] - g.origin[a]) / g.h - offset, shape[a]);
+            (nodes[a], weight[a]) = ((lo, hi), w);
+        }
+        // the 2^DIM corners, bit a of m choosing the high node along axis a
+        let mut values: Vec<Real> = (0..1usize << DIM)
+            .map(|m| {
+                let at: Index = std::array::from_fn(|a| if m >> a & 1 == 0 { nodes[a].0 } else { nodes[a].1 });
+                match s {
+                    Source::Faces(field) => self.face(field, c, at),
+                    _ => self.cell(s, c, at),
+                }
+            })
+            .collect();
+        for w in weight {
+            values = values.chunks(2).map(|v| (1.0 - w) * v[0] + w * v[1]).collect();
+        }
+        values[0]
     }
 }
 
@@ -898,9 +905,9 @@ fn corner(f: Real, n: usize) -> (usize, usize, Real) {
 struct Running {
     spec: MonitorSpec,
     source: Option<Source>,
-    points: Vec<[Real; 2]>,
+    points: Vec<[Real; DIM]>,
     /// Cells of an `Average`.
-    cells: Vec<(usize, usize)>,
+    cells: Vec<Index>,
     /// Indices into [`Simulation::bodies`] of a `Forces`.
     bodies: Vec<usize>,
     file: csv::Writer<File>,
@@ -959,9 +966,9 @@ impl Running {
                 let s = self.source.expect("a quantity");
                 let n = s.components();
                 let mut sum = vec![0.0; n];
-                for &(i, j) in &self.cells {
+                for &at in &self.cells {
                     for (c, x) in sum.iter_mut().enumerate() {
-                        *x += view.cell(s, c, i, j);
+                        *x += view.cell(s, c, at);
                     }
                 }
                 sum.iter().map(|x| x / self.cells.len() as Real).collect()
@@ -972,7 +979,7 @@ impl Running {
                 let mut v = Vec::with_capacity(n * self.points.len());
                 for p in &self.points {
                     for c in 0..n {
-                        v.push(view.at(s, c, p[0], p[1]));
+                        v.push(view.at(s, c, *p));
                     }
                 }
                 if matches!(self.spec.of, Monitored::Difference { .. }) {
@@ -1232,12 +1239,10 @@ impl Monitors {
             let mut cells = Vec::new();
             if let Monitored::Average { min, max, .. } = &m.of {
                 let g = &sim.grid;
-                for j in 0..g.ny {
-                    for i in 0..g.nx {
-                        let c = g.cell_center(i, j);
-                        if c.x >= min[0] && c.x <= max[0] && c.y >= min[1] && c.y <= max[1] {
-                            cells.push((i, j));
-                        }
+                for (_, at) in g.nodes(Lattice::Cell) {
+                    let c = g.position(Lattice::Cell, at);
+                    if AXES.iter().all(|&a| c[a] >= min[a] && c[a] <= max[a]) {
+                        cells.push(at);
                     }
                 }
             }

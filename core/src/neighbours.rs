@@ -22,7 +22,7 @@
 use crate::boundary::Boundaries;
 use crate::case::Domain;
 use crate::grid::Grid;
-use crate::math::{Real, Vector};
+use crate::math::{vector, Real, Vector, DIM};
 
 /// The box the disks live in, and which of its axes are periodic.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,32 +31,20 @@ pub struct SearchDomain {
     pub origin: Vector,
     /// Extent along x and y (positive).
     pub size: Vector,
-    /// Periodic along x (period `size.x`).
-    pub periodic_x: bool,
-    /// Periodic along y (period `size.y`).
-    pub periodic_y: bool,
+    /// Periodic along each axis (period `size[a]`).
+    pub periodic: [bool; DIM],
 }
 
 impl SearchDomain {
     /// The box of a case's domain, periodic along the axes whose sides are `Periodic`.
     pub fn of(domain: &Domain, boundaries: &Boundaries) -> Self {
-        SearchDomain {
-            origin: Vector::new(domain.origin[0], domain.origin[1]),
-            size: Vector::new(domain.size[0], domain.size[1]),
-            periodic_x: boundaries.periodic(0),
-            periodic_y: boundaries.periodic(1),
-        }
+        SearchDomain { origin: vector(domain.origin), size: vector(domain.size), periodic: boundaries.periodic_axes() }
     }
 
     /// The box of a grid (its origin and `size()`), periodic as `boundaries` say: what the
     /// contact models search in.
     pub fn of_grid(grid: &Grid, boundaries: &Boundaries) -> Self {
-        SearchDomain {
-            origin: grid.origin,
-            size: grid.size(),
-            periodic_x: boundaries.periodic(0),
-            periodic_y: boundaries.periodic(1),
-        }
+        SearchDomain { origin: grid.origin, size: grid.size(), periodic: boundaries.periodic_axes() }
     }
 }
 
@@ -92,10 +80,7 @@ pub fn minimum_image(d: Real, l: Real, periodic: bool) -> Real {
 #[inline]
 pub fn separation(a: Vector, b: Vector, domain: &SearchDomain) -> Vector {
     let d = a - b;
-    Vector::new(
-        minimum_image(d.x, domain.size.x, domain.periodic_x),
-        minimum_image(d.y, domain.size.y, domain.periodic_y),
-    )
+    Vector::from_fn(|k, _| minimum_image(d[k], domain.size[k], domain.periodic[k]))
 }
 
 /// Every pair (i < j) of disks with |x_i − x_j| ≤ R_i + R_j + `search` (minimum image),
@@ -126,16 +111,16 @@ pub fn pairs_within(centres: &[Vector], radii: &[Real], search: Real, domain: &S
     };
     let (mut nx, mut ny);
     loop {
-        nx = cells_along(domain.size.x, w, domain.periodic_x);
-        ny = cells_along(domain.size.y, w, domain.periodic_y);
+        nx = cells_along(domain.size.x, w, domain.periodic[0]);
+        ny = cells_along(domain.size.y, w, domain.periodic[1]);
         if nx.saturating_mul(ny) <= cap {
             break;
         }
         w *= 2.0;
     }
     // cell widths: a periodic axis is divided evenly (each cell at least w wide)
-    let wx = if domain.periodic_x { domain.size.x / nx as Real } else { w };
-    let wy = if domain.periodic_y { domain.size.y / ny as Real } else { w };
+    let wx = if domain.periodic[0] { domain.size.x / nx as Real } else { w };
+    let wy = if domain.periodic[1] { domain.size.y / ny as Real } else { w };
     let index = |x: Real, o: Real, wc: Real, nc: usize, periodic: bool| -> usize {
         let c = ((x - o) / wc).floor();
         if periodic {
@@ -151,8 +136,8 @@ pub fn pairs_within(centres: &[Vector], radii: &[Real], search: Real, domain: &S
         .iter()
         .map(|p| {
             (
-                index(p.x, domain.origin.x, wx, nx, domain.periodic_x),
-                index(p.y, domain.origin.y, wy, ny, domain.periodic_y),
+                index(p.x, domain.origin.x, wx, nx, domain.periodic[0]),
+                index(p.y, domain.origin.y, wy, ny, domain.periodic[1]),
             )
         })
         .collect();
@@ -194,8 +179,8 @@ pub fn pairs_within(centres: &[Vector], radii: &[Real], search: Real, domain: &S
     let mut pairs = Vec::new();
     let mut mine: Vec<Pair> = Vec::new();
     for (i, &(cx, cy)) in cell_of.iter().enumerate() {
-        let (xs, mx) = neighbours(cx, nx, domain.periodic_x);
-        let (ys, my) = neighbours(cy, ny, domain.periodic_y);
+        let (xs, mx) = neighbours(cx, nx, domain.periodic[0]);
+        let (ys, my) = neighbours(cy, ny, domain.periodic[1]);
         mine.clear();
         for &y in &ys[..my] {
             for &x in &xs[..mx] {
@@ -310,7 +295,7 @@ impl VerletPairs {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
 
@@ -327,12 +312,8 @@ mod tests {
         let l = 1.0;
         let r = (0.3 * l * l / (std::f64::consts::PI * 7.0 / 3.0 * n as Real)).sqrt();
         let (c, radii) = packing(seed, n, l, r);
-        let domain = SearchDomain {
-            origin: Vector::zeros(),
-            size: Vector::new(l, l),
-            periodic_x: periodic.0,
-            periodic_y: periodic.1,
-        };
+        let domain =
+            SearchDomain { origin: Vector::zeros(), size: Vector::new(l, l), periodic: [periodic.0, periodic.1] };
         let search = 0.5 * r;
         let fast = pairs_within(&c, &radii, search, &domain);
         let slow = brute(&c, &radii, search, &domain);
@@ -351,8 +332,7 @@ mod tests {
             let domain = SearchDomain {
                 origin: Vector::zeros(),
                 size: Vector::new(1.0, 1.0),
-                periodic_x: periodic.0,
-                periodic_y: periodic.1,
+                periodic: [periodic.0, periodic.1],
             };
             let mut rng = fastrand::Rng::with_seed(3);
             let velocities: Vec<Vector> = (0..n).map(|_| Vector::new(rng.f64() - 0.5, rng.f64() - 0.5)).collect();
@@ -389,12 +369,7 @@ mod tests {
             let n = 400;
             let r = (0.3 / (std::f64::consts::PI * 7.0 / 3.0 * n as Real)).sqrt();
             let (c, radii) = packing(seed, n, 1.0, r);
-            let domain = SearchDomain {
-                origin: Vector::zeros(),
-                size: Vector::new(1.0, 1.0),
-                periodic_x: true,
-                periodic_y: true,
-            };
+            let domain = SearchDomain { origin: Vector::zeros(), size: Vector::new(1.0, 1.0), periodic: [true, true] };
             wrapped +=
                 pairs_within(&c, &radii, 0.5 * r, &domain).iter().filter(|p| p.separation != c[p.i] - c[p.j]).count();
         }
@@ -405,12 +380,8 @@ mod tests {
 
     #[test]
     fn a_pair_across_a_periodic_side_comes_with_its_minimum_image() {
-        let domain = SearchDomain {
-            origin: Vector::new(-1.0, 0.0),
-            size: Vector::new(2.0, 1.0),
-            periodic_x: true,
-            periodic_y: false,
-        };
+        let domain =
+            SearchDomain { origin: Vector::new(-1.0, 0.0), size: Vector::new(2.0, 1.0), periodic: [true, false] };
         let c = [Vector::new(0.95, 0.5), Vector::new(-0.97, 0.52), Vector::new(0.0, 0.5)];
         let r = [0.03, 0.03, 0.03];
         let p = pairs_within(&c, &r, 0.03, &domain);
@@ -418,7 +389,7 @@ mod tests {
         assert_eq!((p[0].i, p[0].j), (0, 1));
         assert!((p[0].separation - Vector::new(-0.08, -0.02)).norm() < 1e-12, "{:?}", p[0]);
         // not periodic: none
-        let closed = SearchDomain { periodic_x: false, ..domain };
+        let closed = SearchDomain { periodic: [false, domain.periodic[1]], ..domain };
         assert!(pairs_within(&c, &r, 0.03, &closed).is_empty());
         // few cells along a periodic axis (a domain narrower than three reaches): no pair twice
         let narrow = SearchDomain { size: Vector::new(0.1, 1.0), origin: Vector::zeros(), ..domain };

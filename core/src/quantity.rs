@@ -15,9 +15,10 @@
 //! Arrays are row-major over the cells `(NY, NX)` (cell `(i, j)` at `j·NX + i`) or over
 //! the points; a vector is three components per cell or point with z = 0.
 
+#[cfg(feature = "dim2")]
 use crate::case::Representation;
 use crate::grid::{FaceVelocity, Grid, Lattice};
-use crate::math::{Matrix, Real, Vector};
+use crate::math::{Index, Matrix, Real, Vector, AXES, DIM};
 use crate::simulation::{region_fraction, Simulation};
 
 /// How a picture colours a quantity.
@@ -203,8 +204,8 @@ pub struct FieldCells {
     pub theta: Vec<Real>,
     /// Face velocities.
     pub faces: FaceVelocity,
-    /// Cell-centred velocity (the mean of each component's two faces), x and y.
-    pub velocity: [Vec<Real>; 2],
+    /// Cell-centred velocity (the mean of each component's two faces), by component.
+    pub velocity: [Vec<Real>; DIM],
 }
 
 /// The state every cell quantity is computed from: each field's θ and velocity, and
@@ -223,8 +224,8 @@ pub struct Sample<'a> {
     pub fields: Vec<FieldCells>,
     /// Σθ over the fields per cell.
     pub theta: Vec<Real>,
-    /// The mixture velocity Σθu / Σθ at cell centres (0 where Σθ = 0), x and y.
-    pub velocity: [Vec<Real>; 2],
+    /// The mixture velocity Σθu / Σθ at cell centres (0 where Σθ = 0), by component.
+    pub velocity: [Vec<Real>; DIM],
 }
 
 impl<'a> Sample<'a> {
@@ -240,19 +241,21 @@ impl<'a> Sample<'a> {
             })
             .collect();
         let mut theta = vec![0.0; n];
-        let mut flux = [vec![0.0; n], vec![0.0; n]];
+        let mut flux: [Vec<Real>; DIM] = std::array::from_fn(|_| vec![0.0; n]);
         for f in &fields {
             for c in 0..n {
                 theta[c] += f.theta[c];
-                flux[0][c] += f.theta[c] * f.velocity[0][c];
-                flux[1][c] += f.theta[c] * f.velocity[1][c];
+                for a in AXES {
+                    flux[a][c] += f.theta[c] * f.velocity[a][c];
+                }
             }
         }
-        let mut velocity = [vec![0.0; n], vec![0.0; n]];
+        let mut velocity: [Vec<Real>; DIM] = std::array::from_fn(|_| vec![0.0; n]);
         for c in 0..n {
             if theta[c] > 0.0 {
-                velocity[0][c] = flux[0][c] / theta[c];
-                velocity[1][c] = flux[1][c] / theta[c];
+                for a in AXES {
+                    velocity[a][c] = flux[a][c] / theta[c];
+                }
             }
         }
         Sample { sim, fields, theta, velocity }
@@ -263,9 +266,9 @@ impl<'a> Sample<'a> {
         &self.sim.grid
     }
 
-    /// Whether the domain is periodic along x and along y.
-    pub fn periodic(&self) -> [bool; 2] {
-        [self.sim.boundaries.periodic(0), self.sim.boundaries.periodic(1)]
+    /// Whether the domain is periodic along each axis.
+    pub fn periodic(&self) -> [bool; DIM] {
+        self.sim.boundaries.periodic_axes()
     }
 
     /// The cell array of `q` for the mixture (`field` None) or for field `field`; None
@@ -287,6 +290,7 @@ pub fn points(sim: &Simulation, field: usize, q: &Quantity) -> Option<Vec<Real>>
 }
 
 /// Linear (cloud-in-cell) mass-weighted average of point velocities onto the faces.
+#[cfg(feature = "dim2")]
 fn deposit_velocity(grid: &Grid, points: &PointSet) -> FaceVelocity {
     let mut vel = FaceVelocity::zeros(grid);
     for (lattice, comp) in [(Lattice::XFace, 0), (Lattice::YFace, 1)] {
@@ -327,7 +331,7 @@ pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
         return sim.fields.iter().map(|f| (f.state.theta.clone(), f.state.velocity.clone())).collect();
     }
     let g = &sim.grid;
-    let origin = [g.origin.x, g.origin.y];
+    let origin: [Real; DIM] = g.origin.into();
     let mut occupied = vec![0.0; g.n_cells()];
     let mut out: Vec<(Vec<Real>, FaceVelocity)> = Vec::new();
     for (f, spec) in sim.fields.iter().zip(&sim.case.fields) {
@@ -341,21 +345,16 @@ pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
         }
         let mut vel = match f.frame.points() {
             // material points sample the field; a mass point stands for a whole body
+            #[cfg(feature = "dim2")]
             Some(p) if f.frame.representation() == Representation::Resolved => deposit_velocity(g, &p),
             _ => {
                 // validated: an unresolvable `FromInflow` does not reach a simulation
                 let velocity = spec.velocity.resolved(&sim.case.boundaries, &sim.case.domain).unwrap_or_default();
                 let mut vel = FaceVelocity::zeros(g);
-                for j in 0..g.ny {
-                    for i in 0..=g.nx {
-                        let p = g.node_position(Lattice::XFace, i, j);
-                        vel.u[g.xface(i, j)] = velocity.at([p.x, p.y], origin)[0];
-                    }
-                }
-                for j in 0..=g.ny {
-                    for i in 0..g.nx {
-                        let p = g.node_position(Lattice::YFace, i, j);
-                        vel.v[g.yface(i, j)] = velocity.at([p.x, p.y], origin)[1];
+                for a in AXES {
+                    let lattice = Lattice::face(a);
+                    for (k, at) in g.nodes(lattice) {
+                        vel[a][k] = velocity.at(g.position(lattice, at).into(), origin)[a];
                     }
                 }
                 vel
@@ -373,20 +372,21 @@ pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
 }
 
 /// Cell-centred velocity: the mean of the two faces of each component.
-fn cell_velocity(grid: &Grid, vel: &FaceVelocity) -> [Vec<Real>; 2] {
+fn cell_velocity(grid: &Grid, vel: &FaceVelocity) -> [Vec<Real>; DIM] {
     let n = grid.n_cells();
-    let (mut u, mut v) = (vec![0.0; n], vec![0.0; n]);
-    if vel.u.len() != grid.n_xfaces() || vel.v.len() != grid.n_yfaces() {
-        return [u, v];
+    let mut out: [Vec<Real>; DIM] = std::array::from_fn(|_| vec![0.0; n]);
+    if AXES.iter().any(|&a| vel[a].len() != grid.n_faces(a)) {
+        return out;
     }
-    for j in 0..grid.ny {
-        for i in 0..grid.nx {
-            let c = grid.cell(i, j);
-            u[c] = 0.5 * (vel.u[grid.xface(i, j)] + vel.u[grid.xface(i + 1, j)]);
-            v[c] = 0.5 * (vel.v[grid.yface(i, j)] + vel.v[grid.yface(i, j + 1)]);
+    for (c, at) in grid.nodes(Lattice::Cell) {
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            let mut hi = at;
+            hi[a] += 1;
+            out[a][c] = 0.5 * (vel[a][grid.index(lattice, at)] + vel[a][grid.index(lattice, hi)]);
         }
     }
-    [u, v]
+    out
 }
 
 /// Neighbours `(lo, hi)` of index `k` in `0..n` and the spacing between them in cells:
@@ -405,6 +405,7 @@ fn stencil(k: usize, n: usize, periodic: bool) -> (usize, usize, Real) {
     }
 }
 
+#[cfg(feature = "dim2")]
 /// The velocity gradient `[[∂u/∂x, ∂u/∂y], [∂v/∂x, ∂v/∂y]]` at the centre of cell
 /// `(i, j)` of a cell-centred velocity given by `at(i, j)`: central differences,
 /// one-sided (first order) at a domain edge, wrapped across a periodic side; 0 along an
@@ -431,6 +432,7 @@ pub fn velocity_gradient_at(
     g
 }
 
+#[cfg(feature = "dim2")]
 /// Vorticity ∂v/∂x − ∂u/∂y at the centre of cell `(i, j)` of a cell-centred velocity given
 /// by `at(i, j)` ([`velocity_gradient_at`]). Every vorticity of the code (snapshots,
 /// pictures, the mass-point lift) is this one.
@@ -445,6 +447,7 @@ pub fn vorticity_at(
     g[1][0] - g[0][1]
 }
 
+#[cfg(feature = "dim2")]
 /// Vorticity of a cell-centred velocity `[u, v]` at every cell ([`vorticity_at`]).
 pub fn vorticity(grid: &Grid, periodic: [bool; 2], velocity: &[Vec<Real>; 2]) -> Vec<Real> {
     let mut out = vec![0.0; grid.n_cells()];
@@ -460,58 +463,110 @@ pub fn vorticity(grid: &Grid, periodic: [bool; 2], velocity: &[Vec<Real>; 2]) ->
     out
 }
 
-/// Divergence ∂u/∂x + ∂v/∂y at the cell centres of the face velocities `u(i, j)`,
-/// `v(i, j)` (the MAC divergence).
-fn face_divergence(grid: &Grid, u: impl Fn(usize, usize) -> Real, v: impl Fn(usize, usize) -> Real) -> Vec<Real> {
-    let mut out = vec![0.0; grid.n_cells()];
-    for j in 0..grid.ny {
-        for i in 0..grid.nx {
-            out[grid.cell(i, j)] = (u(i + 1, j) - u(i, j) + v(i, j + 1) - v(i, j)) / grid.h;
-        }
+/// Vorticity ∇ × u of a cell-centred velocity at every cell, as three components per
+/// cell, each derivative by central differences as in 2D ([`velocity_gradient`]).
+#[cfg(feature = "dim3")]
+pub fn vorticity(grid: &Grid, periodic: [bool; DIM], velocity: &[Vec<Real>; DIM]) -> Vec<Real> {
+    let mut out = Vec::with_capacity(3 * grid.n_cells());
+    for (_, at) in grid.nodes(Lattice::Cell) {
+        let g = velocity_gradient(grid, periodic, velocity, at);
+        out.extend([g[(2, 1)] - g[(1, 2)], g[(0, 2)] - g[(2, 0)], g[(1, 0)] - g[(0, 1)]]);
     }
     out
 }
 
-fn vector(v: &[Vec<Real>; 2]) -> Vec<Real> {
-    v[0].iter().zip(&v[1]).flat_map(|(u, v)| [*u, *v, 0.0]).collect()
+/// The velocity gradient `g[(c, a)] = ∂u_c/∂x_a` at the centre of cell `at` of a
+/// cell-centred velocity: central differences, one-sided (first order) at a domain edge,
+/// wrapped across a periodic side; 0 along an axis of one cell.
+#[cfg(feature = "dim3")]
+pub fn velocity_gradient(grid: &Grid, periodic: [bool; DIM], velocity: &[Vec<Real>; DIM], at: Index) -> Matrix {
+    let n = grid.n();
+    let mut g = Matrix::zeros();
+    for a in AXES {
+        let (lo, hi, d) = stencil(at[a], n[a], periodic[a]);
+        if lo == hi {
+            continue;
+        }
+        let (mut l, mut r) = (at, at);
+        (l[a], r[a]) = (lo, hi);
+        let (l, r) = (grid.index(Lattice::Cell, l), grid.index(Lattice::Cell, r));
+        for c in AXES {
+            g[(c, a)] = (velocity[c][r] - velocity[c][l]) / (d * grid.h);
+        }
+    }
+    g
 }
 
-fn speed(v: &[Vec<Real>; 2]) -> Vec<Real> {
-    v[0].iter().zip(&v[1]).map(|(u, v)| u.hypot(*v)).collect()
+/// The number of components of the vorticity: its z component in 2D, the vector in 3D.
+pub const VORTICITY_COMPONENTS: usize = if DIM == 2 { 1 } else { 3 };
+
+/// Divergence Σ ∂u_a/∂x_a at the cell centres of the face fluxes `flux(a, face index)`
+/// (the MAC divergence).
+fn face_divergence(grid: &Grid, flux: impl Fn(usize, Index) -> Real) -> Vec<Real> {
+    let mut out = vec![0.0; grid.n_cells()];
+    for (c, at) in grid.nodes(Lattice::Cell) {
+        let faces = |a: usize| {
+            let mut hi = at;
+            hi[a] += 1;
+            (flux(a, at), flux(a, hi))
+        };
+        // ((x_hi − x_lo) + y_hi) − y_lo (+ z_hi − z_lo)
+        let (lo, hi) = faces(0);
+        let mut d = hi - lo;
+        for a in 1..DIM {
+            let (lo, hi) = faces(a);
+            d = d + hi - lo;
+        }
+        out[c] = d / grid.h;
+    }
+    out
 }
 
-/// θ of a cell's face: the mean of the two cells beside it (the one cell at a domain edge).
-pub(crate) fn face_theta(grid: &Grid, theta: &[Real], lattice: Lattice, i: usize, j: usize) -> Real {
-    let (a, b) = match lattice {
-        Lattice::XFace => (i.checked_sub(1).map(|i| (i, j)), (i < grid.nx).then_some((i, j))),
-        _ => (j.checked_sub(1).map(|j| (i, j)), (j < grid.ny).then_some((i, j))),
+/// Three components per cell of a cell-centred vector (z = 0 in 2D).
+fn vector(v: &[Vec<Real>; DIM]) -> Vec<Real> {
+    (0..v[0].len()).flat_map(|c| std::array::from_fn::<Real, 3, _>(|a| if a < DIM { v[a][c] } else { 0.0 })).collect()
+}
+
+fn speed(v: &[Vec<Real>; DIM]) -> Vec<Real> {
+    #[cfg(feature = "dim2")]
+    return v[0].iter().zip(&v[1]).map(|(u, v)| u.hypot(*v)).collect();
+    #[cfg(feature = "dim3")]
+    return (0..v[0].len()).map(|c| (v[0][c] * v[0][c] + v[1][c] * v[1][c] + v[2][c] * v[2][c]).sqrt()).collect();
+}
+
+/// θ of the face `at` normal to `axis`: the mean of the two cells beside it (the one cell
+/// at a domain edge).
+pub(crate) fn face_theta(grid: &Grid, theta: &[Real], axis: usize, at: Index) -> Real {
+    let cell = |i: usize| {
+        let mut c = at;
+        c[axis] = i;
+        theta[grid.index(Lattice::Cell, c)]
     };
-    match (a, b) {
-        (Some(a), Some(b)) => 0.5 * (theta[grid.cell(a.0, a.1)] + theta[grid.cell(b.0, b.1)]),
-        (Some(c), None) | (None, Some(c)) => theta[grid.cell(c.0, c.1)],
+    let i = at[axis];
+    match (i.checked_sub(1), (i < grid.n()[axis]).then_some(i)) {
+        (Some(a), Some(b)) => 0.5 * (cell(a) + cell(b)),
+        (Some(c), None) | (None, Some(c)) => cell(c),
         (None, None) => 0.0,
     }
 }
 
 fn mixture_divergence(s: &Sample) -> Vec<Real> {
     let g = s.grid();
-    let u = |i: usize, j: usize| {
-        s.fields.iter().map(|f| face_theta(g, &f.theta, Lattice::XFace, i, j) * f.faces.u[g.xface(i, j)]).sum()
-    };
-    let v = |i: usize, j: usize| {
-        s.fields.iter().map(|f| face_theta(g, &f.theta, Lattice::YFace, i, j) * f.faces.v[g.yface(i, j)]).sum()
-    };
-    face_divergence(g, u, v)
+    face_divergence(g, |a, at| {
+        let face = g.index(Lattice::face(a), at);
+        s.fields.iter().map(|f| face_theta(g, &f.theta, a, at) * f.faces[a][face]).sum()
+    })
 }
 
 fn field_divergence(s: &Sample, k: usize) -> Vec<Real> {
     let g = s.grid();
     let f = &s.fields[k];
-    face_divergence(g, |i, j| f.faces.u[g.xface(i, j)], |i, j| f.faces.v[g.yface(i, j)])
+    face_divergence(g, |a, at| f.faces[a][g.index(Lattice::face(a), at)])
 }
 
+/// Three components per point (z = 0 in 2D).
 fn points_vector(v: &[Vector]) -> Vec<Real> {
-    v.iter().flat_map(|x| [x.x, x.y, 0.0]).collect()
+    v.iter().flat_map(|x| std::array::from_fn::<Real, 3, _>(|a| if a < DIM { x[a] } else { 0.0 })).collect()
 }
 
 inventory::submit! { Quantity {
@@ -549,7 +604,7 @@ inventory::submit! { Quantity {
 
 inventory::submit! { Quantity {
     name: "vorticity",
-    components: 1,
+    components: VORTICITY_COMPONENTS,
     units: "1/time",
     description: "∂v/∂x − ∂u/∂y of the cell-centred velocity by central differences (one-sided at a domain edge, wrapped across a periodic side)",
     colours: Colours::Diverging,

@@ -30,7 +30,7 @@
 //! and `u_x, u_y` the velocity weighted by that area (empty where the slab holds no solid).
 
 use crate::boundary::{Boundaries, Boundary, Side};
-use crate::math::{Real, Vector};
+use crate::math::{vector, Real, Vector, DIM};
 use crate::monitor::Axis;
 use crate::neighbours::{pairs_within, SearchDomain};
 use crate::plugin::BodyState;
@@ -56,11 +56,11 @@ pub const PROFILE_COLUMNS: [&str; 7] = ["step", "time", "bin", "centre", "solid_
 #[derive(Clone, Debug)]
 pub struct Geometry {
     /// Lower-left corner of the domain.
-    pub origin: [Real; 2],
+    pub origin: [Real; DIM],
     /// Its size.
-    pub size: [Real; 2],
-    /// Periodic along x, along y.
-    pub periodic: [bool; 2],
+    pub size: [Real; DIM],
+    /// Periodic along each axis.
+    pub periodic: [bool; DIM],
     /// Whether the left, right, bottom and top sides are walls.
     pub walls: [bool; 4],
     /// The unit vector of gravity (minus the axis without gravity).
@@ -79,10 +79,10 @@ impl Geometry {
     /// The geometry of a monitor on a domain with these boundaries and gravity.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        origin: [Real; 2],
-        size: [Real; 2],
+        origin: [Real; DIM],
+        size: [Real; DIM],
         boundaries: &Boundaries,
-        gravity: [Real; 2],
+        gravity: [Real; DIM],
         axis: Axis,
         bins: usize,
         bed_fraction: Real,
@@ -100,7 +100,7 @@ impl Geometry {
         Self {
             origin,
             size,
-            periodic: [boundaries.periodic(0), boundaries.periodic(1)],
+            periodic: boundaries.periodic_axes(),
             walls: [wall(Side::Left), wall(Side::Right), wall(Side::Bottom), wall(Side::Top)],
             down,
             axis,
@@ -257,12 +257,7 @@ fn contacts(g: &Geometry, bodies: &[&BodyState]) -> (u64, u64) {
     let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
     let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
     let r_max = radii.iter().fold(0.0, |m: Real, &r| m.max(r));
-    let domain = SearchDomain {
-        origin: Vector::new(x0, y0),
-        size: Vector::new(g.size[0], g.size[1]),
-        periodic_x: g.periodic[0],
-        periodic_y: g.periodic[1],
-    };
+    let domain = SearchDomain { origin: vector(g.origin), size: vector(g.size), periodic: g.periodic };
     // the search reaches the largest tolerance; the test is each pair's own
     let pairs = pairs_within(&centres, &radii, tol(2.0 * r_max), &domain)
         .iter()
@@ -274,7 +269,7 @@ fn contacts(g: &Geometry, bodies: &[&BodyState]) -> (u64, u64) {
     (pairs as u64, walls)
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
     use crate::math::Vector;

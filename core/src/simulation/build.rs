@@ -183,10 +183,11 @@ impl Simulation {
             }
             let forced = forcings.iter().any(|p| p.bodies == k);
             let spec = &case.fields[k];
-            let theta: Vec<Real> = if spec.representation == Representation::MassPoint {
-                mass_point_fraction(&spec.region, &grid, [boundaries.periodic(0), boundaries.periodic(1)])
-            } else {
-                region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect()
+            let theta: Vec<Real> = match spec.representation {
+                // (mass points are refused in 3D by the case's validation)
+                #[cfg(feature = "dim2")]
+                Representation::MassPoint => mass_point_fraction(&spec.region, &grid, boundaries.periodic_axes()),
+                _ => region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect(),
             };
             // bodies under a direct forcing take no volume on the grid: the fluid fills them
             if !forced {

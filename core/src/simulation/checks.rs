@@ -130,6 +130,7 @@ pub const MASS_POINT_FRAME: &str = "mass_point";
 
 /// Volume fraction of a list of disks spread exactly (disk ∩ cell areas), as the
 /// `mass_point` frame spreads it.
+#[cfg(feature = "dim2")]
 pub(super) fn mass_point_fraction(region: &Region, grid: &Grid, periodic: [bool; 2]) -> Vec<Real> {
     let mut theta = vec![0.0; grid.n_cells()];
     if let Region::Bodies(bodies) = region {

@@ -88,7 +88,8 @@ struct ForcedPair {
     fluid: usize,
     /// Index of the bodies' field.
     bodies: usize,
-    /// The forcing's options.
+    /// The forcing's options (a 3D case has no bodies: never read there).
+    #[cfg_attr(feature = "dim3", allow(dead_code))]
     forcing: ImmersedBoundary,
     /// The last step's marker forces per body, per marker (per unit mass), lagged into
     /// the next step ([`crate::immersed::couple`]).

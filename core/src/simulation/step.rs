@@ -3,6 +3,7 @@
 //! `momentum_exchange.rs` (4) and `projection.rs` (5–6).
 
 use super::*;
+#[cfg(feature = "dim2")]
 use crate::grid::FaceVelocity;
 
 /// The limit of a step shortened to land on an exact output time ([`Simulation::choose_dt`]).

@@ -1,0 +1,8 @@
+//! The 3D compile (issue 17; docs/design/three-dimensions.md): the same source as the 2D
+//! packages compiled with `dim3` (`multifield-core3d`, `multifield-frames3d`,
+//! `multifield-physics3d`), tested against analytic results.
+//!
+//! One test binary: `cargo test --test dim3 [module::]`.
+
+mod grid;
+mod poisson;
