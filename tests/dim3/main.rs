@@ -4,5 +4,6 @@
 //!
 //! One test binary: `cargo test --test dim3 [module::]`.
 
+mod case;
 mod grid;
 mod poisson;
