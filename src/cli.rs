@@ -555,6 +555,16 @@ fn plugins() {
         }
         println!();
     }
+    // what the 3D library has (issue 17 brings the rest)
+    #[cfg(feature = "dim2")]
+    {
+        multifield3d::link_all();
+        println!("in 3D (a case whose domain.cells has 3 numbers):");
+        for role in multifield3d::core::registry::Role::ALL {
+            let names: Vec<&str> = multifield3d::core::registry::entries(role).iter().map(|e| e.name).collect();
+            println!("  {:<9} {}", role.name(), if names.is_empty() { "none yet".to_string() } else { names.join(", ") });
+        }
+    }
 }
 
 fn quantities() {
