@@ -562,7 +562,11 @@ fn plugins() {
         println!("in 3D (a case whose domain.cells has 3 numbers):");
         for role in multifield3d::core::registry::Role::ALL {
             let names: Vec<&str> = multifield3d::core::registry::entries(role).iter().map(|e| e.name).collect();
-            println!("  {:<9} {}", role.name(), if names.is_empty() { "none yet".to_string() } else { names.join(", ") });
+            println!(
+                "  {:<9} {}",
+                role.name(),
+                if names.is_empty() { "none yet".to_string() } else { names.join(", ") }
+            );
         }
     }
 }

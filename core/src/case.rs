@@ -1052,7 +1052,10 @@ impl Case {
     #[cfg(feature = "dim3")]
     fn refuse_not_yet_3d(&self) -> Result<()> {
         let not_yet = |path: String, what: &str| {
-            Err(Error::invalid(path, format!("{what} are not available in 3D yet (issue 17 brings Eulerian fields to 3D first)")))
+            Err(Error::invalid(
+                path,
+                format!("{what} are not available in 3D yet (issue 17 brings Eulerian fields to 3D first)"),
+            ))
         };
         for f in &self.fields {
             let path = |key: &str| format!("fields.{}.{key}", f.name);
@@ -1117,7 +1120,8 @@ impl Case {
             {
                 let h: Vec<Real> = (0..DIM).map(|a| d.size[a] / cells[a] as Real).collect();
                 if h.iter().any(|x| ((h[0] - x) / h[0]).abs() > 1e-9) {
-                    let suggestion: Vec<String> = (0..DIM).map(|a| ((d.size[a] / h[0]).round() as usize).to_string()).collect();
+                    let suggestion: Vec<String> =
+                        (0..DIM).map(|a| ((d.size[a] / h[0]).round() as usize).to_string()).collect();
                     return bad(
                         path,
                         format!(

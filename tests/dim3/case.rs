@@ -58,7 +58,10 @@ fn each_library_names_a_case_of_the_other_dimension() {
     let file = dir.join("tgv3.ron");
     std::fs::write(&file, TGV).unwrap();
     let e = multifield::core::case::Case::load(&file, &[]).unwrap_err().to_string();
-    assert!(e.contains("3 numbers: this is a 3D case, and this library is the 2D one") && e.contains("`multifield3d`"), "{e}");
+    assert!(
+        e.contains("3 numbers: this is a 3D case, and this library is the 2D one") && e.contains("`multifield3d`"),
+        "{e}"
+    );
     // the program chooses the 3D library for it: the 3D registry answers
     let out = Command::new(env!("CARGO_BIN_EXE_multifield"))
         .args(["check", file.to_str().unwrap(), "--set", "fields.water.frame.model=lagrangian"])
@@ -87,7 +90,9 @@ fn the_third_axis_has_front_and_back_sides_and_cubic_cells() {
 
 #[test]
 fn what_a_3d_case_cannot_have_yet_is_refused_by_name() {
-    for (role, name) in [(Role::Frame, "lagrangian"), (Role::Frame, "mass_point"), (Role::Contact, "dem"), (Role::Stress, "rigid")] {
+    for (role, name) in
+        [(Role::Frame, "lagrangian"), (Role::Frame, "mass_point"), (Role::Contact, "dem"), (Role::Stress, "rigid")]
+    {
         let e = registry::find(role, name, "here").err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains(&format!("`{name}` is not available in 3D yet")), "{e}");
     }
@@ -110,4 +115,25 @@ fn what_a_3d_case_cannot_have_yet_is_refused_by_name() {
         let e = message(&text);
         assert!(e.contains(path) && e.contains(what), "{path}: {e}");
     }
+}
+
+#[test]
+fn a_grid_beyond_the_memory_is_refused_with_the_number_before_anything_is_built() {
+    let dir = std::env::temp_dir().join(format!("multifield-dim3-memory-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("tgv3.ron");
+    std::fs::write(&file, TGV).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_multifield"))
+        .args(["check", file.to_str().unwrap(), "--set", "domain.cells=(768, 768, 768)", "--max-memory", "16GB"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    // 4.5·10⁸ cells, under the cap of 2³⁰: the memory refuses it, with the estimate
+    let estimate = Case::from_ron(&TGV.replace("cells: (8, 8, 8)", "cells: (768, 768, 768)"), Path::new("t.ron"))
+        .unwrap()
+        .memory_estimate();
+    assert!(estimate.bytes > 16_000_000_000 && estimate.bytes / (768 * 768 * 768) > 500, "{}", estimate.bytes);
+    assert!(stderr.contains("GB needed for 768 × 768 × 768 cells") && stderr.contains("16"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
 }
