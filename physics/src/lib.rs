@@ -21,7 +21,8 @@ pub mod stress;
 
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim3")]
-pub const SHIPPED: &[(&str, &[&str])] = &[("stress", &[]), ("exchange", &[]), ("pressure", &["pcg"]), ("contact", &[])];
+pub const SHIPPED: &[(&str, &[&str])] =
+    &[("stress", &[]), ("exchange", &[]), ("pressure", &["cholesky", "pcg"]), ("contact", &[])];
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim2")]
 pub const SHIPPED: &[(&str, &[&str])] = &[

@@ -4,16 +4,30 @@
 
 use multifield_core3d::boundary::{Boundaries, Boundary};
 use multifield_core3d::grid::{FaceArrays, Grid, Lattice};
+use multifield_core3d::limits::bytes_text;
 use multifield_core3d::math::{vector, Real, Vector};
 use multifield_core3d::plugin::PressureSolver;
 use multifield_core3d::poisson::PoissonProblem;
+use multifield_physics3d::pressure::cholesky::{factor_bytes, Cholesky};
 use multifield_physics3d::pressure::pcg::{Pcg, PreconditionerKind};
 use multifield_physics3d::pressure::stencil::Stencil;
 use std::f64::consts::PI;
 
 /// The solvers of the 3D compile, each to the relative residual `tol`.
 fn solvers(tol: Real) -> Vec<(&'static str, Box<dyn PressureSolver>)> {
-    vec![("pcg-jacobi", Box::new(Pcg::new(PreconditionerKind::Jacobi, tol, 20_000)))]
+    vec![
+        ("pcg-jacobi", Box::new(Pcg::new(PreconditionerKind::Jacobi, tol, 20_000))),
+        ("cholesky", Box::new(Cholesky::new(tol, 5))),
+    ]
+}
+
+/// The grids each solver is run on: Cholesky's factor at 64³ would take gigabytes.
+fn sizes(solver: &str) -> &'static [usize] {
+    if solver == "cholesky" {
+        &[16, 32]
+    } else {
+        &[16, 32, 64]
+    }
 }
 
 fn periodic() -> Boundaries {
@@ -164,12 +178,13 @@ fn smooth_solutions_converge_at_second_order() {
     for (name, case, expected) in reference {
         let cases = [16, 32, 64].map(case);
         for (solver_name, mut solver) in solvers(1e-11) {
-            let e: Vec<Real> = cases.iter().map(|c| solve(solver.as_mut(), c).0 .0).collect();
+            let e: Vec<Real> =
+                cases[..sizes(solver_name).len()].iter().map(|c| solve(solver.as_mut(), c).0 .0).collect();
             for (e, x) in e.iter().zip(expected) {
                 // the README prints three digits: 1 % covers its rounding
                 assert!((e / x - 1.0).abs() < 0.01, "{name}, {solver_name}: errors {e:?}, README {expected:?}");
             }
-            let orders = [order(e[0], e[1]), order(e[1], e[2])];
+            let orders: Vec<Real> = e.windows(2).map(|w| order(w[0], w[1])).collect();
             assert!(orders.iter().all(|&o| o >= 1.9), "{name}, {solver_name}: orders {orders:?}, errors {e:?}");
         }
     }
@@ -183,11 +198,12 @@ fn the_sphere_with_a_1000_to_1_jump_converges_at_second_order_in_rms() {
     for walls in [true, false] {
         let cases = [16, 32, 64].map(|n| sphere(n, walls));
         for (solver_name, mut solver) in solvers(1e-11) {
-            let e: Vec<(Real, Real)> = cases.iter().map(|c| solve(solver.as_mut(), c).0).collect();
+            let e: Vec<(Real, Real)> =
+                cases[..sizes(solver_name).len()].iter().map(|c| solve(solver.as_mut(), c).0).collect();
             for (e, x) in e.iter().zip([4.38e-2, 1.79e-2, 6.61e-3]) {
                 assert!((e.0 / x - 1.0).abs() < 0.01, "walls {walls}, {solver_name}: errors {e:?}");
             }
-            let orders = [order(e[0].1, e[1].1), order(e[1].1, e[2].1)];
+            let orders: Vec<Real> = e.windows(2).map(|w| order(w[0].1, w[1].1)).collect();
             assert!(orders.iter().all(|&o| o >= 1.9), "walls {walls}, {solver_name}: rms orders {orders:?}, {e:?}");
         }
     }
@@ -285,4 +301,48 @@ fn the_stencil_is_the_poisson_operator_and_coarsens_to_the_coarse_one() {
             assert!(err < 1e-12, "{bc:?}: coarse {what} couplings off by {err}");
         }
     }
+}
+
+/// Every solver solves the same discrete system: on the 16³ sphere (walls, 1000:1) and the
+/// periodic smooth case, each solution to 1e-12 agrees with Cholesky's to 1e-9 of max |p|
+/// (the residual 1e-12 bounds the error by the condition number, ~10⁵ here, times it).
+#[test]
+fn all_solvers_agree_on_a_16_cube() {
+    for case in [sphere(16, true), periodic_var(16)] {
+        let solutions: Vec<(&str, Vec<Real>)> = solvers(1e-12)
+            .into_iter()
+            .map(|(name, mut solver)| {
+                let mut p = vec![0.0; case.exact.len()];
+                solver.solve(&case.problem, &mut p).unwrap_or_else(|e| panic!("{name}: {e}"));
+                case.problem.fix_constant(&mut p);
+                (name, p)
+            })
+            .collect();
+        let reference = &solutions.iter().find(|(n, _)| *n == "cholesky").unwrap().1;
+        let scale = reference.iter().map(|p| p.abs()).fold(0.0, Real::max);
+        for (name, p) in &solutions {
+            let diff = p.iter().zip(reference).map(|(a, b)| (a - b).abs()).fold(0.0, Real::max);
+            assert!(diff < 1e-9 * scale, "{name} differs from Cholesky by {diff:e} (max |p| {scale:e})");
+        }
+    }
+}
+
+/// Cholesky refuses a grid whose factor would not fit, with the number, before it
+/// allocates: at 16³ the estimate is 2 · 4096^{3/2} nonzeros of 16 bytes = 8.4 MB; the
+/// factor it does build at 16³ has fewer nonzeros than that (1.5 · 4096^{3/2}).
+#[test]
+fn cholesky_refuses_a_factor_that_does_not_fit() {
+    let case = walls_var(16);
+    assert_eq!(factor_bytes([16, 16, 16]), 2 * 262_144 * 16);
+    let mut solver = Cholesky::new(1e-10, 5);
+    solver.set_memory_limit(1_000_000);
+    let mut p = vec![0.0; case.exact.len()];
+    let e = solver.solve(&case.problem, &mut p).unwrap_err().to_string();
+    for part in ["16 × 16 × 16", "8.4 MB", "estimated", &bytes_text(1_000_000), "pcg"] {
+        assert!(e.contains(part), "`{part}` missing from: {e}");
+    }
+    let mut solver = Cholesky::new(1e-10, 5);
+    solver.solve(&case.problem, &mut p).unwrap();
+    let nonzeros = solver.factor_nonzeros() as u64;
+    assert!(nonzeros * 16 < factor_bytes([16, 16, 16]), "{nonzeros} nonzeros");
 }

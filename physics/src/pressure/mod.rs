@@ -1,6 +1,5 @@
 //! Solvers of the pressure equation.
 
-#[cfg(feature = "dim2")]
 pub mod cholesky;
 #[cfg(feature = "dim2")]
 pub mod multigrid;
