@@ -22,7 +22,7 @@ pub mod stress;
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim3")]
 pub const SHIPPED: &[(&str, &[&str])] =
-    &[("stress", &[]), ("exchange", &[]), ("pressure", &["cholesky", "pcg"]), ("contact", &[])];
+    &[("stress", &[]), ("exchange", &[]), ("pressure", &["cholesky", "multigrid", "pcg"]), ("contact", &[])];
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim2")]
 pub const SHIPPED: &[(&str, &[&str])] = &[
