@@ -7,3 +7,4 @@
 mod case;
 mod grid;
 mod poisson;
+mod pressure;

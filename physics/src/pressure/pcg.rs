@@ -6,7 +6,7 @@
 
 use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
 use super::stencil::{dot_lanes, Stencil};
-use multifield_core::math::Real;
+use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -202,7 +202,7 @@ impl Pcg {
     }
 
     /// Sizes of the multigrid levels of the last solve, finest first (empty without multigrid).
-    pub fn multigrid_levels(&self) -> Vec<(usize, usize)> {
+    pub fn multigrid_levels(&self) -> Vec<Index> {
         self.multigrid.level_sizes()
     }
 
@@ -335,7 +335,7 @@ impl PressureSolver for Pcg {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
     use multifield_core::boundary::{Boundaries, Boundary};
