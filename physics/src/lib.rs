@@ -8,21 +8,24 @@
 // `!(x > 0.0)` is deliberate throughout validation: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-// The 3D compile (`multifield-physics3d`) has none yet: the pressure solvers, the
-// Newtonian stress and the exchange laws come to 3D with issue 17
-// (docs/design/three-dimensions.md §5, P1 and P2); contact and the point stresses after it.
+// The 3D compile (`multifield-physics3d`) has the Newtonian stress and the exchange laws
+// of particles (issue 17, P1); the pressure solvers come with P2, contact and the point
+// stresses after it (docs/design/three-dimensions.md §5).
 #[cfg(feature = "dim2")]
 pub mod contact;
-#[cfg(feature = "dim2")]
 pub mod exchange;
 #[cfg(feature = "dim2")]
 pub mod pressure;
-#[cfg(feature = "dim2")]
 pub mod stress;
 
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim3")]
-pub const SHIPPED: &[(&str, &[&str])] = &[("stress", &[]), ("exchange", &[]), ("pressure", &[]), ("contact", &[])];
+pub const SHIPPED: &[(&str, &[&str])] = &[
+    ("stress", &["newtonian"]),
+    ("exchange", &["constant", "no_slip", "schiller_naumann", "stokes"]),
+    ("pressure", &[]),
+    ("contact", &[]),
+];
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim2")]
 pub const SHIPPED: &[(&str, &[&str])] = &[
