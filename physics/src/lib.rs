@@ -9,12 +9,11 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 // The 3D compile (`multifield-physics3d`) has the Newtonian stress and the exchange laws
-// of particles (issue 17, P1); the pressure solvers come with P2, contact and the point
-// stresses after it (docs/design/three-dimensions.md §5).
+// of particles (issue 17, P1) and the pressure solvers (P2); contact and the point stresses
+// come after it (docs/design/three-dimensions.md §5).
 #[cfg(feature = "dim2")]
 pub mod contact;
 pub mod exchange;
-#[cfg(feature = "dim2")]
 pub mod pressure;
 pub mod stress;
 
@@ -23,7 +22,7 @@ pub mod stress;
 pub const SHIPPED: &[(&str, &[&str])] = &[
     ("stress", &["newtonian"]),
     ("exchange", &["constant", "no_slip", "schiller_naumann", "stokes"]),
-    ("pressure", &[]),
+    ("pressure", &["pcg"]),
     ("contact", &[]),
 ];
 /// The names this crate registers, by role: the test of the registry checks them.

@@ -318,7 +318,7 @@ fn odd_sizes_rectangles_and_blocked_cells() {
         let blocked = (0..nx * ny).filter(|&k| prob.row([k % nx, k / nx]).0 == 0.0).count();
         assert!(blocked > 0 || nx < 10, "{nx}×{ny}: the body blocks no cell");
         let last = *levels.last().unwrap();
-        assert!(last.0 % 2 == 1 || last.1 % 2 == 1 || last.0 < 4 || last.1 < 4, "{levels:?}");
+        assert!(last[0] % 2 == 1 || last[1] % 2 == 1 || last[0] < 4 || last[1] < 4, "{levels:?}");
     }
 }
 

@@ -6,3 +6,4 @@
 
 mod grid;
 mod poisson;
+mod pressure;

@@ -31,7 +31,7 @@
 
 use super::cholesky::SparseLlt;
 use super::stencil::{Stencil, PARALLEL_CELLS};
-use multifield_core::math::Real;
+use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -657,9 +657,9 @@ impl Hierarchy {
         self.cycle.sweeps = sweeps;
     }
 
-    /// Sizes (nx, ny) of the levels, finest first.
-    pub fn level_sizes(&self) -> Vec<(usize, usize)> {
-        self.ops.iter().map(|op| (op.nx, op.ny)).collect()
+    /// Cells along each axis of the levels, finest first.
+    pub fn level_sizes(&self) -> Vec<Index> {
+        self.ops.iter().map(|op| op.n()).collect()
     }
 
     /// The finest operator (valid after [`Hierarchy::setup`]).
@@ -674,7 +674,7 @@ impl Hierarchy {
         let (mut nx, mut ny) = (nx, ny);
         loop {
             let mut op = Stencil::default();
-            op.resize(nx, ny, periodic, dirichlet);
+            op.resize([nx, ny], periodic, dirichlet);
             self.ops.push(op);
             if !(nx % 2 == 0 && ny % 2 == 0 && nx >= 4 && ny >= 4) {
                 break;

@@ -4,9 +4,12 @@
 //! is bit-identical for any number of threads. Not converging is an error that carries
 //! the residual history.
 
+#[cfg(feature = "dim2")]
 use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
-use super::stencil::{dot_lanes, Stencil};
-use multifield_core::math::Real;
+#[cfg(feature = "dim2")]
+use super::stencil::dot_lanes;
+use super::stencil::Stencil;
+use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -40,17 +43,20 @@ pub struct Pcg {
     #[serde(default = "default_iters")]
     pub max_iterations: usize,
     /// Multigrid hierarchy, kept across solves.
+    #[cfg(feature = "dim2")]
     #[serde(skip)]
     multigrid: Hierarchy,
     /// The operator (without multigrid), kept across solves.
     #[serde(skip)]
     stencil: Stencil,
     /// Vectors of the multigrid-preconditioned iteration, kept across solves.
+    #[cfg(feature = "dim2")]
     #[serde(skip)]
     scratch: Scratch,
 }
 
 /// CG vectors in f64 (r, p, q) and the V-cycle's input and output in f32.
+#[cfg(feature = "dim2")]
 #[derive(Clone, Debug, Default)]
 struct Scratch {
     r: Vec<Real>,
@@ -64,6 +70,7 @@ struct Scratch {
 /// passes fused: A p with p · q; the update of r with r · r and the f32 copy of r; x += α p
 /// with the next p = z + β p (z read in f32). Reductions go by fixed chunks or rows: the result is
 /// the same to the bit for any number of threads.
+#[cfg(feature = "dim2")]
 fn pcg_multigrid(
     problem: &PoissonProblem,
     x: &mut [Real],
@@ -140,6 +147,7 @@ fn pcg_multigrid(
 }
 
 /// r · z with z in f32, by fixed chunks.
+#[cfg(feature = "dim2")]
 fn dot_mixed(r: &[Real], z: &[F]) -> Real {
     let partial: Vec<Real> = r
         .par_chunks(CHUNK)
@@ -160,6 +168,7 @@ fn dot_mixed(r: &[Real], z: &[F]) -> Real {
 }
 
 /// r −= α q, r32 = r in f32; returns r · r (by fixed chunks).
+#[cfg(feature = "dim2")]
 fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
     let partial: Vec<Real> = r
         .par_chunks_mut(CHUNK)
@@ -175,6 +184,11 @@ fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
         .collect();
     partial.iter().sum()
 }
+
+/// The refusal of the multigrid preconditioner in 3D until it is ported.
+#[cfg(feature = "dim3")]
+const MULTIGRID_NOT_YET_3D: &str = "pcg: preconditioner \"multigrid\" is not yet available in 3D (issue 17, P2b); \
+     use preconditioner: \"jacobi\" (or \"none\")";
 
 /// Multigrid: a V-cycle costs a few Jacobi iterations and takes the iteration count from
 /// O(N^½) to a handful at any size (the lid-driven cavity at 64², Re 1000: 4.2× faster).
@@ -195,15 +209,20 @@ impl Pcg {
             preconditioner,
             tolerance,
             max_iterations,
+            #[cfg(feature = "dim2")]
             multigrid: Hierarchy::new(default_sweeps()),
             stencil: Stencil::default(),
+            #[cfg(feature = "dim2")]
             scratch: Scratch::default(),
         }
     }
 
     /// Sizes of the multigrid levels of the last solve, finest first (empty without multigrid).
-    pub fn multigrid_levels(&self) -> Vec<(usize, usize)> {
-        self.multigrid.level_sizes()
+    pub fn multigrid_levels(&self) -> Vec<Index> {
+        #[cfg(feature = "dim2")]
+        return self.multigrid.level_sizes();
+        #[cfg(feature = "dim3")]
+        return Vec::new();
     }
 
     /// Checks the parameters.
@@ -214,7 +233,14 @@ impl Pcg {
         if self.max_iterations == 0 {
             return Err("max_iterations must be at least 1".into());
         }
-        self.multigrid = Hierarchy::new(default_sweeps());
+        #[cfg(feature = "dim2")]
+        {
+            self.multigrid = Hierarchy::new(default_sweeps());
+        }
+        #[cfg(feature = "dim3")]
+        if self.preconditioner == PreconditionerKind::Multigrid {
+            return Err(MULTIGRID_NOT_YET_3D.into());
+        }
         Ok(())
     }
 }
@@ -317,9 +343,14 @@ impl PressureSolver for Pcg {
     }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
         let (tol, cap) = (self.tolerance, self.max_iterations);
+        #[cfg(feature = "dim2")]
         if self.preconditioner == PreconditionerKind::Multigrid {
             self.multigrid.setup(problem).map_err(Error::Model)?;
             return pcg_multigrid(problem, x, tol, cap, &mut self.multigrid, &mut self.scratch);
+        }
+        #[cfg(feature = "dim3")]
+        if self.preconditioner == PreconditionerKind::Multigrid {
+            return Err(Error::Model(MULTIGRID_NOT_YET_3D.into()));
         }
         self.stencil.assign(problem);
         let op = &self.stencil;
@@ -335,7 +366,7 @@ impl PressureSolver for Pcg {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
     use multifield_core::boundary::{Boundaries, Boundary};
