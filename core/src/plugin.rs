@@ -6,7 +6,7 @@
 use crate::boundary::Boundaries;
 use crate::case::{InitialVelocity, Region, Representation};
 use crate::field::FieldState;
-use crate::grid::Grid;
+use crate::grid::{FaceArrays, Grid};
 use crate::math::{Matrix, Real, Vector};
 use crate::poisson::{PoissonProblem, SolveStats};
 use serde::{Deserialize, Serialize};
@@ -504,10 +504,11 @@ pub trait ExchangeModel: Send + Sync {
     fn immersed_boundary(&self) -> Option<ImmersedBoundary> {
         None
     }
-    /// Fills K on every x-face (`kx`) and y-face (`ky`). K is read only where both fields
-    /// are present (and, explicit, weighed with both θ): a model may leave 0 on faces where
-    /// the second field has no mass and no θ.
-    fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]);
+    /// Fills K on every face of every face lattice (`k[a]` on the faces normal to axis `a`:
+    /// x-faces, y-faces and in 3D z-faces). K is read only where both fields are present
+    /// (and, explicit, weighed with both θ): a model may leave 0 on faces where the second
+    /// field has no mass and no θ.
+    fn coefficients(&self, ctx: &ExchangeContext, k: &mut FaceArrays);
 }
 
 /// What a contact model sees.

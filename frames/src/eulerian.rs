@@ -58,12 +58,14 @@
 //! Every loop writes disjoint rows, so the parallel results are the same bits for any
 //! number of threads; the reductions (energy, momentum, mass) are serial.
 
+#[cfg(feature = "dim3")]
+mod dim3;
 pub mod viscous;
 
-use multifield_core::boundary::{Boundaries, Side};
+use multifield_core::boundary::{Boundaries, Side, MIDDLE};
 use multifield_core::case::Region;
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
-use multifield_core::math::{Real, Vector};
+use multifield_core::math::{Real, Vector, AXES};
 use multifield_core::plugin::{apply_grid_stresses, Frame, FrameContext, InitContext, StressModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::simulation::region_fraction;
@@ -209,9 +211,11 @@ multifield_core::register!(
 );
 
 /// Ghost layers on each side of a padded array.
+#[cfg(feature = "dim2")]
 const G: usize = 2;
 
 /// A lattice array with two ghost layers on every side.
+#[cfg(feature = "dim2")]
 #[derive(Clone, Debug, Default)]
 struct Padded {
     data: Vec<Real>,
@@ -219,6 +223,7 @@ struct Padded {
     rows: usize,
 }
 
+#[cfg(feature = "dim2")]
 impl Padded {
     fn new(cols: usize, rows: usize) -> Self {
         Self { data: vec![0.0; (cols + 2 * G) * (rows + 2 * G)], cols, rows }
@@ -260,6 +265,7 @@ enum Rule {
 }
 
 /// Ghost values at −1, −2 (`lo`) and n, n + 1 (`hi`) of a line of `n` values `q`.
+#[cfg(feature = "dim2")]
 #[inline]
 fn ghosts(q: impl Fn(usize) -> Real, n: usize, lo: Rule, hi: Rule, bc: &Boundaries, s: Real) -> ([Real; 2], [Real; 2]) {
     let mut l = [0.0; 2];
@@ -283,6 +289,7 @@ fn ghosts(q: impl Fn(usize) -> Real, n: usize, lo: Rule, hi: Rule, bc: &Boundari
     (l, h)
 }
 
+#[cfg(feature = "dim2")]
 /// Copies `src` (a `cols × rows` lattice array) into `p` and fills its ghosts: first along
 /// x for the inside rows, then along y for every column (corners included). `sx(i)` and
 /// `sy(j)` give the fraction along the bottom/top and left/right sides for moving walls.
@@ -320,7 +327,7 @@ fn fill(
 fn normal_rule(bc: &Boundaries, side: Side, period: usize, periodic: bool) -> Rule {
     if periodic {
         Rule::Wrap(period)
-    } else if bc.normal_velocity(side, 0.5).is_some() {
+    } else if bc.normal_velocity(side, MIDDLE).is_some() {
         Rule::Odd
     } else {
         Rule::Flat
@@ -339,11 +346,19 @@ fn tangential_rule(side: Side, period: usize, periodic: bool) -> Rule {
 /// Scratch and state that depend on the grid (built by `initialize`).
 #[derive(Clone, Debug, Default)]
 struct Work {
+    #[cfg(feature = "dim2")]
     nx: usize,
+    #[cfg(feature = "dim2")]
     ny: usize,
+    /// Cells along each axis (3D).
+    #[cfg(feature = "dim3")]
+    n: multifield_core::math::Index,
     h: Real,
     density: Real,
+    #[cfg(feature = "dim2")]
     periodic: (bool, bool),
+    #[cfg(feature = "dim3")]
+    periodic: [bool; 3],
     /// Whether the field fills what the others leave (region `Rest`).
     fills_rest: bool,
     /// Steps completed (the first has no lagged pressure acceleration).
@@ -357,22 +372,32 @@ struct Work {
     /// The implicit viscous operators (built on first use).
     diffusion: Option<FaceDiffusion>,
     rate: FaceVelocity,
+    #[cfg(feature = "dim2")]
     pu: Padded,
+    #[cfg(feature = "dim2")]
     pv: Padded,
+    #[cfg(feature = "dim2")]
     pt: Padded,
     /// Fluxes of the u equation: at cell centres ((nx+2) × ny) and corners ((nx+1) × (ny+1)).
+    #[cfg(feature = "dim2")]
     fxu: Vec<Real>,
+    #[cfg(feature = "dim2")]
     fyu: Vec<Real>,
     /// Fluxes of the v equation: at corners ((nx+1) × (ny+1)) and cell centres (nx × (ny+2)).
+    #[cfg(feature = "dim2")]
     gxv: Vec<Real>,
+    #[cfg(feature = "dim2")]
     gyv: Vec<Real>,
     /// θ fluxes on faces, θ¹ of Heun's method and its rate.
+    #[cfg(feature = "dim2")]
     ftx: Vec<Real>,
+    #[cfg(feature = "dim2")]
     fty: Vec<Real>,
     theta1: Vec<Real>,
     theta_rate: Vec<Real>,
 }
 
+#[cfg(feature = "dim2")]
 impl Work {
     fn new(grid: &Grid, bc: &Boundaries, density: Real, fills_rest: bool) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
@@ -402,6 +427,12 @@ impl Work {
             theta1: vec![0.0; grid.n_cells()],
             theta_rate: vec![0.0; grid.n_cells()],
         }
+    }
+
+    /// −A(u) of the velocity `vel` into `self.rate`.
+    fn advect_rate(&mut self, vel: &FaceVelocity, bc: &Boundaries, lim: Limiter) {
+        self.fill_velocity(vel, bc);
+        self.advection_rate(lim);
     }
 
     /// Fills the padded velocity components from `vel` with boundary ghosts.
@@ -571,6 +602,43 @@ impl Work {
     }
 }
 
+/// Calls `f(k, &mut out[k])` on every face `k` normal to `axis` that is neither fixed (wall
+/// or inflow) nor the periodic copy of face 0, rows along x in parallel.
+fn for_unknown_faces(
+    grid: &Grid,
+    bc: &Boundaries,
+    axis: usize,
+    out: &mut [Real],
+    f: impl Fn(usize, &mut Real) + Sync + Send,
+) {
+    let shape = grid.shape(Lattice::face(axis));
+    let n = grid.n()[axis];
+    let periodic = bc.periodic(axis);
+    let skip = |i: usize| bc.face_fixed(grid, axis, i) || (periodic && i == n);
+    out.par_chunks_mut(shape[0]).enumerate().for_each(|(row, out)| {
+        let o = row * shape[0];
+        if axis == 0 {
+            for (i, d) in out.iter_mut().enumerate() {
+                if !skip(i) {
+                    f(o + i, d);
+                }
+            }
+            return;
+        }
+        // the row's coordinate along `axis`
+        let mut r = row;
+        for s in &shape[1..axis] {
+            r /= s;
+        }
+        if skip(r % shape[axis]) {
+            return;
+        }
+        for (i, d) in out.iter_mut().enumerate() {
+            f(o + i, d);
+        }
+    });
+}
+
 impl Eulerian {
     /// Checks the parameters (the limiter is checked when it is read).
     pub fn validate(&mut self) -> Result<(), String> {
@@ -606,27 +674,12 @@ impl Eulerian {
     ) {
         let w = &mut self.work;
         let s = if lagged { 1.0 } else { 0.0 };
-        let (nx, ny) = (w.nx, w.ny);
-        let (px, py) = w.periodic;
-        let (r, a, f_u) = (&w.rate.u, &ap.u, &f.u);
-        w.half.u.par_chunks_mut(nx + 1).enumerate().for_each(|(j, out)| {
-            let o = j * (nx + 1);
-            for (i, d) in out.iter_mut().enumerate() {
-                if !(bc.xface_fixed(grid, i) || (px && i == nx)) {
-                    *d += c * (r[o + i] + s * (a[o + i] + f_u[o + i] + g.x));
-                }
-            }
-        });
-        let (r, a, f_v) = (&w.rate.v, &ap.v, &f.v);
-        w.half.v.par_chunks_mut(nx).enumerate().for_each(|(j, out)| {
-            if bc.yface_fixed(grid, j) || (py && j == ny) {
-                return;
-            }
-            let o = j * nx;
-            for (i, d) in out.iter_mut().enumerate() {
-                *d += c * (r[o + i] + s * (a[o + i] + f_v[o + i] + g.y));
-            }
-        });
+        for a in AXES {
+            let (r, ap, f, g) = (&w.rate[a], &ap[a], &f[a], g[a]);
+            for_unknown_faces(grid, bc, a, &mut w.half[a], |k, d| {
+                *d += c * (r[k] + s * (ap[k] + f[k] + g));
+            });
+        }
     }
 
     /// The field's grid stresses applied for `dt` to u½ (in `self.work.half`), through
@@ -644,27 +697,12 @@ impl Eulerian {
     /// u* = uⁿ − Δt A(u½) into `out`, on the faces that are neither fixed nor periodic copies.
     fn full_step(&self, bc: &Boundaries, grid: &Grid, dt: Real, out: &mut FaceVelocity) {
         let w = &self.work;
-        let (nx, ny) = (w.nx, w.ny);
-        let (px, py) = w.periodic;
-        let (u, r) = (&w.velocity.u, &w.rate.u);
-        out.u.par_chunks_mut(nx + 1).enumerate().for_each(|(j, out)| {
-            let o = j * (nx + 1);
-            for (i, d) in out.iter_mut().enumerate() {
-                if !(bc.xface_fixed(grid, i) || (px && i == nx)) {
-                    *d = u[o + i] + dt * r[o + i];
-                }
-            }
-        });
-        let (v, r) = (&w.velocity.v, &w.rate.v);
-        out.v.par_chunks_mut(nx).enumerate().for_each(|(j, out)| {
-            if bc.yface_fixed(grid, j) || (py && j == ny) {
-                return;
-            }
-            let o = j * nx;
-            for (i, d) in out.iter_mut().enumerate() {
-                *d = v[o + i] + dt * r[o + i];
-            }
-        });
+        for a in AXES {
+            let (u, r) = (&w.velocity[a], &w.rate[a]);
+            for_unknown_faces(grid, bc, a, &mut out[a], |k, d| {
+                *d = u[k] + dt * r[k];
+            });
+        }
     }
 
     /// The field's Newtonian viscosity μ when the frame integrates it implicitly: with
@@ -683,10 +721,10 @@ impl Eulerian {
         let w = &mut self.work;
         let diffusion = w.diffusion.get_or_insert_with(|| FaceDiffusion::new(grid, bc));
         bc.enforce(grid, &mut w.half);
-        for x_faces in [true, false] {
-            let (x, rhs) = if x_faces { (&mut w.half.u, &mut w.viscous.u) } else { (&mut w.half.v, &mut w.viscous.v) };
+        for a in AXES {
+            let (x, rhs) = (&mut w.half[a], &mut w.viscous[a]);
             rhs.copy_from_slice(x);
-            diffusion.solve(x_faces, c, rhs, x)?;
+            diffusion.solve(a, c, rhs, x)?;
         }
         Ok(())
     }
@@ -708,22 +746,20 @@ impl Eulerian {
         let w = &mut self.work;
         let diffusion = w.diffusion.get_or_insert_with(|| FaceDiffusion::new(grid, bc));
         let s = if lagged { 1.0 } else { 0.0 };
-        for (x_faces, gravity) in [(true, g.x), (false, g.y)] {
-            let (un, rate, a, f, rhs, x) = if x_faces {
-                (&w.velocity.u, &w.rate.u, &ap.u, &f.u, &mut w.viscous.u, &mut out.u)
-            } else {
-                (&w.velocity.v, &w.rate.v, &ap.v, &f.v, &mut w.viscous.v, &mut out.v)
-            };
-            diffusion.laplacian(x_faces, un, rhs);
+        for axis in AXES {
+            let gravity = g[axis];
+            let (un, rate, a, f, rhs, x) =
+                (&w.velocity[axis], &w.rate[axis], &ap[axis], &f[axis], &mut w.viscous[axis], &mut out[axis]);
+            diffusion.laplacian(axis, un, rhs);
             rhs.par_iter_mut().enumerate().with_min_len(4096).for_each(|(k, r)| {
                 *r = un[k] + dt * (rate[k] + s * (a[k] + f[k] + gravity)) + c * *r;
             });
             // initial guess uⁿ; the fixed faces hold the wall values
             x.copy_from_slice(un);
-            diffusion.solve(x_faces, c, rhs, x)?;
+            diffusion.solve(axis, c, rhs, x)?;
             let d = &*diffusion;
             x.par_iter_mut().enumerate().with_min_len(4096).for_each(|(k, x)| {
-                if d.is_unknown(x_faces, k) {
+                if d.is_unknown(axis, k) {
                     *x -= dt * s * (a[k] + f[k] + gravity);
                 }
             });
@@ -768,17 +804,11 @@ impl Frame for Eulerian {
             }
             None => w.theta = region_fraction(ctx.region, g),
         }
-        let origin = [g.origin.x, g.origin.y];
-        for j in 0..g.ny {
-            for i in 0..=g.nx {
-                let p = g.node_position(Lattice::XFace, i, j);
-                w.velocity.u[g.xface(i, j)] = ctx.velocity.at([p.x, p.y], origin)[0];
-            }
-        }
-        for j in 0..=g.ny {
-            for i in 0..g.nx {
-                let p = g.node_position(Lattice::YFace, i, j);
-                w.velocity.v[g.yface(i, j)] = ctx.velocity.at([p.x, p.y], origin)[1];
+        let origin = g.origin.into();
+        for a in AXES {
+            for (k, at) in g.nodes(Lattice::face(a)) {
+                let p = g.position(Lattice::face(a), at);
+                w.velocity[a][k] = ctx.velocity.at(p.into(), origin)[a];
             }
         }
         ctx.boundaries.enforce(g, &mut w.velocity);
@@ -793,10 +823,10 @@ impl Frame for Eulerian {
         let w = &self.work;
         let s = &mut *ctx.state;
         s.theta.copy_from_slice(&w.theta);
-        s.velocity.u.copy_from_slice(&w.velocity.u);
-        s.velocity.v.copy_from_slice(&w.velocity.v);
-        s.velocity_old.u.copy_from_slice(&w.velocity.u);
-        s.velocity_old.v.copy_from_slice(&w.velocity.v);
+        for a in AXES {
+            s.velocity[a].copy_from_slice(&w.velocity[a]);
+            s.velocity_old[a].copy_from_slice(&w.velocity[a]);
+        }
         Ok(())
     }
 
@@ -806,13 +836,13 @@ impl Frame for Eulerian {
         let nu = self.implicit_viscosity(ctx.stress).map(|mu| mu / ctx.density);
         // −A(uⁿ)
         let un = std::mem::take(&mut self.work.velocity);
-        self.work.fill_velocity(&un, bc);
+        self.work.advect_rate(&un, bc, lim);
         self.work.velocity = un;
-        self.work.advection_rate(lim);
         // u½ = uⁿ + Δt/2 (V + −A(uⁿ) + a_p + g), V explicit at uⁿ or backward Euler at u½
         let w = &mut self.work;
-        w.half.u.copy_from_slice(&w.velocity.u);
-        w.half.v.copy_from_slice(&w.velocity.v);
+        for a in AXES {
+            w.half[a].copy_from_slice(&w.velocity[a]);
+        }
         if nu.is_none() {
             self.stresses_on_half(ctx, 0.5 * dt)?;
         }
@@ -826,9 +856,8 @@ impl Frame for Eulerian {
         bc.enforce(grid, &mut self.work.half);
         // −A(u½)
         let half = std::mem::take(&mut self.work.half);
-        self.work.fill_velocity(&half, bc);
+        self.work.advect_rate(&half, bc, lim);
         self.work.half = half;
-        self.work.advection_rate(lim);
         let s = &mut ctx.state.velocity;
         match nu {
             // u* = uⁿ − Δt A(u½), then the stresses of the full step on it
@@ -853,8 +882,9 @@ impl Frame for Eulerian {
     fn from_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
         let w = &mut self.work;
         let s = &*ctx.state;
-        w.velocity.u.copy_from_slice(&s.velocity.u);
-        w.velocity.v.copy_from_slice(&s.velocity.v);
+        for a in AXES {
+            w.velocity[a].copy_from_slice(&s.velocity[a]);
+        }
         // the core's θ of this step (for a field of region `Rest`, what the others left)
         w.theta.copy_from_slice(&s.theta);
         w.steps += 1;
@@ -889,19 +919,39 @@ impl Frame for Eulerian {
         self.work.velocity.max_abs()
     }
 
+    #[cfg(feature = "dim2")]
     fn kinetic_energy(&self) -> Real {
         let (ex, ey) = self.work.face_sums(|m, u| 0.5 * m * u * u);
         ex + ey
     }
 
+    #[cfg(feature = "dim2")]
     fn momentum(&self) -> Vector {
         let (px, py) = self.work.face_sums(|m, u| m * u);
         Vector::new(px, py)
     }
 
+    #[cfg(feature = "dim2")]
     fn mass(&self) -> Real {
         let w = &self.work;
         w.theta.iter().sum::<Real>() * w.density * w.h * w.h
+    }
+
+    #[cfg(feature = "dim3")]
+    fn kinetic_energy(&self) -> Real {
+        let [ex, ey, ez] = self.work.face_sums(|m, u| 0.5 * m * u * u);
+        ex + ey + ez
+    }
+
+    #[cfg(feature = "dim3")]
+    fn momentum(&self) -> Vector {
+        Vector::from(self.work.face_sums(|m, u| m * u))
+    }
+
+    #[cfg(feature = "dim3")]
+    fn mass(&self) -> Real {
+        let w = &self.work;
+        w.theta.iter().sum::<Real>() * w.density * w.h * w.h * w.h
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -926,8 +976,10 @@ impl Frame for Eulerian {
         let saved: EulerianState = state::decode(bytes, "eulerian state")?;
         let w = &mut self.work;
         state::copy_into(&mut w.theta, &saved.theta, "eulerian volume fraction")?;
-        state::copy_into(&mut w.velocity.u, &saved.velocity.u, "eulerian velocity on x-faces")?;
-        state::copy_into(&mut w.velocity.v, &saved.velocity.v, "eulerian velocity on y-faces")?;
+        for a in AXES {
+            let what = format!("eulerian velocity on {}-faces", multifield_core::math::axis_name(a));
+            state::copy_into(&mut w.velocity[a], &saved.velocity[a], &what)?;
+        }
         w.steps = saved.steps;
         Ok(())
     }
@@ -942,7 +994,7 @@ struct EulerianState<'a> {
     velocity: Cow<'a, FaceVelocity>,
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
     use multifield_core::boundary::Boundary;

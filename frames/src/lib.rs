@@ -7,10 +7,8 @@
 //! with the core; call [`link`] once from a binary or test so the linker keeps this crate.
 #![warn(missing_docs)]
 
-// The 3D compile (`multifield-frames3d`) has none yet: the Eulerian frame comes to 3D
-// with issue 17 (docs/design/three-dimensions.md §5, P1); the Lagrangian frames and mass
-// points after it.
-#[cfg(feature = "dim2")]
+// The 3D compile (`multifield-frames3d`) has the Eulerian frame (issue 17, P1); the
+// Lagrangian frames and mass points come after it (docs/design/three-dimensions.md §5).
 pub mod eulerian;
 #[cfg(feature = "dim2")]
 pub mod lagrangian;
@@ -22,7 +20,7 @@ pub mod mass_point;
 pub const SHIPPED: &[&str] = &["eulerian", "lagrangian", "mass_point"];
 /// The frame names this crate registers.
 #[cfg(feature = "dim3")]
-pub const SHIPPED: &[&str] = &[];
+pub const SHIPPED: &[&str] = &["eulerian"];
 
 /// Keeps this crate's registrations in the final binary.
 pub fn link() {

@@ -8,21 +8,23 @@
 // `!(x > 0.0)` is deliberate throughout validation: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-// The 3D compile (`multifield-physics3d`) has the pressure solvers (issue 17, P2); the
-// Newtonian stress and the exchange laws come to 3D with P1
-// (docs/design/three-dimensions.md §5); contact and the point stresses after it.
+// The 3D compile (`multifield-physics3d`) has the Newtonian stress and the exchange laws
+// of particles (issue 17, P1) and the pressure solvers (P2); contact and the point stresses
+// come after it (docs/design/three-dimensions.md §5).
 #[cfg(feature = "dim2")]
 pub mod contact;
-#[cfg(feature = "dim2")]
 pub mod exchange;
 pub mod pressure;
-#[cfg(feature = "dim2")]
 pub mod stress;
 
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim3")]
-pub const SHIPPED: &[(&str, &[&str])] =
-    &[("stress", &[]), ("exchange", &[]), ("pressure", &["cholesky", "multigrid", "pcg"]), ("contact", &[])];
+pub const SHIPPED: &[(&str, &[&str])] = &[
+    ("stress", &["newtonian"]),
+    ("exchange", &["constant", "no_slip", "schiller_naumann", "stokes"]),
+    ("pressure", &["cholesky", "multigrid", "pcg"]),
+    ("contact", &[]),
+];
 /// The names this crate registers, by role: the test of the registry checks them.
 #[cfg(feature = "dim2")]
 pub const SHIPPED: &[(&str, &[&str])] = &[

@@ -134,8 +134,7 @@ impl Simulation {
                 fields: [idx(&e.between[0]), idx(&e.between[1])],
                 model,
                 integration: e.integration,
-                kx: vec![0.0; grid.n_xfaces()],
-                ky: vec![0.0; grid.n_yfaces()],
+                k: FaceArrays::zeros(&grid),
             });
         }
         for (k, p) in forced_entries.iter().zip(&forcings) {

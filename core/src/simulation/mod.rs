@@ -78,8 +78,8 @@ pub struct Exchange {
     pub model: Box<dyn ExchangeModel>,
     /// Implicit or explicit.
     pub integration: Integration,
-    kx: Vec<Real>,
-    ky: Vec<Real>,
+    /// K on every face lattice.
+    k: FaceArrays,
 }
 
 /// A direct-forcing coupling of a fluid with a field of rigid bodies.

@@ -39,10 +39,11 @@ impl Simulation {
                 density: [self.fields[a].density, self.fields[b].density],
             };
             if e.model.no_slip() {
-                e.kx.fill(Real::INFINITY);
-                e.ky.fill(Real::INFINITY);
+                for a in AXES {
+                    e.k[a].fill(Real::INFINITY);
+                }
             } else {
-                e.model.coefficients(&ctx, &mut e.kx, &mut e.ky);
+                e.model.coefficients(&ctx, &mut e.k);
             }
         }
         let densities: Vec<Real> = self.fields.iter().map(|f| f.density).collect();
@@ -58,18 +59,20 @@ impl Simulation {
         // each face's exchange is independent of every other's: solved in parallel in
         // chunks of faces, each chunk writing its own faces of every field in place
         // (bit-identical whatever the threads)
-        for lattice in 0..2 {
-            let nf = if lattice == 0 { self.grid.n_xfaces() } else { self.grid.n_yfaces() };
+        for lattice in AXES {
+            let nf = self.grid.n_faces(lattice);
             let mut chunks: Vec<Vec<FaceChunk>> =
                 (0..nf.div_ceil(EXCHANGE_CHUNK)).map(|_| Vec::with_capacity(n)).collect();
             for f in self.fields.iter_mut() {
                 let own = f.own_densities;
                 let s = &mut f.state;
-                let (u, w, mass, theta, u_old) = if lattice == 0 {
-                    (&mut s.velocity.u, &mut s.specific_volume.u, &s.mass_face.u, &s.theta_face.u, &s.velocity_old.u)
-                } else {
-                    (&mut s.velocity.v, &mut s.specific_volume.v, &s.mass_face.v, &s.theta_face.v, &s.velocity_old.v)
-                };
+                let (u, w, mass, theta, u_old) = (
+                    &mut s.velocity[lattice],
+                    &mut s.specific_volume[lattice],
+                    &s.mass_face[lattice],
+                    &s.theta_face[lattice],
+                    &s.velocity_old[lattice],
+                );
                 let parts = u
                     .chunks_mut(EXCHANGE_CHUNK)
                     .zip(w.chunks_mut(EXCHANGE_CHUNK))
@@ -88,7 +91,7 @@ impl Simulation {
             chunks.into_par_iter().enumerate().for_each(|(c, mut chunk)| {
                 let len = chunk.first().map_or(0, |f| f.u.len());
                 if let Some((e, added)) = pair {
-                    let k = if lattice == 0 { &e.kx } else { &e.ky };
+                    let k = &e.k[lattice];
                     let (f0, f1) = chunk.split_at_mut(1);
                     let (f0, f1) = (&mut f0[0], &mut f1[0]);
                     for i in 0..len {
@@ -130,7 +133,7 @@ impl Simulation {
                     let mut explicit: Coefficients = [[0.0; MAX_FIELDS]; MAX_FIELDS];
                     let mut any_explicit = false;
                     for e in exchanges {
-                        let kk = if lattice == 0 { e.kx[face] } else { e.ky[face] };
+                        let kk = e.k[lattice][face];
                         let [a, b] = e.fields;
                         let target = if e.integration == Integration::Explicit && !kk.is_infinite() {
                             any_explicit = true;
@@ -172,10 +175,8 @@ impl Simulation {
             let rho0 = f.density;
             let own = f.own_densities;
             let s = &mut f.state;
-            for (w, m, t) in [
-                (&mut s.specific_volume.u, &s.mass_face.u, &s.theta_face.u),
-                (&mut s.specific_volume.v, &s.mass_face.v, &s.theta_face.v),
-            ] {
+            for a in AXES {
+                let (w, m, t) = (&mut s.specific_volume[a], &s.mass_face[a], &s.theta_face[a]);
                 for ((w, m), t) in w.iter_mut().zip(m.iter()).zip(t.iter()) {
                     let rho = m / area;
                     let rho_w = if own { rho } else { t * rho0 };

@@ -1,8 +1,9 @@
-//! Implicit viscosity on the MAC faces: the 5-point Laplacian of a velocity component with
+//! Implicit viscosity on the MAC faces: the 5-point (7-point in 3D) Laplacian of a velocity
+//! component on its face lattice, with
 //! the boundary ghosts of the explicit `newtonian` stencil, and the solve of
 //!
 //! ```text
-//!   (I − c L) x = r,    c = (Δt/2) ν / h²,  L u = Σ_neighbours u − 4 u
+//!   (I − c L) x = r,    c = (Δt/2) ν / h²,  L u = Σ_neighbours u − 2·DIM u
 //! ```
 //!
 //! for the Crank–Nicolson (and midpoint backward-Euler) steps of the Eulerian frame.
@@ -12,17 +13,17 @@
 //! ghost half a cell beyond a wall, `α u + β`: −u on a no-slip wall, u on a free-slip wall,
 //! outflow or along the normal at an outflow, 2 u_w − u on a moving wall. The fixed faces
 //! and the periodic copies are not unknowns. The operator on the unknowns is symmetric and
-//! strictly diagonally dominant (diagonal 1 + c (4 − Σα) ≥ 1 + c · #faces), so a
+//! strictly diagonally dominant (diagonal 1 + c (2·DIM − Σα) ≥ 1 + c · #faces), so a
 //! Jacobi-preconditioned conjugate gradient converges in a few iterations for the usual
 //! c ≲ 1. Every loop writes disjoint faces and every dot product sums fixed chunks in order:
 //! the same bits on any number of threads.
 
-use multifield_core::boundary::{Boundaries, Side};
-use multifield_core::grid::Grid;
-use multifield_core::math::Real;
+use multifield_core::boundary::{along, tangential_axes, Along, Boundaries, Side};
+use multifield_core::grid::{Grid, Lattice};
+use multifield_core::math::{Index, Real, DIM, SIDES};
 use rayon::prelude::*;
 
-/// One of the four neighbours of a face in the Laplacian.
+/// One of the neighbours of a face in the Laplacian (four in 2D, six in 3D).
 #[derive(Clone, Copy, Debug)]
 enum Neighbour {
     /// An unknown face of the lattice.
@@ -38,8 +39,8 @@ enum Neighbour {
 struct LatticeOperator {
     /// Whether each face is an unknown.
     active: Vec<bool>,
-    /// The four neighbours of each face (unused for inactive faces).
-    neighbours: Vec<[Neighbour; 4]>,
+    /// The neighbours of each face, in the order of [`Side::ALL`] (unused for inactive faces).
+    neighbours: Vec<[Neighbour; SIDES]>,
     /// Periodic copies: (copy, master) pairs, set after each solve.
     copies: Vec<(usize, usize)>,
     r: Vec<Real>,
@@ -53,112 +54,85 @@ struct LatticeOperator {
 /// Chunk length of the ordered reductions.
 const CHUNK: usize = 4096;
 
+/// The centre weight of the Laplacian: 4 (5-point) in 2D, 6 (7-point) in 3D.
+const CENTRE: Real = (2 * DIM) as Real;
+
 impl LatticeOperator {
-    /// The operator of the x-face lattice (`x_faces`) or the y-face lattice.
-    fn new(grid: &Grid, bc: &Boundaries, x_faces: bool) -> Self {
-        let (nx, ny) = (grid.nx, grid.ny);
-        let (px, py) = (bc.periodic(0), bc.periodic(1));
-        // lattice shape and the index of node (i, j); the normal axis is x for x-faces
-        let (cols, rows) = if x_faces { (nx + 1, ny) } else { (nx, ny + 1) };
-        let idx = |i: usize, j: usize| (i + j * cols) as u32;
-        let n = cols * rows;
-        let mut active = vec![true; n];
+    /// The operator of the faces normal to `axis` (the component `axis`).
+    fn new(grid: &Grid, bc: &Boundaries, axis: usize) -> Self {
+        let a = axis;
+        let lattice = Lattice::face(a);
+        let n = grid.n();
+        let periodic = bc.periodic(a);
+        let count = grid.n_faces(a);
+        let mut active = vec![true; count];
         let mut copies = Vec::new();
-        for j in 0..rows {
-            for i in 0..cols {
-                let k = idx(i, j) as usize;
-                let (fixed, copy) = if x_faces {
-                    (bc.xface_fixed(grid, i), px && i == nx)
-                } else {
-                    (bc.yface_fixed(grid, j), py && j == ny)
-                };
-                if copy {
-                    copies.push((k, if x_faces { idx(0, j) } else { idx(i, 0) } as usize));
-                }
-                active[k] = !(fixed || copy);
+        for (k, at) in grid.nodes(lattice) {
+            let fixed = bc.face_fixed(grid, a, at[a]);
+            let copy = periodic && at[a] == n[a];
+            if copy {
+                let mut master = at;
+                master[a] = 0;
+                copies.push((k, grid.index(lattice, master)));
             }
+            active[k] = !(fixed || copy);
         }
-        let face = |i: usize, j: usize| {
-            let (i, j) = if x_faces && px && i == nx {
-                (0, j)
-            } else if !x_faces && py && j == ny {
-                (i, 0)
-            } else {
-                (i, j)
-            };
-            let k = idx(i, j);
+        // face `m` of the lattice (face n of a periodic lattice is face 0)
+        let face = |mut m: Index| {
+            if periodic && m[a] == n[a] {
+                m[a] = 0;
+            }
+            let k = grid.index(lattice, m) as u32;
             if active[k as usize] {
                 Neighbour::Face(k)
             } else {
                 Neighbour::Known(k)
             }
         };
-        let ghost = |side: Side, s: Real| {
-            let beta = bc.tangential_ghost(side, 0.0, s);
-            Neighbour::Ghost(bc.tangential_ghost(side, 1.0, s) - beta, beta)
+        let ghost = |side: Side, s: Along| {
+            let beta = bc.ghost(side, a, 0.0, s);
+            Neighbour::Ghost(bc.ghost(side, a, 1.0, s) - beta, beta)
         };
-        let mut neighbours = vec![[Neighbour::Ghost(0.0, 0.0); 4]; n];
-        for j in 0..rows {
-            for i in 0..cols {
-                let k = idx(i, j) as usize;
-                if !active[k] {
-                    continue;
-                }
-                // along the component (normal neighbours): the next faces, or at an open end
-                // (outflow) the face itself; across it (tangential): the next faces or a ghost
-                let nb = if x_faces {
-                    let sx = i as Real / nx as Real;
-                    let west = if i > 0 {
-                        face(i - 1, j)
-                    } else if px {
-                        face(nx - 1, j)
-                    } else {
-                        Neighbour::Ghost(1.0, 0.0)
-                    };
-                    let east = if i < nx { face(i + 1, j) } else { Neighbour::Ghost(1.0, 0.0) };
-                    let south = if j > 0 {
-                        face(i, j - 1)
-                    } else if py {
-                        face(i, ny - 1)
-                    } else {
-                        ghost(Side::Bottom, sx)
-                    };
-                    let north = if j + 1 < ny {
-                        face(i, j + 1)
-                    } else if py {
-                        face(i, 0)
-                    } else {
-                        ghost(Side::Top, sx)
-                    };
-                    [west, east, south, north]
-                } else {
-                    let sy = j as Real / ny as Real;
-                    let south = if j > 0 {
-                        face(i, j - 1)
-                    } else if py {
-                        face(i, ny - 1)
-                    } else {
-                        Neighbour::Ghost(1.0, 0.0)
-                    };
-                    let north = if j < ny { face(i, j + 1) } else { Neighbour::Ghost(1.0, 0.0) };
-                    let west = if i > 0 {
-                        face(i - 1, j)
-                    } else if px {
-                        face(nx - 1, j)
-                    } else {
-                        ghost(Side::Left, sy)
-                    };
-                    let east = if i + 1 < nx {
-                        face(i + 1, j)
-                    } else if px {
-                        face(0, j)
-                    } else {
-                        ghost(Side::Right, sy)
-                    };
-                    [west, east, south, north]
-                };
-                neighbours[k] = nb;
+        let mut neighbours = vec![[Neighbour::Ghost(0.0, 0.0); SIDES]; count];
+        for (k, at) in grid.nodes(lattice) {
+            if !active[k] {
+                continue;
             }
+            // along the component (normal neighbours): the next faces, or at an open end
+            // (outflow) the face itself; across it (tangential): the next faces or a ghost
+            neighbours[k] = Side::ALL.map(|side| {
+                let (d, high) = (side.axis(), side.high());
+                let mut m = at;
+                if d == a {
+                    if !high && at[a] > 0 {
+                        m[a] -= 1;
+                    } else if !high && periodic {
+                        m[a] = n[a] - 1;
+                    } else if high && at[a] < n[a] {
+                        m[a] += 1;
+                    } else {
+                        return Neighbour::Ghost(1.0, 0.0);
+                    }
+                } else if !high && at[d] > 0 {
+                    m[d] -= 1;
+                } else if high && at[d] + 1 < n[d] {
+                    m[d] += 1;
+                } else if bc.periodic(d) {
+                    m[d] = if high { 0 } else { n[d] - 1 };
+                } else {
+                    // the fraction along the side: the face's own axis at the face, the
+                    // others at the cell centre
+                    let s = tangential_axes(d).map(|t| {
+                        if t == a {
+                            at[a] as Real / n[a] as Real
+                        } else {
+                            (at[t] as Real + 0.5) / n[t] as Real
+                        }
+                    });
+                    return ghost(side, along(s));
+                }
+                face(m)
+            });
         }
         LatticeOperator { active, neighbours, copies, ..Default::default() }
     }
@@ -169,7 +143,7 @@ impl LatticeOperator {
         out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
             for (o, y) in out.iter_mut().enumerate() {
                 let k = c * CHUNK + o;
-                *y = if act[k] { stencil(&nb[k], u, u[k], true) - 4.0 * u[k] } else { 0.0 };
+                *y = if act[k] { stencil(&nb[k], u, u[k], true) - CENTRE * u[k] } else { 0.0 };
             }
         });
     }
@@ -181,7 +155,7 @@ impl LatticeOperator {
         out.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
             for (o, y) in out.iter_mut().enumerate() {
                 let k = ch * CHUNK + o;
-                *y = if act[k] { x[k] - c * (stencil(&nb[k], x, x[k], false) - 4.0 * x[k]) } else { 0.0 };
+                *y = if act[k] { x[k] - c * (stencil(&nb[k], x, x[k], false) - CENTRE * x[k]) } else { 0.0 };
             }
         });
     }
@@ -190,7 +164,7 @@ impl LatticeOperator {
     fn diagonal(&self, c: Real, k: usize) -> Real {
         let alpha: Real =
             self.neighbours[k].iter().map(|n| if let Neighbour::Ghost(a, _) = n { *a } else { 0.0 }).sum();
-        1.0 + c * (4.0 - alpha)
+        1.0 + c * (CENTRE - alpha)
     }
 
     /// Solves `(I − c L) x = rhs` for the unknown faces of `x` (the fixed faces of `x` hold
@@ -244,7 +218,7 @@ impl LatticeOperator {
                 for (o, y) in out.iter_mut().enumerate() {
                     let k = ch * CHUNK + o;
                     *y = if act[k] {
-                        p_ref[k] - c * (stencil(&nb[k], p_ref, p_ref[k], false) - 4.0 * p_ref[k])
+                        p_ref[k] - c * (stencil(&nb[k], p_ref, p_ref[k], false) - CENTRE * p_ref[k])
                     } else {
                         0.0
                     };
@@ -281,7 +255,7 @@ impl LatticeOperator {
 /// Σ over the neighbours of the values they stand for, at a face of value `own`: unknown
 /// faces and (with `constants`) fixed faces from `u`, ghosts α own (+ β with `constants`).
 #[inline]
-fn stencil(nb: &[Neighbour; 4], u: &[Real], own: Real, constants: bool) -> Real {
+fn stencil(nb: &[Neighbour; SIDES], u: &[Real], own: Real, constants: bool) -> Real {
     let mut s = 0.0;
     for n in nb {
         s += match *n {
@@ -296,7 +270,7 @@ fn stencil(nb: &[Neighbour; 4], u: &[Real], own: Real, constants: bool) -> Real 
 
 /// Σ over the neighbours of their constant parts: fixed faces' values and ghost offsets β.
 #[inline]
-fn constants(nb: &[Neighbour; 4], u: &[Real]) -> Real {
+fn constants(nb: &[Neighbour; SIDES], u: &[Real]) -> Real {
     nb.iter()
         .map(|n| match *n {
             Neighbour::Known(i) => u[i as usize],
@@ -313,38 +287,39 @@ fn dot(a: &[Real], b: &[Real]) -> Real {
     parts.iter().sum()
 }
 
-/// The Laplacians and solves of both face lattices of a grid.
+/// The Laplacians and solves of every face lattice of a grid.
 #[derive(Clone, Debug, Default)]
 pub struct FaceDiffusion {
-    x: LatticeOperator,
-    y: LatticeOperator,
+    /// One operator per face lattice, in axis order.
+    lattices: Vec<LatticeOperator>,
 }
 
 impl FaceDiffusion {
     /// The operators of `grid` under `bc`.
     pub fn new(grid: &Grid, bc: &Boundaries) -> Self {
-        Self { x: LatticeOperator::new(grid, bc, true), y: LatticeOperator::new(grid, bc, false) }
+        Self { lattices: (0..DIM).map(|a| LatticeOperator::new(grid, bc, a)).collect() }
     }
 
-    /// `out = L u` (Σ neighbours − 4 u, without the 1/h²) on the unknown faces of the
-    /// x-face lattice (`x_faces`) or the y-face lattice, 0 on the others.
-    pub fn laplacian(&self, x_faces: bool, u: &[Real], out: &mut [Real]) {
-        if x_faces { &self.x } else { &self.y }.laplacian(u, out);
+    /// `out = L u` (Σ neighbours − 2·DIM u, without the 1/h²) on the unknown faces of the
+    /// lattice normal to `axis`, 0 on the others.
+    pub fn laplacian(&self, axis: usize, u: &[Real], out: &mut [Real]) {
+        self.lattices[axis].laplacian(u, out);
     }
 
-    /// Whether face `k` of a lattice is an unknown (neither fixed nor a periodic copy).
-    pub fn is_unknown(&self, x_faces: bool, k: usize) -> bool {
-        if x_faces { &self.x } else { &self.y }.active[k]
+    /// Whether face `k` of the lattice normal to `axis` is an unknown (neither fixed nor a
+    /// periodic copy).
+    pub fn is_unknown(&self, axis: usize, k: usize) -> bool {
+        self.lattices[axis].active[k]
     }
 
-    /// Solves `(I − c L) x = rhs` on a lattice (see the module doc); `x` holds the initial
-    /// guess and the fixed faces' values. Returns the iterations.
-    pub fn solve(&mut self, x_faces: bool, c: Real, rhs: &[Real], x: &mut [Real]) -> Result<usize, String> {
-        if x_faces { &mut self.x } else { &mut self.y }.solve(c, rhs, x, 1e-13)
+    /// Solves `(I − c L) x = rhs` on the lattice normal to `axis` (see the module doc); `x`
+    /// holds the initial guess and the fixed faces' values. Returns the iterations.
+    pub fn solve(&mut self, axis: usize, c: Real, rhs: &[Real], x: &mut [Real]) -> Result<usize, String> {
+        self.lattices[axis].solve(c, rhs, x, 1e-13)
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
     use multifield_core::boundary::{Boundary, Profile};
@@ -369,24 +344,24 @@ mod tests {
             Boundaries { right: Boundary::Outflow { pressure: 0.0 }, left: Boundary::NoSlip, ..boundaries() },
         ] {
             let mut d = FaceDiffusion::new(&g, &bc);
-            for (x_faces, n) in [(true, g.n_xfaces()), (false, g.n_yfaces())] {
+            for (axis, n) in [(0, g.n_xfaces()), (1, g.n_yfaces())] {
                 let rhs: Vec<Real> = (0..n).map(|k| ((k * 7919) % 23) as Real * 0.1 - 1.0).collect();
                 let mut x = vec![0.0; n];
                 // fixed faces: a known value
-                let lat = if x_faces { &d.x } else { &d.y };
+                let lat = &d.lattices[axis];
                 for (k, x) in x.iter_mut().enumerate() {
                     if !lat.active[k] && !lat.copies.iter().any(|c| c.0 == k) {
                         *x = 0.5;
                     }
                 }
                 let c = 3.0;
-                let its = d.solve(x_faces, c, &rhs, &mut x).unwrap();
+                let its = d.solve(axis, c, &rhs, &mut x).unwrap();
                 let mut lap = vec![0.0; n];
-                d.laplacian(x_faces, &x, &mut lap);
-                let lat = if x_faces { &d.x } else { &d.y };
+                d.laplacian(axis, &x, &mut lap);
+                let lat = &d.lattices[axis];
                 let err =
                     (0..n).filter(|&k| lat.active[k]).map(|k| (x[k] - c * lap[k] - rhs[k]).abs()).fold(0.0, Real::max);
-                eprintln!("x faces {x_faces}: {its} iterations, max residual {err:.2e}");
+                eprintln!("faces normal to {axis}: {its} iterations, max residual {err:.2e}");
                 assert!(err < 1e-11, "residual {err:e}");
                 assert!(its < 60, "{its} iterations");
             }
@@ -402,7 +377,7 @@ mod tests {
         let d = FaceDiffusion::new(&g, &bc);
         let u: Vec<Real> = (0..g.n_xfaces()).map(|k| 2.0 * (((k / (g.nx + 1)) as Real + 0.5) / 8.0)).collect();
         let mut lap = vec![1.0; u.len()];
-        d.laplacian(true, &u, &mut lap);
+        d.laplacian(0, &u, &mut lap);
         let m = lap.iter().fold(0.0 as Real, |m, l| m.max(l.abs()));
         assert!(m < 1e-14, "max |L u| = {m:e}");
     }
@@ -419,7 +394,7 @@ mod tests {
             pool.install(|| {
                 let mut d = FaceDiffusion::new(&g, &bc);
                 let mut x = vec![0.0; n];
-                d.solve(true, 0.7, &rhs, &mut x).unwrap();
+                d.solve(0, 0.7, &rhs, &mut x).unwrap();
                 x.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
             })
         };

@@ -2,7 +2,8 @@
 //! θ_a θ_b K (u_b − u_a). Two fields in one cell relax to a common velocity with the time
 //! constant τ = 1 / (θ_aθ_b K (1/ρ_a + 1/ρ_b)), ρ the bulk densities.
 
-use multifield_core::math::Real;
+use multifield_core::grid::FaceArrays;
+use multifield_core::math::{Real, AXES};
 use multifield_core::plugin::{ExchangeContext, ExchangeModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
@@ -43,8 +44,9 @@ impl ExchangeModel for Constant {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
-    fn coefficients(&self, _ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
-        kx.fill(self.coefficient);
-        ky.fill(self.coefficient);
+    fn coefficients(&self, _ctx: &ExchangeContext, k: &mut FaceArrays) {
+        for a in AXES {
+            k[a].fill(self.coefficient);
+        }
     }
 }

@@ -59,7 +59,8 @@
 //! steady state has F_l = −(the steady residual of the fluid's equations at the markers)
 //! and P' = Pⁿ, independent of Δt and of the body's density.
 
-use multifield_core::math::Real;
+use multifield_core::grid::FaceArrays;
+use multifield_core::math::{Real, AXES};
 use multifield_core::plugin::{ExchangeContext, ExchangeModel, ImmersedBoundary};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
@@ -145,8 +146,9 @@ impl ExchangeModel for DirectForcing {
         let sweeps = (self.forcing == ForcingSolve::Sweeps).then_some(self.iterations);
         Some(ImmersedBoundary { sweeps, retraction: self.retraction })
     }
-    fn coefficients(&self, _ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
-        kx.fill(0.0);
-        ky.fill(0.0);
+    fn coefficients(&self, _ctx: &ExchangeContext, k: &mut FaceArrays) {
+        for a in AXES {
+            k[a].fill(0.0);
+        }
     }
 }

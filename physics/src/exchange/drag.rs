@@ -57,8 +57,8 @@
 //! at the domain edges). Re is floored at [`RE_FLOOR`] (the Re → 0 limit; Lamb's law
 //! needs it, since there K → 0 logarithmically).
 
-use multifield_core::grid::Grid;
-use multifield_core::math::Real;
+use multifield_core::grid::{FaceArrays, Grid};
+use multifield_core::math::{Real, AXES};
 use multifield_core::plugin::{DragLaw, ExchangeContext, ExchangeModel};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -227,6 +227,7 @@ pub fn drag_coefficient(
 /// Slip speed |u_a − u_b| on x-face `(i, j)`: its normal component and the tangential one
 /// averaged from the four nearest y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), columns
 /// clamped to the domain (`g.nx`, `g.ny` > 0).
+#[cfg(feature = "dim2")]
 #[inline]
 fn xface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
     let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
@@ -239,6 +240,7 @@ fn xface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
 
 /// Slip speed on y-face `(i, j)`, the tangential part from the x-faces (i, j−1), (i+1, j−1),
 /// (i, j), (i+1, j), rows clamped to the domain (as [`xface_slip`]).
+#[cfg(feature = "dim2")]
 #[inline]
 fn yface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
     let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
@@ -250,6 +252,7 @@ fn yface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
 }
 
 /// Slip speed |u_a − u_b| on every x-face and y-face ([`xface_slip`], [`yface_slip`]).
+#[cfg(feature = "dim2")]
 pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<Real>) {
     let g: &Grid = ctx.grid;
     sx.clear();
@@ -271,6 +274,41 @@ pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<
     }
 }
 
+/// Slip speed |u_a − u_b| on the face `at` normal to axis `a` (3D): its normal component
+/// and each other component `c` averaged from the four nearest `c`-faces (the cells on
+/// either side along `a`, clamped to the domain, and the two `c`-faces bounding the cell
+/// along `c`), summed in storage order, the components in axis order (the z one last).
+#[cfg(feature = "dim3")]
+#[inline]
+fn face_slip(ctx: &ExchangeContext, g: &Grid, a: usize, at: multifield_core::math::Index) -> Real {
+    use multifield_core::grid::Lattice;
+    let (va, vb) = (&ctx.a.velocity, &ctx.b.velocity);
+    let n = g.n();
+    let f = g.index(Lattice::face(a), at);
+    let mut slip = va[a][f] - vb[a][f];
+    for c in AXES.into_iter().filter(|&c| c != a) {
+        let lattice = Lattice::face(c);
+        let (p, q) = (a.min(c), a.max(c));
+        let offset = |axis: usize, o: usize| {
+            if axis == a {
+                [at[a].saturating_sub(1), at[a].min(n[a] - 1)][o]
+            } else {
+                at[c] + o
+            }
+        };
+        let d = |op: usize, oq: usize| {
+            let mut node = at;
+            node[p] = offset(p, op);
+            node[q] = offset(q, oq);
+            let k = g.index(lattice, node);
+            va[c][k] - vb[c][k]
+        };
+        let t = 0.25 * (d(0, 0) + d(1, 0) + d(0, 1) + d(1, 1));
+        slip = slip.hypot(t);
+    }
+    slip
+}
+
 /// Fills K on every face for a slip-dependent law (see [`drag_coefficient`]), row by row in
 /// parallel (each face's K depends only on the velocities: bit-identical whatever the
 /// threads). Where the particles put nothing on a face (mass and θ exactly 0, most of a
@@ -280,8 +318,7 @@ pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<
 #[allow(clippy::too_many_arguments)]
 pub fn fill_drag(
     ctx: &ExchangeContext,
-    kx: &mut [Real],
-    ky: &mut [Real],
+    k: &mut FaceArrays,
     c: Real,
     g: impl Fn(Real, Real) -> Real + Copy + Sync,
     diameter: Real,
@@ -290,14 +327,35 @@ pub fn fill_drag(
 ) {
     use rayon::prelude::*;
     let grid: &Grid = ctx.grid;
-    let (nx, ny) = (grid.nx, grid.ny);
-    if nx == 0 || ny == 0 {
-        return;
-    }
     let rho_f = ctx.density[0];
     let empty = |m: &[Real], t: &[Real], f: usize| m[f] == 0.0 && t[f] == 0.0;
     let k_at = |t: Real, slip: Real| drag_coefficient(c, g, diameter, viscosity, rho_f, t, slip, di_felice);
-    kx.par_chunks_mut(nx + 1).with_min_len(8).enumerate().for_each(|(j, row)| {
+    #[cfg(feature = "dim3")]
+    {
+        use multifield_core::grid::Lattice;
+        if grid.n().contains(&0) {
+            return;
+        }
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            let (mass, theta) = (&ctx.b.mass_face[a], &ctx.b.theta_face[a]);
+            k[a].par_iter_mut().enumerate().with_min_len(256).for_each(|(f, k)| {
+                *k = if empty(mass, theta, f) {
+                    0.0
+                } else {
+                    k_at(ctx.a.theta_face[a][f], face_slip(ctx, grid, a, grid.node(lattice, f)))
+                };
+            });
+        }
+    }
+    #[cfg(feature = "dim2")]
+    let (nx, ny) = (grid.nx, grid.ny);
+    #[cfg(feature = "dim2")]
+    if nx == 0 || ny == 0 {
+        return;
+    }
+    #[cfg(feature = "dim2")]
+    k.u.par_chunks_mut(nx + 1).with_min_len(8).enumerate().for_each(|(j, row)| {
         for (i, k) in row.iter_mut().enumerate() {
             let f = grid.xface(i, j);
             *k = if empty(&ctx.b.mass_face.u, &ctx.b.theta_face.u, f) {
@@ -307,7 +365,8 @@ pub fn fill_drag(
             };
         }
     });
-    ky.par_chunks_mut(nx).with_min_len(8).enumerate().for_each(|(j, row)| {
+    #[cfg(feature = "dim2")]
+    k.v.par_chunks_mut(nx).with_min_len(8).enumerate().for_each(|(j, row)| {
         for (i, k) in row.iter_mut().enumerate() {
             let f = grid.yface(i, j);
             *k = if empty(&ctx.b.mass_face.v, &ctx.b.theta_face.v, f) {
@@ -456,22 +515,21 @@ impl<C: DragCorrelation> ExchangeModel for Drag<C> {
     fn drag_law(&self) -> Option<DragLaw> {
         Some(law(C::NAME, self.diameter, self.viscosity, C::VALID_RE, self.added_mass, self.rotation))
     }
-    fn coefficients(&self, ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
+    fn coefficients(&self, ctx: &ExchangeContext, k: &mut FaceArrays) {
         if C::CONSTANT_CD_RE.is_some() && !self.di_felice {
             // independent of the slip
-            for (k, t) in kx.iter_mut().zip(&ctx.a.theta_face.u) {
-                *k = self.coefficient(0.0, ctx.density[0], *t);
-            }
-            for (k, t) in ky.iter_mut().zip(&ctx.a.theta_face.v) {
-                *k = self.coefficient(0.0, ctx.density[0], *t);
+            for a in AXES {
+                for (k, t) in k[a].iter_mut().zip(&ctx.a.theta_face[a]) {
+                    *k = self.coefficient(0.0, ctx.density[0], *t);
+                }
             }
         } else {
-            fill_drag(ctx, kx, ky, C::SHAPE.factor(), C::cd_re, self.diameter, self.viscosity, self.di_felice);
+            fill_drag(ctx, k, C::SHAPE.factor(), C::cd_re, self.diameter, self.viscosity, self.di_felice);
         }
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
 
@@ -515,28 +573,28 @@ mod tests {
             }
         }
         let ctx = ExchangeContext { grid: &g, a: &a, b: &b, density: [1.0, 1.1] };
-        let (mut kx, mut ky) = (vec![Real::NAN; g.n_xfaces()], vec![Real::NAN; g.n_yfaces()]);
+        let mut k = FaceArrays { u: vec![Real::NAN; g.n_xfaces()], v: vec![Real::NAN; g.n_yfaces()] };
         let law = super::super::cylinder::cd_re;
         let (c, d, mu) = (2.0 / std::f64::consts::PI, 0.02, 0.01);
-        fill_drag(&ctx, &mut kx, &mut ky, c, |re, _| law(re), d, mu, false);
+        fill_drag(&ctx, &mut k, c, |re, _| law(re), d, mu, false);
         let (mut sx, mut sy) = (Vec::new(), Vec::new());
         face_slip_speeds(&ctx, &mut sx, &mut sy);
         let mut computed = 0;
-        for (k, s, t, mb, tb) in kx
-            .iter()
-            .zip(&sx)
-            .zip(&a.theta_face.u)
-            .zip(&b.mass_face.u)
-            .zip(&b.theta_face.u)
-            .map(|((((k, s), t), m), tb)| (k, s, t, m, tb))
-            .chain(
-                ky.iter()
-                    .zip(&sy)
-                    .zip(&a.theta_face.v)
-                    .zip(&b.mass_face.v)
-                    .zip(&b.theta_face.v)
-                    .map(|((((k, s), t), m), tb)| (k, s, t, m, tb)),
-            )
+        for (k, s, t, mb, tb) in
+            k.u.iter()
+                .zip(&sx)
+                .zip(&a.theta_face.u)
+                .zip(&b.mass_face.u)
+                .zip(&b.theta_face.u)
+                .map(|((((k, s), t), m), tb)| (k, s, t, m, tb))
+                .chain(
+                    k.v.iter()
+                        .zip(&sy)
+                        .zip(&a.theta_face.v)
+                        .zip(&b.mass_face.v)
+                        .zip(&b.theta_face.v)
+                        .map(|((((k, s), t), m), tb)| (k, s, t, m, tb)),
+                )
         {
             if *mb == 0.0 && *tb == 0.0 {
                 assert_eq!(*k, 0.0);

@@ -2,7 +2,8 @@
 //! velocity (exact; no large number enters the solve). This is how a fully resolved body
 //! and the fluid around it share one velocity (docs/method.md §2).
 
-use multifield_core::math::Real;
+use multifield_core::grid::FaceArrays;
+use multifield_core::math::{Real, AXES};
 use multifield_core::plugin::{ExchangeContext, ExchangeModel};
 use multifield_core::registry::params_value;
 use serde::{Deserialize, Serialize};
@@ -37,8 +38,9 @@ impl ExchangeModel for NoSlip {
     fn no_slip(&self) -> bool {
         true
     }
-    fn coefficients(&self, _ctx: &ExchangeContext, kx: &mut [Real], ky: &mut [Real]) {
-        kx.fill(Real::INFINITY);
-        ky.fill(Real::INFINITY);
+    fn coefficients(&self, _ctx: &ExchangeContext, k: &mut FaceArrays) {
+        for a in AXES {
+            k[a].fill(Real::INFINITY);
+        }
     }
 }

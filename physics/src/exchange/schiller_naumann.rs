@@ -65,7 +65,7 @@ multifield_core::register!(
     Drag::<SchillerNaumann>::PARAMS
 );
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
 

@@ -33,7 +33,7 @@ impl DragCorrelation for Stokes {
 
 multifield_core::register!(Exchange, "stokes", Drag<Stokes>, Stokes::SUMMARY, Drag::<Stokes>::PARAMS);
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::super::drag::drag_coefficient;
     use super::*;

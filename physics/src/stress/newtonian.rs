@@ -1,11 +1,13 @@
 //! Newtonian viscosity: σ = 2 μ D, applied to the field's face velocities as
-//! `u ← u + Δt (μ/ρ⁰) ∇²u` (explicit), stable for Δt ≤ h² ρ⁰ / (4 μ) in 2D.
+//! `u ← u + Δt (μ/ρ⁰) ∇²u` (explicit), stable for Δt ≤ h² ρ⁰ / (2 DIM μ): h²ρ⁰/(4μ) in 2D,
+//! h²ρ⁰/(6μ) in 3D.
 //!
-//! The 5-point Laplacian takes its ghost values from the boundary conditions: −u on a
+//! The 5-point (in 3D 7-point) Laplacian of each face lattice takes its ghost values from the boundary conditions: −u on a
 //! no-slip wall (zero at the wall), u on a free-slip wall or outflow, 2u_w − u on a moving wall.
 
-use multifield_core::boundary::Side;
-use multifield_core::math::Real;
+use multifield_core::boundary::{along, tangential_axes, Side};
+use multifield_core::grid::Lattice;
+use multifield_core::math::{Real, AXES, DIM};
 use multifield_core::plugin::{GridStressContext, StressKind, StressModel, TimeStepContext};
 use multifield_core::registry::{params_value, ParamDoc};
 use serde::{Deserialize, Serialize};
@@ -63,7 +65,7 @@ impl StressModel for Newtonian {
         let h2 = ctx.grid.h * ctx.grid.h;
         (self.viscosity > 0.0).then(|| match ctx.implicit_viscosity {
             Some(k) => k * h2 * ctx.density / self.viscosity,
-            None => self.safety * h2 * ctx.density / (4.0 * self.viscosity),
+            None => self.safety * h2 * ctx.density / ((2 * DIM) as Real * self.viscosity),
         })
     }
     fn apply_on_grid(&self, ctx: &mut GridStressContext) -> Result<(), String> {
@@ -72,74 +74,62 @@ impl StressModel for Newtonian {
         }
         let g = ctx.grid;
         let bc = ctx.boundaries;
-        let (nx, ny) = (g.nx, g.ny);
+        let n = g.n();
         let k = ctx.dt * self.viscosity / (ctx.density * g.h * g.h);
-        let (px, py) = (bc.periodic(0), bc.periodic(1));
-        // x component on x-faces: (nx+1) × ny
-        let u = ctx.state.velocity.u.clone();
-        for j in 0..ny {
-            for i in 0..=nx {
-                if bc.xface_fixed(g, i) || (px && i == nx) {
+        // the centre weight of the 5-point (7-point) Laplacian
+        let centre = (2 * DIM) as Real;
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            let periodic = bc.periodic(a);
+            // component a on the faces normal to a
+            let u = ctx.state.velocity[a].clone();
+            for (f, at) in g.nodes(lattice) {
+                if bc.face_fixed(g, a, at[a]) || (periodic && at[a] == n[a]) {
                     continue;
                 }
-                let c = u[g.xface(i, j)];
-                let w = if i > 0 {
-                    u[g.xface(i - 1, j)]
-                } else if px {
-                    u[g.xface(nx - 1, j)]
-                } else {
-                    c
+                let c = u[f];
+                // the neighbour across `side`: along the component (normal) the next face or,
+                // at an open end, the face itself; across it (tangential) the next face or
+                // the boundary's ghost
+                let neighbour = |side: Side| -> Real {
+                    let d = side.axis();
+                    let mut m = at;
+                    if d == a {
+                        if !side.high() && at[a] > 0 {
+                            m[a] -= 1;
+                        } else if !side.high() && periodic {
+                            m[a] = n[a] - 1;
+                        } else if side.high() && at[a] < n[a] {
+                            m[a] += 1;
+                        } else {
+                            return c;
+                        }
+                    } else if !side.high() && at[d] > 0 {
+                        m[d] -= 1;
+                    } else if side.high() && at[d] + 1 < n[d] {
+                        m[d] += 1;
+                    } else if bc.periodic(d) {
+                        m[d] = if side.high() { 0 } else { n[d] - 1 };
+                    } else {
+                        // the fraction along the side: the face's own axis at the face, the
+                        // others at the cell centre
+                        let s = tangential_axes(d).map(|t| {
+                            if t == a {
+                                at[a] as Real / n[a] as Real
+                            } else {
+                                (at[t] as Real + 0.5) / n[t] as Real
+                            }
+                        });
+                        return bc.ghost(side, a, c, along(s));
+                    }
+                    u[g.index(lattice, m)]
                 };
-                let e = if i < nx { u[g.xface(i + 1, j)] } else { c };
-                let sx = (i as Real) / nx as Real;
-                let s = if j > 0 {
-                    u[g.xface(i, j - 1)]
-                } else if py {
-                    u[g.xface(i, ny - 1)]
-                } else {
-                    bc.tangential_ghost(Side::Bottom, c, sx)
-                };
-                let n = if j + 1 < ny {
-                    u[g.xface(i, j + 1)]
-                } else if py {
-                    u[g.xface(i, 0)]
-                } else {
-                    bc.tangential_ghost(Side::Top, c, sx)
-                };
-                ctx.state.velocity.u[g.xface(i, j)] = c + k * (w + e + s + n - 4.0 * c);
-            }
-        }
-        let v = ctx.state.velocity.v.clone();
-        for j in 0..=ny {
-            if bc.yface_fixed(g, j) || (py && j == ny) {
-                continue;
-            }
-            for i in 0..nx {
-                let c = v[g.yface(i, j)];
-                let s = if j > 0 {
-                    v[g.yface(i, j - 1)]
-                } else if py {
-                    v[g.yface(i, ny - 1)]
-                } else {
-                    c
-                };
-                let n = if j < ny { v[g.yface(i, j + 1)] } else { c };
-                let sy = (j as Real) / ny as Real;
-                let w = if i > 0 {
-                    v[g.yface(i - 1, j)]
-                } else if px {
-                    v[g.yface(nx - 1, j)]
-                } else {
-                    bc.tangential_ghost(Side::Left, c, sy)
-                };
-                let e = if i + 1 < nx {
-                    v[g.yface(i + 1, j)]
-                } else if px {
-                    v[g.yface(0, j)]
-                } else {
-                    bc.tangential_ghost(Side::Right, c, sy)
-                };
-                ctx.state.velocity.v[g.yface(i, j)] = c + k * (w + e + s + n - 4.0 * c);
+                // Σ neighbours in side order (2D: w + e + s + n)
+                let mut sum = neighbour(Side::ALL[0]);
+                for &side in &Side::ALL[1..] {
+                    sum += neighbour(side);
+                }
+                ctx.state.velocity[a][f] = c + k * (sum - centre * c);
             }
         }
         bc.enforce(g, &mut ctx.state.velocity);
