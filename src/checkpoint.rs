@@ -57,8 +57,17 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
-/// The first bytes of every checkpoint.
-pub const MAGIC: &[u8; 8] = b"MFCKPT\r\n";
+/// The first bytes of every checkpoint of a 2D run.
+pub const MAGIC2: &[u8; 8] = b"MFCKPT\r\n";
+/// The first bytes of every checkpoint of a 3D run: the dimension is read before anything
+/// is decoded, so a checkpoint of the other dimension is refused by name.
+pub const MAGIC3: &[u8; 8] = b"MFCKP3\r\n";
+/// The first bytes of every checkpoint of this compile's dimension.
+#[cfg(feature = "dim2")]
+pub const MAGIC: &[u8; 8] = MAGIC2;
+/// The first bytes of every checkpoint of this compile's dimension.
+#[cfg(feature = "dim3")]
+pub const MAGIC: &[u8; 8] = MAGIC3;
 /// Version of the format; a checkpoint of another version is refused. Version 2 was the
 /// hand-written encoding with a 64-bit checksum; version 3 is derived structs encoded
 /// with postcard, with a CRC-32; version 4 adds the stress models' per-point state to the
@@ -239,6 +248,13 @@ fn load(path: &Path) -> Result<Checkpoint, String> {
 }
 
 fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
+    let signature = bytes.get(..MAGIC.len());
+    if signature != Some(MAGIC) && (signature == Some(MAGIC2) || signature == Some(MAGIC3)) {
+        let (theirs, ours) = if signature == Some(MAGIC3) { (3, 2) } else { (2, 3) };
+        return Err(format!(
+            "a checkpoint of a {theirs}D run, and this case is {ours}D: continue it with the case that wrote it"
+        ));
+    }
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         let what = if bytes.is_empty() { "the file is empty" } else { "not a multifield checkpoint" };
         return Err(format!("{what} (it does not start with the checkpoint signature)"));

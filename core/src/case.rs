@@ -1048,7 +1048,7 @@ impl Case {
 
     /// Refuses, naming the entry, what a 3D case cannot have yet: bodies (listed,
     /// generated or as mass points), contact, the 2D regions, and the output that comes
-    /// with the rest of issue 17 (snapshots, pictures, checkpoints).
+    /// with the rest of issue 17 (pictures).
     #[cfg(feature = "dim3")]
     fn refuse_not_yet_3d(&self) -> Result<()> {
         let not_yet = |path: String, what: &str| {
@@ -1084,14 +1084,8 @@ impl Case {
             return not_yet("domain.point_cells".into(), "mass points (and their grid)");
         }
         let o = &self.output;
-        if o.snapshots.is_some() {
-            return not_yet("output.snapshots".into(), "snapshots");
-        }
         if o.pictures.is_some() {
             return not_yet("output.pictures".into(), "pictures");
-        }
-        if o.checkpoints.is_some() {
-            return not_yet("output.checkpoints".into(), "checkpoints");
         }
         for m in &self.monitors {
             if matches!(m.of, crate::monitor::Monitored::Suspension { .. } | crate::monitor::Monitored::Forces { .. }) {

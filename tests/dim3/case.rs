@@ -102,13 +102,13 @@ fn what_a_3d_case_cannot_have_yet_is_refused_by_name() {
         ("region: All", "fields.water.region", "bodies (`Bodies([...])`) are not available in 3D yet"),
         ("region: All", "fields.water.region", "`Rectangle` and `Disk` are 2D regions"),
         ("density: 1.0,", "fields.water.representation", "mass points are not available in 3D yet"),
-        ("max_dt: 0.01)", "output.snapshots", "snapshots are not available in 3D yet"),
+        ("max_dt: 0.01)", "output.pictures", "pictures are not available in 3D yet"),
     ] {
         let replacement = match path {
             "fields.water.region" if what.starts_with("bodies") => "region: Bodies([])",
             "fields.water.region" => "region: Rectangle(min: (0.0, 0.0), max: (1.0, 1.0))",
             "fields.water.representation" => "density: 1.0, representation: MassPoint,",
-            _ => "max_dt: 0.01), output: (snapshots: Some((interval: 0.1)))",
+            _ => "max_dt: 0.01), output: (pictures: Some((interval: 0.1)))",
         };
         let text = TGV.replacen(change, replacement, 1);
         assert_ne!(text, TGV);

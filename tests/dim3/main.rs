@@ -6,5 +6,6 @@
 
 mod case;
 mod grid;
+mod output;
 mod poisson;
 mod pressure;

@@ -2,6 +2,7 @@
 //! loaded bit for bit.
 
 use super::*;
+use crate::math::axis_name;
 
 /// What a [`Simulation`] carries from one step to the next ([`Simulation::save_state`]):
 /// borrowed when saved, owned when loaded.
@@ -110,14 +111,13 @@ impl Simulation {
             }
             let what = |q: &str| format!("field `{name}`: {q}");
             let (s, g) = (&mut f.state, &c.grid);
-            for (a, b, q) in [
-                (&mut s.theta, &g.theta, "volume fraction"),
-                (&mut s.theta_face.u, &g.theta_face.u, "x-face volume fraction"),
-                (&mut s.theta_face.v, &g.theta_face.v, "y-face volume fraction"),
-                (&mut s.mass_face.u, &g.mass_face.u, "x-face mass"),
-                (&mut s.mass_face.v, &g.mass_face.v, "y-face mass"),
-            ] {
-                state::copy_into(a, b, &what(q))?;
+            state::copy_into(&mut s.theta, &g.theta, &what("volume fraction"))?;
+            for a in AXES {
+                let q = format!("{}-face volume fraction", axis_name(a));
+                state::copy_into(&mut s.theta_face[a], &g.theta_face[a], &what(&q))?;
+            }
+            for a in AXES {
+                state::copy_into(&mut s.mass_face[a], &g.mass_face[a], &what(&format!("{}-face mass", axis_name(a))))?;
             }
             for (v, w, q) in [
                 (&mut s.velocity, &g.velocity, "velocity"),
@@ -126,8 +126,9 @@ impl Simulation {
                 (&mut s.specific_volume, &g.specific_volume, "specific volume"),
                 (&mut s.body_force, &g.body_force, "immersed-boundary force"),
             ] {
-                state::copy_into(&mut v.u, &w.u, &what(&format!("{q} on x-faces")))?;
-                state::copy_into(&mut v.v, &w.v, &what(&format!("{q} on y-faces")))?;
+                for a in AXES {
+                    state::copy_into(&mut v[a], &w[a], &what(&format!("{q} on {}-faces", axis_name(a))))?;
+                }
             }
             // Volume fractions and masses are not negative (beyond round-off); a field on
             // the grid holds at most 1 + coupling.max_volume_fraction_error of a cell, the
@@ -136,16 +137,15 @@ impl Simulation {
             // it where they are compressed.)
             let hi = if f.frame.is_lagrangian() { Real::INFINITY } else { theta_max };
             let why = "a volume fraction lies in [0, 1], to round-off and coupling.max_volume_fraction_error";
-            for (t, q) in [
-                (&s.theta, "volume fraction"),
-                (&s.theta_face.u, "x-face volume fraction"),
-                (&s.theta_face.v, "y-face volume fraction"),
-            ] {
-                state::within(t, -THETA_ROUND_OFF, hi, &what(q), why)?;
+            state::within(&s.theta, -THETA_ROUND_OFF, hi, &what("volume fraction"), why)?;
+            for a in AXES {
+                let q = format!("{}-face volume fraction", axis_name(a));
+                state::within(&s.theta_face[a], -THETA_ROUND_OFF, hi, &what(&q), why)?;
             }
             let m0 = -THETA_ROUND_OFF * f.density * grid.cell_volume();
-            for (m, q) in [(&s.mass_face.u, "x-face mass"), (&s.mass_face.v, "y-face mass")] {
-                state::within(m, m0, Real::INFINITY, &what(q), "a mass is not negative")?;
+            for a in AXES {
+                let q = format!("{}-face mass", axis_name(a));
+                state::within(&s.mass_face[a], m0, Real::INFINITY, &what(&q), "a mass is not negative")?;
             }
             f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;
             let bodies = f.frame.bodies();
