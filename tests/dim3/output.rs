@@ -128,7 +128,7 @@ fn snapshots_hold_the_3d_arrays_that_h5py_and_the_xdmf_reader_read() {
             let speed_max = (0..512)
                 .map(|c| (velocity[3 * c].powi(2) + velocity[3 * c + 1].powi(2) + velocity[3 * c + 2].powi(2)).sqrt())
                 .fold(0.0, f64::max);
-            let last = text.lines().filter(|l| l.starts_with("velocity")).last().unwrap_or_default().to_string();
+            let last = text.lines().rfind(|l| l.starts_with("velocity")).unwrap_or_default().to_string();
             let fields: Vec<&str> = last.split_whitespace().collect();
             assert_eq!(text.lines().filter(|l| l.starts_with("grid 512 cells")).count(), 3, "{text}");
             assert_eq!(fields[..3], ["velocity", "512", "3"], "{text}");
