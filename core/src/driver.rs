@@ -315,8 +315,8 @@ pub struct BodyOverlap {
 
 impl StopCheck for BodyOverlap {
     fn check(&mut self, sim: &Simulation, _d: &StepDiagnostics) -> Option<String> {
-        // the bodies of `Simulation::bodies`, without their fields' names
-        let bodies: Vec<BodyState> = sim.fields.iter().flat_map(|f| f.frame.bodies()).collect();
+        // the bodies of `Simulation::bodies` as the frames hold them (no name copied)
+        let bodies: Vec<&BodyState> = sim.fields.iter().flat_map(|f| f.frame.body_states()).collect();
         let disks = match &self.disks {
             Some((n, mask)) if *n == bodies.len() => mask,
             _ => &self.disks.insert((bodies.len(), disk_mask(sim, &bodies))).1,
@@ -383,13 +383,13 @@ pub fn reference_energy(sim: &Simulation) -> Real {
 /// points spend most of each step here. Of several overlaps, the one reported is the
 /// first in body order: body k's pairs with the bodies before it, then its walls.
 pub fn body_overlap(sim: &Simulation) -> Option<String> {
-    let bodies: Vec<BodyState> = sim.bodies().into_iter().map(|(_, b)| b).collect();
+    let bodies: Vec<&BodyState> = sim.fields.iter().flat_map(|f| f.frame.body_states()).collect();
     let disks = disk_mask(sim, &bodies);
     overlap_of(sim, bodies, &disks)
 }
 
 /// Which of `bodies` (the simulation's, in order) are disks by their shape in the case.
-fn disk_mask(sim: &Simulation, bodies: &[BodyState]) -> Vec<bool> {
+fn disk_mask(sim: &Simulation, bodies: &[&BodyState]) -> Vec<bool> {
     let disks: HashSet<&str> = sim
         .case
         .fields
@@ -406,12 +406,12 @@ fn disk_mask(sim: &Simulation, bodies: &[BodyState]) -> Vec<bool> {
 
 /// [`body_overlap`] of `bodies` (the simulation's, in order), of which the disks are those
 /// `disks` marks.
-fn overlap_of(sim: &Simulation, bodies: Vec<BodyState>, disks: &[bool]) -> Option<String> {
+fn overlap_of(sim: &Simulation, bodies: Vec<&BodyState>, disks: &[bool]) -> Option<String> {
     let case = &sim.case;
     if !disks.contains(&true) {
         return None;
     }
-    let bodies: Vec<BodyState> = bodies.into_iter().zip(disks).filter(|(_, d)| **d).map(|(b, _)| b).collect();
+    let bodies: Vec<&BodyState> = bodies.into_iter().zip(disks).filter(|(_, d)| **d).map(|(b, _)| b).collect();
     let centres: Vec<_> = bodies.iter().map(|b| b.position).collect();
     let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
     let domain = SearchDomain::of(&case.domain, &case.boundaries);

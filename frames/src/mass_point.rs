@@ -354,8 +354,8 @@ impl Frame for MassPoint {
         Ok(())
     }
 
-    fn bodies(&self) -> Vec<BodyState> {
-        self.points.iter().map(|p| p.state.clone()).collect()
+    fn body_states(&self) -> Vec<&BodyState> {
+        self.points.iter().map(|p| &p.state).collect()
     }
 
     fn points(&self) -> Option<PointSet> {
