@@ -260,6 +260,12 @@ impl VerletPairs {
         VerletPairs { skin_fraction: skin_fraction.max(0.0), ..Default::default() }
     }
 
+    /// The skin of the list as last built (0 before): while the list holds (a call did not
+    /// rebuild it), no centre is farther than 0.45 × skin from where it was at the build.
+    pub fn skin(&self) -> Real {
+        self.skin
+    }
+
     /// How many calls rebuilt the list, and how many calls there were.
     pub fn counts(&self) -> (u64, u64) {
         (self.builds, self.calls)

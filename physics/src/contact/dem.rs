@@ -154,6 +154,10 @@ struct Scratch {
     touches: Vec<Touch>,
     /// Per chunk of bodies, its wall contacts.
     walls: Vec<Vec<Touch>>,
+    /// The bodies that may touch a wall while the Verlet list holds, in order, and the
+    /// list's build they were found at (module docs of [`Dem::touches`]).
+    near_walls: Vec<usize>,
+    near_walls_of: Option<(u64, usize)>,
     /// Per touch: ξ before the step (`None`: a new contact).
     xi: Vec<Option<Real>>,
     /// Per touch: the force on the first body, F_t, and ξ after the step (touching pairs).
@@ -175,6 +179,9 @@ fn history_order(key: (u64, u64)) -> (bool, u64, u64) {
 
 /// Bodies per parallel chunk of the walls' search and of the per-body sums.
 const CHUNK: usize = 1024;
+/// From this many touches on (and on more than one thread) the bodies' sums run in
+/// parallel; below, the serial loop over the touches is cheaper than a pass over the bodies.
+const PARALLEL_TOUCHES: usize = 512;
 
 /// A Verlet list with a skin of half the largest radius: at the contact sub-step a disk
 /// moves a small fraction of that per sub-step, so the list lasts many sub-steps.
@@ -501,13 +508,28 @@ impl Dem {
         }
         let lo = ctx.grid.origin;
         let hi = lo + ctx.grid.size();
-        let chunks = bodies.len().div_ceil(CHUNK);
+        // the bodies near a wall: found when the Verlet list was built (at its reference
+        // centres, today's then), those within R + ε_act + skin of a side; while the list
+        // holds no centre has moved 0.45 × skin from there, so no other body can touch one
+        let build = (self.neighbours.counts().0, bodies.len());
+        if s.near_walls_of != Some(build) {
+            let reach = range + self.neighbours.skin();
+            s.near_walls.clear();
+            s.near_walls.extend((0..bodies.len()).filter(|&i| {
+                let (x, r) = (bodies[i].position, bodies[i].radius);
+                let gap = (x.x - lo.x).min(hi.x - x.x).min(x.y - lo.y).min(hi.y - x.y);
+                !(gap > r + reach)
+            }));
+            s.near_walls_of = Some(build);
+        }
+        let near = &s.near_walls;
+        let chunks = near.len().div_ceil(CHUNK);
         if s.walls.len() < chunks {
             s.walls.resize_with(chunks, Vec::new);
         }
         s.walls[..chunks].par_iter_mut().enumerate().for_each(|(chunk, out)| {
             out.clear();
-            for i in chunk * CHUNK..((chunk + 1) * CHUNK).min(bodies.len()) {
+            for &i in &near[chunk * CHUNK..((chunk + 1) * CHUNK).min(near.len())] {
                 let a = &bodies[i];
                 let Some(mass) = effective_mass(a, None) else { continue };
                 for (k, side) in Side::ALL.into_iter().enumerate() {
@@ -633,9 +655,9 @@ impl ContactModel for Dem {
     }
     /// The touches' forces in parallel (each reads its own figures and its ξ, found by a
     /// merge of the history with the touches, both in [`history_order`]), then each body's
-    /// sum in parallel over the bodies, each summing its touches in their order: the
-    /// additions of the serial loop over the touches, so the same bits on any number of
-    /// threads. No allocation once the buffers have grown.
+    /// sum in parallel over the bodies (from [`PARALLEL_TOUCHES`] touches on), each summing
+    /// its touches in their order: the additions of the serial loop over the touches, so
+    /// the same bits on any number of threads. No allocation once the buffers have grown.
     fn forces(&mut self, ctx: &ContactContext, dt: Real, out: &mut [(Vector, Real)]) {
         let mut s = std::mem::take(&mut self.scratch);
         let (range, mu) = (self.range(ctx), ctx.fluid_viscosity.unwrap_or(0.0));
@@ -672,7 +694,21 @@ impl ContactModel for Dem {
         s.history.clear();
         s.history.extend(s.touches.iter().zip(&s.forces).filter_map(|(c, f)| f.2.map(|xi| (c.key, xi))));
         std::mem::swap(&mut self.history, &mut s.history);
-        // each body's touches, in the order of the touches
+        // few touches or one thread: the serial loop over the touches (O(touches))
+        if s.touches.len() < PARALLEL_TOUCHES || rayon::current_num_threads() == 1 {
+            out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
+            for (c, &(f, f_t, _)) in s.touches.iter().zip(&s.forces) {
+                out[c.i].0 += f;
+                out[c.i].1 -= ctx.bodies[c.i].radius * f_t;
+                if let Some(j) = c.j {
+                    out[j].0 -= f;
+                    out[j].1 -= ctx.bodies[j].radius * f_t;
+                }
+            }
+            self.scratch = s;
+            return;
+        }
+        // else each body's touches, in the order of the touches, summed in parallel
         let n = out.len();
         s.start.clear();
         s.start.resize(n + 1, 0);
@@ -955,10 +991,12 @@ mod tests {
     }
 
     /// The forces of a dense pile (1,500 disks of two sizes overlapping each other and
-    /// the walls, friction, several sub-steps so that the history carries over) are the
-    /// serial loop's over the touches, bit for bit, on 1 and on 3 threads: the per-touch
-    /// forces and the per-body sums in parallel change no bit. The reference is the loop as
-    /// it was: ξ looked up in a map by key, the forces added onto the bodies touch by touch.
+    /// the walls, friction, 8 calls between which the disks move by up to a tenth of a
+    /// radius, so that the history carries over and the Verlet list and its bodies near the
+    /// walls are rebuilt now and then) are the serial loop's over the touches of a fresh
+    /// search, bit for bit, on 1 and on 3 threads: the per-touch forces and the per-body
+    /// sums in parallel change no bit. The reference is the loop as it was: ξ looked up in
+    /// a map by key, the forces added onto the bodies touch by touch.
     #[test]
     fn the_parallel_forces_are_the_serial_loops_bit_for_bit() {
         let grid = Grid::new(40, 40, 0.025, Vector::zeros());
@@ -968,7 +1006,7 @@ mod tests {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 11) as Real / (1u64 << 53) as Real
         };
-        let mut bodies: Vec<BodyState> = (0..1500)
+        let bodies: Vec<BodyState> = (0..1500)
             .map(|k| {
                 let r: Real = if k % 3 == 0 { 0.016 } else { 0.011 };
                 let mut b = disk(next(), next(), next() - 0.5, next() - 0.5);
@@ -978,35 +1016,23 @@ mod tests {
                 b
             })
             .collect();
-        let dt = 1e-5;
-        let run = |threads: usize, bodies: &mut Vec<BodyState>| -> Vec<Vec<(Vector, Real)>> {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            let mut m = dem(0.7, 1e-3, 0.4);
-            let mut all = Vec::new();
-            for _ in 0..4 {
-                let mut out = vec![(Vector::new(Real::NAN, 1.0), 7.0); bodies.len()];
-                pool.install(|| m.forces(&vacuum(&grid, &bc, bodies), dt, &mut out));
-                for (b, (f, _)) in bodies.iter_mut().zip(&out) {
-                    b.position += dt * (b.velocity + dt * f / b.mass);
-                }
-                all.push(out);
-            }
-            all
-        };
-        // the reference: the serial loop with ξ in a map
+        let (dt, calls) = (1e-5, 8);
+        // between calls each disk moves by 0.002 v (≤ 0.0014, a tenth of a radius)
+        let drift = |bodies: &mut [BodyState]| bodies.iter_mut().for_each(|b| b.position += 0.002 * b.velocity);
+        // the reference: the serial loop with ξ in a map, over the touches of a fresh model
         let mut reference = Vec::new();
         let mut b_ref = bodies.clone();
-        let mut m = dem(0.7, 1e-3, 0.4);
         let mut map: std::collections::BTreeMap<(u64, u64), Real> = std::collections::BTreeMap::new();
-        let (mut touching, mut walls) = (0, 0);
-        for _ in 0..4 {
+        let (mut fewest, mut walls) = (usize::MAX, 0);
+        for _ in 0..calls {
             let ctx = vacuum(&grid, &bc, &b_ref);
+            let mut fresh = dem(0.7, 1e-3, 0.4);
             let mut s = Scratch::default();
-            m.touches(&ctx, &mut s);
+            fresh.touches(&ctx, &mut s);
             let mut out = vec![(Vector::zeros(), 0.0); b_ref.len()];
             let mut next_map = std::collections::BTreeMap::new();
             for c in &s.touches {
-                let (f_n, f_t, xi) = m.law(c, map.get(&c.key).copied().unwrap_or(0.0), dt);
+                let (f_n, f_t, xi) = fresh.law(c, map.get(&c.key).copied().unwrap_or(0.0), dt);
                 next_map.insert(c.key, xi);
                 let f = f_n * c.n + f_t * Vector::new(-c.n.y, c.n.x);
                 out[c.i].0 += f;
@@ -1015,41 +1041,41 @@ mod tests {
                     out[j].0 -= f;
                     out[j].1 -= b_ref[j].radius * f_t;
                 }
-                touching += 1;
                 walls += c.j.is_none() as usize;
             }
+            fewest = fewest.min(s.touches.len());
             map = next_map;
-            for (b, (f, _)) in b_ref.iter_mut().zip(&out) {
-                b.position += dt * (b.velocity + dt * f / b.mass);
-            }
+            drift(&mut b_ref);
             reference.push(out);
         }
-        assert!(touching > 4 * 1000 && walls > 4 * 10, "{touching} touches, {walls} on walls: too sparse a pile");
+        assert!(fewest >= PARALLEL_TOUCHES && walls > 10 * calls, "{fewest} touches, {walls} on walls: too sparse");
         let bits = |all: &[Vec<(Vector, Real)>]| -> Vec<u64> {
             all.iter().flatten().flat_map(|(f, t)| [f.x.to_bits(), f.y.to_bits(), t.to_bits()]).collect()
         };
         for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let mut m = dem(0.7, 1e-3, 0.4);
             let mut b = bodies.clone();
-            let got = run(threads, &mut b);
-            assert!(bits(&got) == bits(&reference), "{threads} thread(s): the forces differ from the serial loop's");
-        }
-        // and the history the model keeps is the map's (by key, as checkpointed)
-        let mut m2 = dem(0.7, 1e-3, 0.4);
-        for _ in 0..4 {
-            let mut out = vec![(Vector::zeros(), 0.0); bodies.len()];
-            m2.forces(&vacuum(&grid, &bc, &bodies), dt, &mut out);
-            for (b, (f, _)) in bodies.iter_mut().zip(&out) {
-                b.position += dt * (b.velocity + dt * f / b.mass);
+            let mut got = Vec::new();
+            for _ in 0..calls {
+                let mut out = vec![(Vector::new(Real::NAN, 1.0), 7.0); b.len()];
+                pool.install(|| m.forces(&vacuum(&grid, &bc, &b), dt, &mut out));
+                drift(&mut b);
+                got.push(out);
             }
+            let (builds, _) = m.neighbours.counts();
+            assert!((2..calls as u64).contains(&builds), "{builds} builds of the Verlet list in {calls} calls");
+            assert!(bits(&got) == bits(&reference), "{threads} thread(s): the forces differ from the serial loop's");
+            // the history the model keeps is the map's (written by key, as checkpointed)
+            let mut from_map = vec![];
+            from_map.extend_from_slice(&(map.len() as u64).to_le_bytes());
+            for (&(i, j), &xi) in &map {
+                from_map.extend_from_slice(&i.to_le_bytes());
+                from_map.extend_from_slice(&j.to_le_bytes());
+                from_map.extend_from_slice(&xi.to_bits().to_le_bytes());
+            }
+            assert!(m.history() == from_map, "{threads} thread(s): the checkpointed history differs from the map's");
         }
-        let mut from_map = vec![];
-        from_map.extend_from_slice(&(map.len() as u64).to_le_bytes());
-        for (&(i, j), &xi) in &map {
-            from_map.extend_from_slice(&i.to_le_bytes());
-            from_map.extend_from_slice(&j.to_le_bytes());
-            from_map.extend_from_slice(&xi.to_bits().to_le_bytes());
-        }
-        assert!(m2.history() == from_map, "the checkpointed history differs from the map's");
     }
 
     /// A contact's history survives `history`/`restore_history`: the restored model gives
