@@ -44,7 +44,7 @@ use crate::case::{BodyShape, Region};
 use crate::error::{Error, Result};
 use crate::math::Real;
 use crate::monitor::Monitors;
-use crate::neighbours::{pairs_within, SearchDomain};
+use crate::neighbours::{pairs_within, SearchDomain, VerletPairs};
 use crate::plugin::BodyState;
 use crate::simulation::{Simulation, Status, StepDiagnostics};
 use crate::table::{self, Table};
@@ -307,21 +307,30 @@ impl StopCheck for VolumeFractionPacking {
 /// Disk bodies do not pass through each other or a wall ([`body_overlap`]). Which bodies
 /// are disks is looked up by name once (a hash of every name each step cost a suspension
 /// of 10,000 points about 1 % of its step), again only if the number of bodies changes.
-#[derive(Default)]
+/// The pairs come from a Verlet list kept from step to step (the same pairs as a fresh
+/// search, [`VerletPairs`]; the bodies move a fraction of a radius per step).
 pub struct BodyOverlap {
     /// The number of bodies and which of them are disks.
     disks: Option<(usize, Vec<bool>)>,
+    /// The disks' pairs, reused while no disk has moved far.
+    pairs: VerletPairs,
+}
+
+impl Default for BodyOverlap {
+    fn default() -> Self {
+        BodyOverlap { disks: None, pairs: VerletPairs::new(0.5) }
+    }
 }
 
 impl StopCheck for BodyOverlap {
     fn check(&mut self, sim: &Simulation, _d: &StepDiagnostics) -> Option<String> {
-        // the bodies of `Simulation::bodies`, without their fields' names
-        let bodies: Vec<BodyState> = sim.fields.iter().flat_map(|f| f.frame.bodies()).collect();
+        // the bodies of `Simulation::bodies` as the frames hold them (no name copied)
+        let bodies: Vec<&BodyState> = sim.fields.iter().flat_map(|f| f.frame.body_states()).collect();
         let disks = match &self.disks {
             Some((n, mask)) if *n == bodies.len() => mask,
             _ => &self.disks.insert((bodies.len(), disk_mask(sim, &bodies))).1,
         };
-        overlap_of(sim, bodies, disks)
+        overlap_of(sim, bodies, disks, Some(&mut self.pairs))
     }
 }
 
@@ -383,13 +392,13 @@ pub fn reference_energy(sim: &Simulation) -> Real {
 /// points spend most of each step here. Of several overlaps, the one reported is the
 /// first in body order: body k's pairs with the bodies before it, then its walls.
 pub fn body_overlap(sim: &Simulation) -> Option<String> {
-    let bodies: Vec<BodyState> = sim.bodies().into_iter().map(|(_, b)| b).collect();
+    let bodies: Vec<&BodyState> = sim.fields.iter().flat_map(|f| f.frame.body_states()).collect();
     let disks = disk_mask(sim, &bodies);
-    overlap_of(sim, bodies, &disks)
+    overlap_of(sim, bodies, &disks, None)
 }
 
 /// Which of `bodies` (the simulation's, in order) are disks by their shape in the case.
-fn disk_mask(sim: &Simulation, bodies: &[BodyState]) -> Vec<bool> {
+fn disk_mask(sim: &Simulation, bodies: &[&BodyState]) -> Vec<bool> {
     let disks: HashSet<&str> = sim
         .case
         .fields
@@ -405,18 +414,27 @@ fn disk_mask(sim: &Simulation, bodies: &[BodyState]) -> Vec<bool> {
 }
 
 /// [`body_overlap`] of `bodies` (the simulation's, in order), of which the disks are those
-/// `disks` marks.
-fn overlap_of(sim: &Simulation, bodies: Vec<BodyState>, disks: &[bool]) -> Option<String> {
+/// `disks` marks; the pairs from `list` when given (the same as a fresh search).
+fn overlap_of(
+    sim: &Simulation,
+    bodies: Vec<&BodyState>,
+    disks: &[bool],
+    list: Option<&mut VerletPairs>,
+) -> Option<String> {
     let case = &sim.case;
     if !disks.contains(&true) {
         return None;
     }
-    let bodies: Vec<BodyState> = bodies.into_iter().zip(disks).filter(|(_, d)| **d).map(|(b, _)| b).collect();
+    let bodies: Vec<&BodyState> = bodies.into_iter().zip(disks).filter(|(_, d)| **d).map(|(b, _)| b).collect();
     let centres: Vec<_> = bodies.iter().map(|b| b.position).collect();
     let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
     let domain = SearchDomain::of(&case.domain, &case.boundaries);
     // the first overlapping pair by (higher index, lower index)
-    let pair = pairs_within(&centres, &radii, 0.0, &domain)
+    let pairs = match list {
+        Some(list) => list.pairs_within(&centres, &radii, 0.0, &domain),
+        None => pairs_within(&centres, &radii, 0.0, &domain),
+    };
+    let pair = pairs
         .into_iter()
         .filter(|p| (bodies[p.i].free || bodies[p.j].free) && p.distance < OVERLAP_FRACTION * (radii[p.i] + radii[p.j]))
         .min_by_key(|p| (p.j, p.i));

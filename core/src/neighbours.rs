@@ -23,6 +23,7 @@ use crate::boundary::Boundaries;
 use crate::case::Domain;
 use crate::grid::Grid;
 use crate::math::{vector, Real, Vector, DIM};
+use rayon::prelude::*;
 
 /// The box the disks live in, and which of its axes are periodic.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -243,14 +244,26 @@ pub struct VerletPairs {
     search: Real,
     domain: Option<SearchDomain>,
     candidates: Vec<(usize, usize)>,
+    /// Per chunk of the candidates, the pairs it found (reused from call to call).
+    found: Vec<Vec<Pair>>,
     builds: u64,
     calls: u64,
 }
+
+/// Candidates (and centres) per parallel chunk of [`VerletPairs`]: large enough that a
+/// chunk's work outweighs a task's.
+const CHUNK: usize = 2048;
 
 impl VerletPairs {
     /// A list whose skin is `skin_fraction` × the largest radius (e.g. 0.5).
     pub fn new(skin_fraction: Real) -> Self {
         VerletPairs { skin_fraction: skin_fraction.max(0.0), ..Default::default() }
+    }
+
+    /// The skin of the list as last built (0 before): while the list holds (a call did not
+    /// rebuild it), no centre is farther than 0.45 × skin from where it was at the build.
+    pub fn skin(&self) -> Real {
+        self.skin
     }
 
     /// How many calls rebuilt the list, and how many calls there were.
@@ -267,7 +280,10 @@ impl VerletPairs {
             return false;
         }
         let limit = 0.45 * self.skin;
-        centres.iter().zip(&self.reference).all(|(&now, &then)| separation(now, then, domain).norm() <= limit)
+        centres
+            .par_chunks(CHUNK)
+            .zip(self.reference.par_chunks(CHUNK))
+            .all(|(now, then)| now.iter().zip(then).all(|(&a, &b)| separation(a, b, domain).norm() <= limit))
     }
 
     /// [`pairs_within`]`(centres, radii, search, domain)`, from the list while it holds.
@@ -278,6 +294,23 @@ impl VerletPairs {
         search: Real,
         domain: &SearchDomain,
     ) -> Vec<Pair> {
+        let mut out = Vec::new();
+        self.pairs_within_into(centres, radii, search, domain, &mut out);
+        out
+    }
+
+    /// [`VerletPairs::pairs_within`] into `out` (cleared first), the candidates tested in
+    /// parallel chunks whose finds are appended in order (the same pairs in the same order
+    /// whatever the threads). While the list holds nothing is allocated once `out` and the
+    /// chunks' buffers have grown: what a contact model calls in every sub-step.
+    pub fn pairs_within_into(
+        &mut self,
+        centres: &[Vector],
+        radii: &[Real],
+        search: Real,
+        domain: &SearchDomain,
+        out: &mut Vec<Pair>,
+    ) {
         assert_eq!(centres.len(), radii.len(), "one radius per centre");
         self.calls += 1;
         if !self.valid(centres, radii, search, domain) {
@@ -285,13 +318,26 @@ impl VerletPairs {
             self.skin = self.skin_fraction * r_max;
             self.candidates =
                 pairs_within(centres, radii, search.max(0.0) + self.skin, domain).iter().map(|p| (p.i, p.j)).collect();
-            self.reference = centres.to_vec();
-            self.radii = radii.to_vec();
+            self.reference.clear();
+            self.reference.extend_from_slice(centres);
+            self.radii.clear();
+            self.radii.extend_from_slice(radii);
             self.search = search;
             self.domain = Some(*domain);
             self.builds += 1;
         }
-        self.candidates.iter().filter_map(|&(i, j)| test(i, j, centres, radii, search, domain)).collect()
+        let chunks = self.candidates.len().div_ceil(CHUNK);
+        if self.found.len() < chunks {
+            self.found.resize_with(chunks, Vec::new);
+        }
+        self.found[..chunks].par_iter_mut().zip(self.candidates.par_chunks(CHUNK)).for_each(|(found, chunk)| {
+            found.clear();
+            found.extend(chunk.iter().filter_map(|&(i, j)| test(i, j, centres, radii, search, domain)));
+        });
+        out.clear();
+        for found in &mut self.found[..chunks] {
+            out.append(found);
+        }
     }
 }
 

@@ -1142,8 +1142,8 @@ impl Frame for Lagrangian {
         Ok(())
     }
 
-    fn bodies(&self) -> Vec<BodyState> {
-        self.bodies.iter().map(|b| b.state.clone()).collect()
+    fn body_states(&self) -> Vec<&BodyState> {
+        self.bodies.iter().map(|b| &b.state).collect()
     }
 
     fn points(&self) -> Option<PointSet> {

@@ -71,6 +71,9 @@ pub struct PointBody {
     xfaces: Vec<(usize, Real)>,
     /// y-faces of the footprint and their θ (with repeats).
     yfaces: Vec<(usize, Real)>,
+    /// Whether the footprint reaches a face on the domain's sides (one a wall may fix):
+    /// only then does the gather look for fixed faces.
+    edge: bool,
 }
 
 impl MassPoint {
@@ -86,8 +89,10 @@ impl MassPoint {
         p.xfaces.clear();
         p.yfaces.clear();
         let (nx, ny) = (g.nx, g.ny);
+        p.edge = false;
         for &(c, t) in &p.cells {
             let (i, j) = (c % nx, c / nx);
+            p.edge |= i == 0 || i + 1 == nx || j == 0 || j + 1 == ny;
             let half = 0.5 * t;
             // x-faces i (left) and i + 1 (right)
             for (f, edge, other) in [(i, i == 0, nx), (i + 1, i + 1 == nx, 0)] {
@@ -120,6 +125,37 @@ impl MassPoint {
             [0.5 * (u[g.xface(i, j)] + u[g.xface(i + 1, j)]), 0.5 * (v[g.yface(i, j)] + v[g.yface(i, j + 1)])]
         };
         vorticity_at(g, [bc.periodic(0), bc.periodic(1)], at, c % g.nx, c / g.nx)
+    }
+}
+
+/// Sums entries onto `a` (and `b`): `entries(add)` calls `add(index, to a, to b)` in the
+/// order of the serial sums. The arrays are split into one block per thread, each block
+/// running `entries` and keeping those that fall in it: every element receives the same
+/// terms in the same order whatever the number of threads, so the same bits.
+fn scatter<F>(a: &mut [Real], b: Option<&mut [Real]>, entries: F)
+where
+    F: Fn(&mut dyn FnMut(usize, Real, Real)) + Sync,
+{
+    let n = a.len();
+    let block = n.div_ceil(rayon::current_num_threads().max(1)).max(1);
+    let run = |lo: usize, a: &mut [Real], mut b: Option<&mut [Real]>| {
+        let hi = lo + a.len();
+        entries(&mut |k, x, y| {
+            if (lo..hi).contains(&k) {
+                a[k - lo] += x;
+                if let Some(b) = b.as_deref_mut() {
+                    b[k - lo] += y;
+                }
+            }
+        });
+    };
+    match b {
+        Some(b) => a
+            .par_chunks_mut(block)
+            .zip(b.par_chunks_mut(block))
+            .enumerate()
+            .for_each(|(k, (a, b))| run(k * block, a, Some(b))),
+        None => a.par_chunks_mut(block).enumerate().for_each(|(k, a)| run(k * block, a, None)),
     }
 }
 
@@ -183,6 +219,7 @@ impl Frame for MassPoint {
                 cells: Vec::new(),
                 xfaces: Vec::new(),
                 yfaces: Vec::new(),
+                edge: true,
             });
         }
         Ok(())
@@ -212,21 +249,32 @@ impl Frame for MassPoint {
             disk_cell_fractions(g, [x.x, x.y], r, periodic, &mut p.cells);
             Self::footprint_faces(p, g, periodic);
         });
-        for p in &self.points {
-            let scale = p.density * area;
-            let u = p.state.velocity;
-            for &(c, t) in &p.cells {
-                s.theta[c] += t;
+        // (each array split into as many blocks as threads, each block summing the points'
+        // entries that fall in it, in point order: the bits of one serial pass)
+        let points = &self.points;
+        scatter(&mut s.theta, None, |add| {
+            for p in points {
+                for &(c, t) in &p.cells {
+                    add(c, t, 0.0);
+                }
             }
-            for &(f, w) in &p.xfaces {
-                s.mass_face.u[f] += scale * w;
-                s.velocity.u[f] += scale * w * u.x;
+        });
+        scatter(&mut s.mass_face.u, Some(&mut s.velocity.u), |add| {
+            for p in points {
+                let (scale, u) = (p.density * area, p.state.velocity.x);
+                for &(f, w) in &p.xfaces {
+                    add(f, scale * w, scale * w * u);
+                }
             }
-            for &(f, w) in &p.yfaces {
-                s.mass_face.v[f] += scale * w;
-                s.velocity.v[f] += scale * w * u.y;
+        });
+        scatter(&mut s.mass_face.v, Some(&mut s.velocity.v), |add| {
+            for p in points {
+                let (scale, u) = (p.density * area, p.state.velocity.y);
+                for &(f, w) in &p.yfaces {
+                    add(f, scale * w, scale * w * u);
+                }
             }
-        }
+        });
         for (u, m) in [(&mut s.velocity.u, &s.mass_face.u), (&mut s.velocity.v, &s.mass_face.v)] {
             u.par_chunks_mut(BLOCK).zip(m.par_chunks(BLOCK)).for_each(|(u, m)| {
                 for (u, m) in u.iter_mut().zip(m) {
@@ -260,7 +308,7 @@ impl Frame for MassPoint {
             // mass-weighted velocity increment and fluid velocity over the footprint
             let (mut du, mut wsum, mut uf) = (Vector::zeros(), Vector::zeros(), Vector::zeros());
             for &(f, w) in &p.xfaces {
-                if bc.xface_fixed(g, f % (nx + 1)) {
+                if p.edge && bc.xface_fixed(g, f % (nx + 1)) {
                     continue;
                 }
                 du.x += w * (s.velocity.u[f] - s.velocity_old.u[f]);
@@ -270,7 +318,7 @@ impl Frame for MassPoint {
                 }
             }
             for &(f, w) in &p.yfaces {
-                if bc.yface_fixed(g, f / nx) {
+                if p.edge && bc.yface_fixed(g, f / nx) {
                     continue;
                 }
                 du.y += w * (s.velocity.v[f] - s.velocity_old.v[f]);
@@ -354,8 +402,8 @@ impl Frame for MassPoint {
         Ok(())
     }
 
-    fn bodies(&self) -> Vec<BodyState> {
-        self.points.iter().map(|p| p.state.clone()).collect()
+    fn body_states(&self) -> Vec<&BodyState> {
+        self.points.iter().map(|p| &p.state).collect()
     }
 
     fn points(&self) -> Option<PointSet> {

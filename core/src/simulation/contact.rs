@@ -2,6 +2,7 @@
 //! the contact's stiffness limits only its own integration, not the fluid's Δt.
 
 use super::*;
+use rayon::prelude::*;
 
 /// The most sub-steps a fluid step may take; more is an error (a contact this stiff
 /// against the step wants a smaller `time.max_dt`, or a softer contact).
@@ -56,19 +57,25 @@ pub(super) fn substepped(
     for _ in 0..n {
         let sub = ContactContext { bodies: &bodies, ..*ctx };
         model.forces(&sub, h, &mut out);
-        for (k, b) in bodies.iter_mut().enumerate() {
-            let (f, t) = out[k];
-            impulse[k].0 += h * f;
-            impulse[k].1 += h * t;
-            if b.free && b.mass > 0.0 {
-                b.velocity += h * (accel[k].0 + f / b.mass);
-                if b.inertia > 0.0 {
-                    b.angular_velocity += h * (accel[k].1 + t / b.inertia);
+        // each body on its own: in parallel, the same bits on any number of threads
+        bodies
+            .par_iter_mut()
+            .zip(impulse.par_iter_mut())
+            .zip(angle.par_iter_mut())
+            .zip(out.par_iter().zip(&accel))
+            .with_min_len(1024)
+            .for_each(|(((b, impulse), angle), (&(f, t), accel))| {
+                impulse.0 += h * f;
+                impulse.1 += h * t;
+                if b.free && b.mass > 0.0 {
+                    b.velocity += h * (accel.0 + f / b.mass);
+                    if b.inertia > 0.0 {
+                        b.angular_velocity += h * (accel.1 + t / b.inertia);
+                    }
                 }
-            }
-            b.position += h * b.velocity;
-            angle[k] += h * b.angular_velocity;
-        }
+                b.position += h * b.velocity;
+                *angle += h * b.angular_velocity;
+            });
     }
     Ok(bodies
         .iter()

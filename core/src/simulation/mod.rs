@@ -318,7 +318,8 @@ impl Simulation {
         ambient_viscosity(&self.fields)
     }
 
-    /// Every body of every field and, per body, whether its field resolves it on the grid
+    /// Every body of every field without its name ([`BodyState::unnamed`]: the contact
+    /// models never report one) and, per body, whether its field resolves it on the grid
     /// (not a mass point), in the order of [`Simulation::bodies`], and the number of
     /// bodies of each field.
     pub(crate) fn contact_bodies(&self) -> (Vec<BodyState>, Vec<bool>, Vec<usize>) {
@@ -326,10 +327,10 @@ impl Simulation {
         let mut resolved = Vec::new();
         let mut counts = Vec::with_capacity(self.fields.len());
         for f in &self.fields {
-            let b = f.frame.bodies();
+            let b = f.frame.body_states();
             resolved.extend(std::iter::repeat_n(f.frame.representation() == Representation::Resolved, b.len()));
             counts.push(b.len());
-            bodies.extend(b);
+            bodies.extend(b.into_iter().map(BodyState::unnamed));
         }
         (bodies, resolved, counts)
     }

@@ -81,11 +81,11 @@
 
 use multifield_core::boundary::{Boundary, Side};
 use multifield_core::math::{Real, Vector};
-use multifield_core::neighbours::{SearchDomain, VerletPairs};
+use multifield_core::neighbours::{Pair, SearchDomain, VerletPairs};
 use multifield_core::plugin::{BodyState, ContactContext, ContactModel};
 use multifield_core::registry::{params_value, ParamDoc};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 
 /// Soft-sphere contact (module docs).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -128,9 +128,10 @@ pub struct Dem {
     /// radius of the pair.
     #[serde(default = "default_roughness")]
     pub roughness: Real,
-    /// ξ per touching pair: (i, j) for bodies, (i, WALL + side) for walls.
+    /// ξ per touching pair: (i, j) for bodies, (i, WALL + side) for walls, in the order of
+    /// [`history_order`] (the order of the touches, so a step finds each pair's ξ by a merge).
     #[serde(skip)]
-    history: BTreeMap<(u64, u64), Real>,
+    history: Vec<((u64, u64), Real)>,
     /// Hertzian law: the damping α(e) and the dimensionless duration T(e) (module docs).
     #[serde(skip)]
     hertz: (Real, Real),
@@ -138,7 +139,49 @@ pub struct Dem {
     /// accelerator: the same pairs as a fresh search, nothing to checkpoint).
     #[serde(skip, default = "verlet_list")]
     neighbours: VerletPairs,
+    /// Buffers reused from (sub-)step to (sub-)step (nothing to checkpoint).
+    #[serde(skip)]
+    scratch: Scratch,
 }
+
+/// The buffers of [`Dem::forces`]: after the first steps have grown them, a sub-step
+/// allocates nothing.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    centres: Vec<Vector>,
+    radii: Vec<Real>,
+    pairs: Vec<Pair>,
+    touches: Vec<Touch>,
+    /// Per chunk of bodies, its wall contacts.
+    walls: Vec<Vec<Touch>>,
+    /// The bodies that may touch a wall while the Verlet list holds, in order, and the
+    /// list's build they were found at (module docs of [`Dem::touches`]).
+    near_walls: Vec<usize>,
+    near_walls_of: Option<(u64, usize)>,
+    /// Per touch: ξ before the step (`None`: a new contact).
+    xi: Vec<Option<Real>>,
+    /// Per touch: the force on the first body, F_t, and ξ after the step (touching pairs).
+    forces: Vec<(Vector, Real, Option<Real>)>,
+    /// The history the step leaves.
+    history: Vec<((u64, u64), Real)>,
+    /// Per body, its touches: `list[start[k]..start[k + 1]]`, (touch, whether it is the
+    /// first body), in the order of the touches.
+    start: Vec<usize>,
+    fill: Vec<usize>,
+    list: Vec<(usize, bool)>,
+}
+
+/// The order of the history and of the touches: the pairs by (i, j), then the walls by
+/// (i, side).
+fn history_order(key: (u64, u64)) -> (bool, u64, u64) {
+    (key.1 >= WALL, key.0, key.1)
+}
+
+/// Bodies per parallel chunk of the walls' search and of the per-body sums.
+const CHUNK: usize = 1024;
+/// From this many touches on (and on more than one thread) the bodies' sums run in
+/// parallel; below, the serial loop over the touches is cheaper than a pass over the bodies.
+const PARALLEL_TOUCHES: usize = 512;
 
 /// A Verlet list with a skin of half the largest radius: at the contact sub-step a disk
 /// moves a small fraction of that per sub-step, so the list lasts many sub-steps.
@@ -233,6 +276,7 @@ pub fn hertz_damping(e: Real) -> (Real, Real) {
 }
 
 /// One contact's figures, for the force law.
+#[derive(Clone, Debug)]
 struct Touch {
     /// Key of its history: (i, j) for bodies, (i, WALL + side) for a wall.
     key: (u64, u64),
@@ -432,15 +476,19 @@ impl Dem {
 
     /// Every touching pair and wall contact, and with lubrication every pair of resolved
     /// bodies (or body and wall) closer than ε_act, in a deterministic order (pairs by
-    /// (i, j), then walls by body and side).
-    fn touches(&mut self, ctx: &ContactContext) -> Vec<Touch> {
+    /// (i, j), then walls by body and side), into `s.touches`. The walls are searched in
+    /// parallel chunks of bodies appended in order: the same touches whatever the threads.
+    fn touches(&mut self, ctx: &ContactContext, s: &mut Scratch) {
         let bodies = ctx.bodies;
         let domain = SearchDomain::of_grid(ctx.grid, ctx.boundaries);
-        let centres: Vec<Vector> = bodies.iter().map(|b| b.position).collect();
-        let radii: Vec<Real> = bodies.iter().map(|b| b.radius).collect();
+        s.centres.clear();
+        s.centres.extend(bodies.iter().map(|b| b.position));
+        s.radii.clear();
+        s.radii.extend(bodies.iter().map(|b| b.radius));
         let range = self.range(ctx);
-        let mut out = Vec::new();
-        for p in self.neighbours.pairs_within(&centres, &radii, range, &domain) {
+        self.neighbours.pairs_within_into(&s.centres, &s.radii, range, &domain, &mut s.pairs);
+        s.touches.clear();
+        for p in &s.pairs {
             let (a, b) = (&bodies[p.i], &bodies[p.j]);
             let Some(mass) = effective_mass(a, Some(b)) else { continue };
             let overlap = a.radius + b.radius - p.distance;
@@ -453,39 +501,64 @@ impl Dem {
             let v = a.velocity - b.velocity - (a.radius * a.angular_velocity + b.radius * b.angular_velocity) * t;
             let (small, reduced) = (a.radius.min(b.radius), a.radius * b.radius / (a.radius + b.radius));
             let key = (p.i as u64, p.j as u64);
-            out.push(Touch { key, i: p.i, j: Some(p.j), overlap, small, reduced, lubricated, n, v, mass });
+            s.touches.push(Touch { key, i: p.i, j: Some(p.j), overlap, small, reduced, lubricated, n, v, mass });
         }
         if !self.walls {
-            return out;
+            return;
         }
         let lo = ctx.grid.origin;
         let hi = lo + ctx.grid.size();
-        for (i, a) in bodies.iter().enumerate() {
-            let Some(mass) = effective_mass(a, None) else { continue };
-            for (k, side) in Side::ALL.into_iter().enumerate() {
-                if ctx.boundaries.side(side) == Boundary::Periodic {
-                    continue;
-                }
-                let x = a.position;
-                let (gap, n) = match side {
-                    Side::Left => (x.x - lo.x, Vector::new(1.0, 0.0)),
-                    Side::Right => (hi.x - x.x, Vector::new(-1.0, 0.0)),
-                    Side::Bottom => (x.y - lo.y, Vector::new(0.0, 1.0)),
-                    Side::Top => (hi.y - x.y, Vector::new(0.0, -1.0)),
-                };
-                let overlap = a.radius - gap;
-                let lubricated = range > 0.0 && ctx.is_resolved(i);
-                if !(overlap > 0.0 || (lubricated && -overlap < range)) {
-                    continue;
-                }
-                let t = Vector::new(-n.y, n.x);
-                let v = a.velocity - a.radius * a.angular_velocity * t;
-                let key = (i as u64, WALL + k as u64);
-                let (small, reduced) = (a.radius, a.radius);
-                out.push(Touch { key, i, j: None, overlap, small, reduced, lubricated, n, v, mass });
-            }
+        // the bodies near a wall: found when the Verlet list was built (at its reference
+        // centres, today's then), those within R + ε_act + skin of a side; while the list
+        // holds no centre has moved 0.45 × skin from there, so no other body can touch one
+        let build = (self.neighbours.counts().0, bodies.len());
+        if s.near_walls_of != Some(build) {
+            let reach = range + self.neighbours.skin();
+            s.near_walls.clear();
+            s.near_walls.extend((0..bodies.len()).filter(|&i| {
+                let (x, r) = (bodies[i].position, bodies[i].radius);
+                let gap = (x.x - lo.x).min(hi.x - x.x).min(x.y - lo.y).min(hi.y - x.y);
+                !(gap > r + reach)
+            }));
+            s.near_walls_of = Some(build);
         }
-        out
+        let near = &s.near_walls;
+        let chunks = near.len().div_ceil(CHUNK);
+        if s.walls.len() < chunks {
+            s.walls.resize_with(chunks, Vec::new);
+        }
+        s.walls[..chunks].par_iter_mut().enumerate().for_each(|(chunk, out)| {
+            out.clear();
+            for &i in &near[chunk * CHUNK..((chunk + 1) * CHUNK).min(near.len())] {
+                let a = &bodies[i];
+                let Some(mass) = effective_mass(a, None) else { continue };
+                for (k, side) in Side::ALL.into_iter().enumerate() {
+                    if ctx.boundaries.side(side) == Boundary::Periodic {
+                        continue;
+                    }
+                    let x = a.position;
+                    let (gap, n) = match side {
+                        Side::Left => (x.x - lo.x, Vector::new(1.0, 0.0)),
+                        Side::Right => (hi.x - x.x, Vector::new(-1.0, 0.0)),
+                        Side::Bottom => (x.y - lo.y, Vector::new(0.0, 1.0)),
+                        Side::Top => (hi.y - x.y, Vector::new(0.0, -1.0)),
+                    };
+                    let overlap = a.radius - gap;
+                    let lubricated = range > 0.0 && ctx.is_resolved(i);
+                    if !(overlap > 0.0 || (lubricated && -overlap < range)) {
+                        continue;
+                    }
+                    let t = Vector::new(-n.y, n.x);
+                    let v = a.velocity - a.radius * a.angular_velocity * t;
+                    let key = (i as u64, WALL + k as u64);
+                    let (small, reduced) = (a.radius, a.radius);
+                    out.push(Touch { key, i, j: None, overlap, small, reduced, lubricated, n, v, mass });
+                }
+            }
+        });
+        for walls in &mut s.walls[..chunks] {
+            s.touches.append(walls);
+        }
     }
 }
 
@@ -580,34 +653,101 @@ impl ContactModel for Dem {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    /// The touches' forces in parallel (each reads its own figures and its ξ, found by a
+    /// merge of the history with the touches, both in [`history_order`]), then each body's
+    /// sum in parallel over the bodies (from [`PARALLEL_TOUCHES`] touches on), each summing
+    /// its touches in their order: the additions of the serial loop over the touches, so
+    /// the same bits on any number of threads. No allocation once the buffers have grown.
     fn forces(&mut self, ctx: &ContactContext, dt: Real, out: &mut [(Vector, Real)]) {
-        out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
-        let mut history = BTreeMap::new();
+        let mut s = std::mem::take(&mut self.scratch);
         let (range, mu) = (self.range(ctx), ctx.fluid_viscosity.unwrap_or(0.0));
-        for c in self.touches(ctx) {
-            let (i, j) = (c.i, c.j);
-            let (mut f_n, mut f_t) = (0.0, 0.0);
-            if c.overlap > 0.0 {
-                let xi = self.history.get(&c.key).copied().unwrap_or(0.0);
-                let (n, t, xi) = self.law(&c, xi, dt);
-                (f_n, f_t) = (n, t);
-                history.insert(c.key, xi);
+        self.touches(ctx, &mut s);
+        // each touch's ξ before the step
+        s.xi.clear();
+        let mut old = self.history.iter().peekable();
+        for c in &s.touches {
+            let key = history_order(c.key);
+            while old.next_if(|(k, _)| history_order(*k) < key).is_some() {}
+            s.xi.push(old.next_if(|(k, _)| *k == c.key).map(|&(_, xi)| xi));
+        }
+        let this = &*self;
+        s.forces.clear();
+        s.touches
+            .par_iter()
+            .zip(&s.xi)
+            .with_min_len(256)
+            .map(|(c, xi)| {
+                let (mut f_n, mut f_t, mut xi_new) = (0.0, 0.0, None);
+                if c.overlap > 0.0 {
+                    let (n, t, xi) = this.law(c, xi.unwrap_or(0.0), dt);
+                    (f_n, f_t, xi_new) = (n, t, Some(xi));
+                }
+                // the film acts until the surfaces touch (G = 0 below): the dry contact alone
+                // while they overlap, and a step that leaves the overlap takes the film from the touch
+                if this.lubrication_coefficient(c, mu, range) > 0.0 {
+                    f_n += this.lubrication_force(c, mu, range, dt);
+                }
+                let t = Vector::new(-c.n.y, c.n.x);
+                (f_n * c.n + f_t * t, f_t, xi_new)
+            })
+            .collect_into_vec(&mut s.forces);
+        s.history.clear();
+        s.history.extend(s.touches.iter().zip(&s.forces).filter_map(|(c, f)| f.2.map(|xi| (c.key, xi))));
+        std::mem::swap(&mut self.history, &mut s.history);
+        // few touches or one thread: the serial loop over the touches (O(touches))
+        if s.touches.len() < PARALLEL_TOUCHES || rayon::current_num_threads() == 1 {
+            out.iter_mut().for_each(|o| *o = (Vector::zeros(), 0.0));
+            for (c, &(f, f_t, _)) in s.touches.iter().zip(&s.forces) {
+                out[c.i].0 += f;
+                out[c.i].1 -= ctx.bodies[c.i].radius * f_t;
+                if let Some(j) = c.j {
+                    out[j].0 -= f;
+                    out[j].1 -= ctx.bodies[j].radius * f_t;
+                }
             }
-            // the film acts until the surfaces touch (G = 0 below): the dry contact alone
-            // while they overlap, and a step that leaves the overlap takes the film from the touch
-            if self.lubrication_coefficient(&c, mu, range) > 0.0 {
-                f_n += self.lubrication_force(&c, mu, range, dt);
-            }
-            let t = Vector::new(-c.n.y, c.n.x);
-            let f = f_n * c.n + f_t * t;
-            out[i].0 += f;
-            out[i].1 -= ctx.bodies[i].radius * f_t;
-            if let Some(j) = j {
-                out[j].0 -= f;
-                out[j].1 -= ctx.bodies[j].radius * f_t;
+            self.scratch = s;
+            return;
+        }
+        // else each body's touches, in the order of the touches, summed in parallel
+        let n = out.len();
+        s.start.clear();
+        s.start.resize(n + 1, 0);
+        for c in &s.touches {
+            s.start[c.i + 1] += 1;
+            if let Some(j) = c.j {
+                s.start[j + 1] += 1;
             }
         }
-        self.history = history;
+        for k in 0..n {
+            s.start[k + 1] += s.start[k];
+        }
+        s.fill.clear();
+        s.fill.extend_from_slice(&s.start[..n]);
+        s.list.clear();
+        s.list.resize(s.start[n], (0, false));
+        for (t, c) in s.touches.iter().enumerate() {
+            s.list[s.fill[c.i]] = (t, true);
+            s.fill[c.i] += 1;
+            if let Some(j) = c.j {
+                s.list[s.fill[j]] = (t, false);
+                s.fill[j] += 1;
+            }
+        }
+        let (start, list, forces) = (&s.start, &s.list, &s.forces);
+        out.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(k, o)| {
+            *o = (Vector::zeros(), 0.0);
+            let r = ctx.bodies[k].radius;
+            for &(t, first) in &list[start[k]..start[k + 1]] {
+                let (f, f_t, _) = forces[t];
+                if first {
+                    o.0 += f;
+                } else {
+                    o.0 -= f;
+                }
+                o.1 -= r * f_t;
+            }
+        });
+        self.scratch = s;
     }
     fn stable_dt(&self, ctx: &ContactContext) -> Option<Real> {
         if !ctx.bodies.iter().any(|b| b.free) {
@@ -640,10 +780,14 @@ impl ContactModel for Dem {
             0.0
         }
     }
+    /// The history by (i, j) (the pairs and the walls of each body together), as the
+    /// checkpoints have always held it.
     fn history(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(8 + 24 * self.history.len());
-        b.extend_from_slice(&(self.history.len() as u64).to_le_bytes());
-        for (&(i, j), &xi) in &self.history {
+        let mut sorted = self.history.clone();
+        sorted.sort_unstable_by_key(|&(key, _)| key);
+        let mut b = Vec::with_capacity(8 + 24 * sorted.len());
+        b.extend_from_slice(&(sorted.len() as u64).to_le_bytes());
+        for &((i, j), xi) in &sorted {
             b.extend_from_slice(&i.to_le_bytes());
             b.extend_from_slice(&j.to_le_bytes());
             b.extend_from_slice(&xi.to_bits().to_le_bytes());
@@ -662,14 +806,18 @@ impl ContactModel for Dem {
                 bytes.len()
             ));
         }
-        let mut history = BTreeMap::new();
+        let mut history = Vec::with_capacity(word(0) as usize);
         for k in 0..word(0) as usize {
             let (i, j, xi) = (word(1 + 3 * k), word(2 + 3 * k), Real::from_bits(word(3 + 3 * k)));
             if !xi.is_finite() || (j < WALL && j <= i) {
                 return Err(format!("dem contact history entry {k}: pair ({i}, {j}) with ξ = {xi}"));
             }
-            history.insert((i, j), xi);
+            history.push(((i, j), xi));
         }
+        // the order of the touches; of a key given twice the last counts (as it did in a map)
+        history.reverse();
+        history.sort_by_key(|&(key, _)| history_order(key));
+        history.dedup_by_key(|&mut (key, _)| key);
         self.history = history;
         Ok(())
     }
@@ -842,6 +990,94 @@ mod tests {
         }
     }
 
+    /// The forces of a dense pile (1,500 disks of two sizes overlapping each other and
+    /// the walls, friction, 8 calls between which the disks move by up to a tenth of a
+    /// radius, so that the history carries over and the Verlet list and its bodies near the
+    /// walls are rebuilt now and then) are the serial loop's over the touches of a fresh
+    /// search, bit for bit, on 1 and on 3 threads: the per-touch forces and the per-body
+    /// sums in parallel change no bit. The reference is the loop as it was: ξ looked up in
+    /// a map by key, the forces added onto the bodies touch by touch.
+    #[test]
+    fn the_parallel_forces_are_the_serial_loops_bit_for_bit() {
+        let grid = Grid::new(40, 40, 0.025, Vector::zeros());
+        let bc = Boundaries { left: Boundary::Periodic, right: Boundary::Periodic, ..Boundaries::default() };
+        let mut seed: u64 = 11;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as Real / (1u64 << 53) as Real
+        };
+        let bodies: Vec<BodyState> = (0..1500)
+            .map(|k| {
+                let r: Real = if k % 3 == 0 { 0.016 } else { 0.011 };
+                let mut b = disk(next(), next(), next() - 0.5, next() - 0.5);
+                (b.radius, b.mass, b.inertia) = (r, r * r, 0.5 * r.powi(4));
+                b.angular_velocity = 10.0 * (next() - 0.5);
+                b.free = k % 50 != 0;
+                b
+            })
+            .collect();
+        let (dt, calls) = (1e-5, 8);
+        // between calls each disk moves by 0.002 v (≤ 0.0014, a tenth of a radius)
+        let drift = |bodies: &mut [BodyState]| bodies.iter_mut().for_each(|b| b.position += 0.002 * b.velocity);
+        // the reference: the serial loop with ξ in a map, over the touches of a fresh model
+        let mut reference = Vec::new();
+        let mut b_ref = bodies.clone();
+        let mut map: std::collections::BTreeMap<(u64, u64), Real> = std::collections::BTreeMap::new();
+        let (mut fewest, mut walls) = (usize::MAX, 0);
+        for _ in 0..calls {
+            let ctx = vacuum(&grid, &bc, &b_ref);
+            let mut fresh = dem(0.7, 1e-3, 0.4);
+            let mut s = Scratch::default();
+            fresh.touches(&ctx, &mut s);
+            let mut out = vec![(Vector::zeros(), 0.0); b_ref.len()];
+            let mut next_map = std::collections::BTreeMap::new();
+            for c in &s.touches {
+                let (f_n, f_t, xi) = fresh.law(c, map.get(&c.key).copied().unwrap_or(0.0), dt);
+                next_map.insert(c.key, xi);
+                let f = f_n * c.n + f_t * Vector::new(-c.n.y, c.n.x);
+                out[c.i].0 += f;
+                out[c.i].1 -= b_ref[c.i].radius * f_t;
+                if let Some(j) = c.j {
+                    out[j].0 -= f;
+                    out[j].1 -= b_ref[j].radius * f_t;
+                }
+                walls += c.j.is_none() as usize;
+            }
+            fewest = fewest.min(s.touches.len());
+            map = next_map;
+            drift(&mut b_ref);
+            reference.push(out);
+        }
+        assert!(fewest >= PARALLEL_TOUCHES && walls > 10 * calls, "{fewest} touches, {walls} on walls: too sparse");
+        let bits = |all: &[Vec<(Vector, Real)>]| -> Vec<u64> {
+            all.iter().flatten().flat_map(|(f, t)| [f.x.to_bits(), f.y.to_bits(), t.to_bits()]).collect()
+        };
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let mut m = dem(0.7, 1e-3, 0.4);
+            let mut b = bodies.clone();
+            let mut got = Vec::new();
+            for _ in 0..calls {
+                let mut out = vec![(Vector::new(Real::NAN, 1.0), 7.0); b.len()];
+                pool.install(|| m.forces(&vacuum(&grid, &bc, &b), dt, &mut out));
+                drift(&mut b);
+                got.push(out);
+            }
+            let (builds, _) = m.neighbours.counts();
+            assert!((2..calls as u64).contains(&builds), "{builds} builds of the Verlet list in {calls} calls");
+            assert!(bits(&got) == bits(&reference), "{threads} thread(s): the forces differ from the serial loop's");
+            // the history the model keeps is the map's (written by key, as checkpointed)
+            let mut from_map = vec![];
+            from_map.extend_from_slice(&(map.len() as u64).to_le_bytes());
+            for (&(i, j), &xi) in &map {
+                from_map.extend_from_slice(&i.to_le_bytes());
+                from_map.extend_from_slice(&j.to_le_bytes());
+                from_map.extend_from_slice(&xi.to_bits().to_le_bytes());
+            }
+            assert!(m.history() == from_map, "{threads} thread(s): the checkpointed history differs from the map's");
+        }
+    }
+
     /// A contact's history survives `history`/`restore_history`: the restored model gives
     /// the same forces, bit for bit; bytes of another shape are refused.
     #[test]
@@ -854,7 +1090,7 @@ mod tests {
         let mut out = vec![(Vector::zeros(), 0.0); 2];
         a.forces(&ctx, 1e-6, &mut out);
         assert_eq!(a.history.len(), 3, "a pair and a wall contact each, {:?}", a.history);
-        assert!(a.history.values().all(|&x| x != 0.0));
+        assert!(a.history.iter().all(|&(_, x)| x != 0.0));
         let mut b = dem(0.5, 1e-3, 0.5);
         b.restore_history(&a.history()).unwrap();
         let mut out_b = out.clone();
