@@ -4,6 +4,9 @@
 //!
 //! One test binary: `cargo test --test dim3 [module::]`.
 
+mod eulerian;
+mod exchange;
 mod grid;
 mod poisson;
 mod pressure;
+mod regions;
