@@ -79,7 +79,10 @@ fn taylor_green_energy_decays_as_stokes_at_second_order() {
     let errors = sizes.map(tgv_error);
     let orders: Vec<Real> = errors.windows(2).map(|e| (e[0] / e[1]).abs().log2()).collect();
     let wall = start.elapsed().as_secs_f64();
-    eprintln!("TGV 3D: relative energy errors {errors:.3?} at {sizes:?}, orders {orders:.3?} ({wall:.1} s)");
+    eprintln!(
+        "TGV 3D: relative energy errors {:.3e}, {:.3e}, {:.3e} at {sizes:?}, orders {orders:.3?} ({wall:.1} s)",
+        errors[0], errors[1], errors[2]
+    );
     for (n, e) in sizes.iter().zip(errors) {
         let h = 2.0 * PI / *n as Real;
         // within 20 % of the semi-discrete estimate 0.025 h²

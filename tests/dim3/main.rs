@@ -10,3 +10,4 @@ mod grid;
 mod poisson;
 mod pressure;
 mod regions;
+mod stress;
