@@ -125,7 +125,15 @@ pub fn write(dir: &Path) -> Result<(), Error> {
         write_diagnostics(&out.join("diagnostics"), &name, &t)?;
     }
     if let Some(b) = bodies {
-        write_bodies(&out.join("bodies"), &name, case.as_ref().map(|c| (c.domain.origin, c.domain.size)), &b)?;
+        write_bodies(
+            &out.join("bodies"),
+            &name,
+            case.as_ref().map(|c| {
+                let d = &c.domain;
+                ([d.origin[0], d.origin[1]], [d.size[0], d.size[1]])
+            }),
+            &b,
+        )?;
     }
     for m in case.as_ref().map(|c| c.monitors.as_slice()).unwrap_or_default() {
         let file = dir.join(crate::core::monitor::FOLDER).join(format!("{}.csv", m.name));

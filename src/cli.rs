@@ -195,8 +195,13 @@ pub fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    crate::link_all();
     let cli = Cli::parse();
+    // a 3D case runs in the 3D compile of this library, which parses the same command line
+    #[cfg(feature = "dim2")]
+    if dimension_of(&cli) == Some(3) {
+        return multifield3d::cli::main();
+    }
+    crate::link_all();
     if let Err(e) = crate::run::catch_signals() {
         eprintln!("warning: {e}; an interrupt will end the process without a summary");
     }
@@ -261,6 +266,21 @@ pub fn main() -> ExitCode {
             ExitCode::from(130)
         }
     }
+}
+
+/// The dimension of the case a command runs or checks ([`case::dimension`]: the count of
+/// its `domain.cells`, overrides included); `None` for the commands without a case, and
+/// when the file cannot be read or parsed that far (the 2D library then says why).
+#[cfg(feature = "dim2")]
+fn dimension_of(cli: &Cli) -> Option<usize> {
+    let (file, overrides) = match &cli.command {
+        Some(Command::Run { case, overrides, .. })
+        | Some(Command::Check { case, overrides, .. })
+        | Some(Command::Compare { case, overrides, .. }) => (case, overrides),
+        _ => return None,
+    };
+    let text = crate::core::input::read_text(file).ok()?;
+    crate::core::case::dimension(&text, overrides)
 }
 
 /// Reads, overrides and validates a case file, and turns its `generate` entries into
@@ -345,6 +365,10 @@ fn region_text(r: &Region) -> String {
         Region::Rest => "what the other fields leave".into(),
         Region::Rectangle { min, max } => format!("rectangle {min:?}–{max:?}"),
         Region::Disk { center, radius } => format!("disk at {center:?}, radius {radius}"),
+        #[cfg(feature = "dim3")]
+        Region::Box { min, max } => format!("box {min:?}–{max:?}"),
+        #[cfg(feature = "dim3")]
+        Region::Sphere { center, radius } => format!("sphere at {center:?}, radius {radius}"),
         Region::Bodies(bodies) => format!(
             "{} bod{} ({}{})",
             bodies.len(),
@@ -534,6 +558,20 @@ fn plugins() {
             }
         }
         println!();
+    }
+    // what the 3D library has (issue 17 brings the rest)
+    #[cfg(feature = "dim2")]
+    {
+        multifield3d::link_all();
+        println!("in 3D (a case whose domain.cells has 3 numbers):");
+        for role in multifield3d::core::registry::Role::ALL {
+            let names: Vec<&str> = multifield3d::core::registry::entries(role).iter().map(|e| e.name).collect();
+            println!(
+                "  {:<9} {}",
+                role.name(),
+                if names.is_empty() { "none yet".to_string() } else { names.join(", ") }
+            );
+        }
     }
 }
 

@@ -101,8 +101,10 @@ use crate::core::case::SnapshotSpec;
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::Grid;
-use crate::core::mapping::{SampledVelocity, Samples};
-use crate::core::math::Real;
+use crate::core::mapping::SampledVelocity;
+#[cfg(feature = "dim2")]
+use crate::core::mapping::Samples;
+use crate::core::math::{Real, DIM};
 use crate::core::monitor::suspension::{self, COLUMNS};
 use crate::core::monitor::Monitored;
 use crate::core::plugin::BodyState;
@@ -179,7 +181,7 @@ pub struct FieldData {
     /// Its face velocities `u` ((NY, NX + 1), x fast) and `v` ((NY + 1, NX)), the grid
     /// state itself, when the case asks for them (`output.snapshots.faces`; Eulerian
     /// fields only).
-    pub faces: Option<[Vec<Real>; 2]>,
+    pub faces: Option<[Vec<Real>; DIM]>,
 }
 
 impl FieldData {
@@ -250,8 +252,11 @@ pub struct Snapshot {
     pub nx: usize,
     /// Cells along y.
     pub ny: usize,
+    /// Cells along z.
+    #[cfg(feature = "dim3")]
+    pub nz: usize,
     /// Lower-left corner of the domain.
-    pub origin: [Real; 2],
+    pub origin: [Real; DIM],
     /// Cell side.
     pub spacing: Real,
     /// The mixture's cell quantities written (`output.snapshots.mixture`).
@@ -334,7 +339,7 @@ impl Snapshot {
                 None => None,
             };
             let faces = (spec.faces && !f.frame.is_lagrangian())
-                .then(|| [sample.fields[k].faces.u.clone(), sample.fields[k].faces.v.clone()]);
+                .then(|| std::array::from_fn(|a| sample.fields[k].faces[a].clone()));
             fields.push(FieldData {
                 name: f.name.clone(),
                 group,
@@ -373,7 +378,9 @@ impl Snapshot {
             step: sim.steps,
             nx: g.nx,
             ny: g.ny,
-            origin: [g.origin.x, g.origin.y],
+            #[cfg(feature = "dim3")]
+            nz: g.nz,
+            origin: g.origin.into(),
             spacing: g.h,
             cells,
             fields,
@@ -402,11 +409,31 @@ impl Snapshot {
         self.fields.iter().find(|f| f.name == name)
     }
 
+    /// Cells along each axis, x first.
+    pub fn cells_along(&self) -> [usize; DIM] {
+        #[cfg(feature = "dim2")]
+        return [self.nx, self.ny];
+        #[cfg(feature = "dim3")]
+        return [self.nx, self.ny, self.nz];
+    }
+
+    /// The shape of a cell array in the file: the cells along each axis, slowest (z, or y
+    /// in 2D) first.
+    fn cell_dims(&self) -> Vec<u64> {
+        self.cells_along().iter().rev().map(|&n| n as u64).collect()
+    }
+
     /// The HDF5 file's bytes.
     pub fn to_hdf5(&self) -> Result<Vec<u8>, Error> {
-        let n_cells = self.nx * self.ny;
-        let (nx, ny) = (self.nx as u64, self.ny as u64);
-        let cell_shape = |len: usize| if len == 3 * n_cells { vec![ny, nx, 3] } else { vec![ny, nx] };
+        let n_cells: usize = self.cells_along().iter().product();
+        let dims = self.cell_dims();
+        let cell_shape = |len: usize| {
+            let mut shape = dims.clone();
+            if len == 3 * n_cells {
+                shape.push(3);
+            }
+            shape
+        };
         let mut b = FileBuilder::new();
         // the HDF5 1.8 format (version 2 superblock, contiguous datasets, no filters):
         // readable by every HDF5 library since 1.8, VisIt's and MATLAB's included
@@ -416,7 +443,7 @@ impl Snapshot {
         b.set_attr("case", AttrValue::String(self.case.clone()));
         b.set_attr("program", AttrValue::String(self.program.clone()));
         b.set_attr("units", AttrValue::String(UNITS.into()));
-        b.set_attr("cells", AttrValue::I64Array(vec![self.nx as i64, self.ny as i64]));
+        b.set_attr("cells", AttrValue::I64Array(self.cells_along().iter().map(|&n| n as i64).collect()));
         b.set_attr("origin", AttrValue::F64Array(self.origin.to_vec()));
         b.set_attr("spacing", AttrValue::F64(self.spacing));
         b.set_attr("fields", AttrValue::StringArray(self.fields.iter().map(|f| f.group.clone()).collect()));
@@ -464,24 +491,27 @@ impl Snapshot {
                 }
                 g.add_group(pg.finish());
             }
-            if let Some([u, v]) = &f.faces {
+            if let Some(faces) = &f.faces {
                 let mut fg = g.create_group("faces");
-                let what = [
-                    (
-                        "u",
-                        u,
-                        [ny, nx + 1],
-                        "x velocity on the x faces (the grid state), face (i, j) at x0 + i h, y0 + (j + 1/2) h",
-                    ),
-                    (
-                        "v",
-                        v,
-                        [ny + 1, nx],
-                        "y velocity on the y faces (the grid state), face (i, j) at x0 + (i + 1/2) h, y0 + j h",
-                    ),
+                #[cfg(feature = "dim2")]
+                let descriptions = [
+                    "x velocity on the x faces (the grid state), face (i, j) at x0 + i h, y0 + (j + 1/2) h",
+                    "y velocity on the y faces (the grid state), face (i, j) at x0 + (i + 1/2) h, y0 + j h",
                 ];
-                for (name, data, shape, description) in what {
-                    let d = fg.create_dataset(name);
+                #[cfg(feature = "dim3")]
+                let descriptions = [
+                    "x velocity on the x faces (the grid state), face (i, j, k) at x0 + i h, y0 + (j + 1/2) h, \
+                     z0 + (k + 1/2) h",
+                    "y velocity on the y faces (the grid state), face (i, j, k) at x0 + (i + 1/2) h, y0 + j h, \
+                     z0 + (k + 1/2) h",
+                    "z velocity on the z faces (the grid state), face (i, j, k) at x0 + (i + 1/2) h, \
+                     y0 + (j + 1/2) h, z0 + k h",
+                ];
+                for (a, (data, description)) in faces.iter().zip(descriptions).enumerate() {
+                    // the cells, one more along the faces' axis (the shape lists z, y, x)
+                    let mut shape = dims.clone();
+                    shape[DIM - 1 - a] += 1;
+                    let d = fg.create_dataset(["u", "v", "w"][a]);
                     d.with_f64_data(data).with_shape(&shape);
                     for (k, v) in attrs(("length/time", description)) {
                         d.set_attr(k, v);
@@ -577,8 +607,11 @@ impl Snapshot {
         };
         let cells = root.get("cells").and_then(AttrValue::to_i64s).ok_or_else(|| missing("cells"))?;
         let origin = root.get("origin").and_then(AttrValue::to_f64s).ok_or_else(|| missing("origin"))?;
-        if cells.len() != 2 || origin.len() != 2 {
-            return Err(missing("cells"));
+        if cells.len() != DIM || origin.len() != DIM {
+            return Err(model_error(
+                path,
+                format!("attribute `cells` has {} numbers: this is not a {DIM}D snapshot", cells.len()),
+            ));
         }
         let f64s = |name: &str| file.dataset(name).and_then(|d| d.read_f64()).map_err(err);
         let arrays = |base: &str, names: Vec<String>, skip: &[&str]| -> Result<Arrays, Error> {
@@ -617,9 +650,10 @@ impl Snapshot {
                 material_density: real(&a, "material_density")?,
                 cells: arrays(&format!("{base}/"), fg.datasets().map_err(err)?, &[])?,
                 points,
-                faces: match (f64s(&format!("{base}/faces/u")), f64s(&format!("{base}/faces/v"))) {
-                    (Ok(u), Ok(v)) => Some([u, v]),
-                    _ => None,
+                faces: {
+                    let faces: Vec<Vec<Real>> =
+                        ["u", "v", "w"][..DIM].iter().filter_map(|c| f64s(&format!("{base}/faces/{c}")).ok()).collect();
+                    faces.try_into().ok()
                 },
             });
         }
@@ -630,7 +664,9 @@ impl Snapshot {
             step: root.get("step").and_then(AttrValue::as_i64).ok_or_else(|| missing("step"))? as u64,
             nx: cells[0] as usize,
             ny: cells[1] as usize,
-            origin: [origin[0], origin[1]],
+            #[cfg(feature = "dim3")]
+            nz: cells[2] as usize,
+            origin: std::array::from_fn(|a| origin[a]),
             spacing: real(&root, "spacing")?,
             cells: arrays("", file.root().datasets().map_err(err)?, &[])?,
             fields,
@@ -687,6 +723,18 @@ impl Snapshot {
 /// velocities (`/fields/<f>/faces/u`, `/faces/v`) when the snapshot has them, else its
 /// cell-centred `velocity`. An error says what is wrong and how to fix it.
 pub fn read_velocity(file: &Path, field: &str) -> Result<SampledVelocity, String> {
+    #[cfg(feature = "dim3")]
+    return Err(format!(
+        "`FromSnapshot` ({}, field `{field}`) is not available in 3D yet (issue 17 brings 3D snapshots first)",
+        file.display()
+    ));
+    #[cfg(feature = "dim2")]
+    read_velocity_2d(file, field)
+}
+
+/// [`read_velocity`] of a 2D snapshot.
+#[cfg(feature = "dim2")]
+fn read_velocity_2d(file: &Path, field: &str) -> Result<SampledVelocity, String> {
     let shown = file.display();
     let how = "give the path of a snapshot a run wrote (`<run dir>/snapshots/snapshot_NNNNNN.h5`, \
                relative to the directory multifield runs in)";
@@ -847,7 +895,7 @@ impl Entry {
 
     /// What the XDMF lists of `snap`, written as `file`.
     fn of(snap: &Snapshot, file: String) -> Entry {
-        let n = snap.nx * snap.ny;
+        let n: usize = snap.cells_along().iter().product();
         let listed = |a: &Arrays, count: usize| -> Listed {
             a.iter().map(|(k, v)| (k.clone(), count > 0 && v.len() == 3 * count)).collect()
         };
@@ -1084,7 +1132,17 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
         "  <Domain>\n    <Grid Name=\"{}\" GridType=\"Collection\" CollectionType=\"Temporal\">",
         xml_escape(case)
     );
-    let (scalar, vector) = (format!("1 {ny} {nx}"), format!("1 {ny} {nx} 3"));
+    // a 2D grid is a mesh one cell thick; the dimensions list z, y, x
+    #[cfg(feature = "dim2")]
+    let (cells, nodes, origin) =
+        (format!("1 {ny} {nx}"), format!("2 {} {}", ny + 1, nx + 1), format!("0 {} {}", grid.origin.y, grid.origin.x));
+    #[cfg(feature = "dim3")]
+    let (cells, nodes, origin) = (
+        format!("{} {ny} {nx}", grid.nz),
+        format!("{} {} {}", grid.nz + 1, ny + 1, nx + 1),
+        format!("{} {} {}", grid.origin.z, grid.origin.y, grid.origin.x),
+    );
+    let (scalar, vector) = (cells.clone(), format!("{cells} 3"));
     for e in entries {
         let file = xml_escape(&e.file);
         let hdf = |dims: &str, number: &str, path: &str| item(dims, number, "HDF", &format!("{file}:{path}"));
@@ -1093,12 +1151,9 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
         let _ = writeln!(
             s,
             "        <Grid Name=\"grid\" GridType=\"Uniform\">\n          \
-             <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"2 {} {}\"/>\n          \
+             <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"{nodes}\"/>\n          \
              <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n            {}\n            {}\n          </Geometry>",
-            ny + 1,
-            nx + 1,
-            item("3", "Float", "XML", &format!("0 {} {}", grid.origin.y, grid.origin.x))
-                .replace("<DataItem", "<DataItem Name=\"Origin\""),
+            item("3", "Float", "XML", &origin).replace("<DataItem", "<DataItem Name=\"Origin\""),
             item("3", "Float", "XML", &format!("{h} {h} {h}")).replace("<DataItem", "<DataItem Name=\"Spacing\""),
         );
         let mut cells: Vec<(String, bool, String)> =
@@ -1147,7 +1202,7 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
     s
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
     use crate::core::math::Vector;

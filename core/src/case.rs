@@ -276,6 +276,11 @@ impl BodySpec {
     }
 }
 
+/// The refusal of a 2D region in a 3D case, with the 3D shapes as the fix.
+#[cfg(feature = "dim3")]
+const REGIONS_2D_IN_3D: &str = "`Rectangle` and `Disk` are 2D regions; a 3D case takes `All`, `Rest`, \
+     `Box(min: (x, y, z), max: (x, y, z))` or `Sphere(center: (x, y, z), radius: r)`";
+
 impl Region {
     /// Whether the point `(x, y)` lies in the region (`Rest` and `All` contain everything);
     /// in 3D a box or a sphere contains no point of the plane (use
@@ -882,6 +887,54 @@ pub struct Case {
     pub stop: Vec<StopSpec>,
 }
 
+/// The number of axes of a case: how many numbers its `domain.cells` has, in the text or
+/// in the last `--set domain.cells=...` of `overrides`. `None` when the text does not
+/// parse as far as that (reading the case then says where it fails). Dimension-free: the
+/// `multifield` program reads it to choose the 2D or the 3D library.
+pub fn dimension(text: &str, overrides: &[String]) -> Option<usize> {
+    let set = overrides.iter().rev().find_map(|o| {
+        let (path, value) = o.split_once('=')?;
+        (path.trim() == "domain.cells").then(|| crate::ron_value::parse(value.trim()).ok())?
+    });
+    if let Some(value) = set {
+        return value.as_array().map(|a| a.len());
+    }
+    #[derive(Deserialize)]
+    struct DomainCells {
+        cells: ron::Value,
+    }
+    #[derive(Deserialize)]
+    struct CaseDomain {
+        domain: DomainCells,
+    }
+    crate::input::check_nesting(text).ok()?;
+    match ron_options().from_str::<CaseDomain>(text).ok()?.domain.cells {
+        ron::Value::Seq(cells) => Some(cells.len()),
+        _ => None,
+    }
+}
+
+/// An error unless the case has this compile's number of axes ([`dimension`]): a 3D case
+/// given to the 2D library, or the reverse, is named as such rather than failing to parse.
+pub fn check_dimension(text: &str, overrides: &[String]) -> Result<()> {
+    match dimension(text, overrides) {
+        Some(d) if d == DIM => Ok(()),
+        Some(d @ (2 | 3)) => Err(Error::invalid(
+            "domain.cells",
+            format!(
+                "{d} numbers: this is a {d}D case, and this library is the {DIM}D one; the `multifield` program \
+                 chooses by the case's dimension, and a program of your own loads a {d}D case with `{}`",
+                if d == 3 { "multifield3d" } else { "multifield" }
+            ),
+        )),
+        Some(d) => Err(Error::invalid(
+            "domain.cells",
+            format!("{d} numbers: give 2 (a 2D case, e.g. (64, 64)) or 3 (a 3D case, e.g. (32, 32, 32))"),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Maximum number of fields in a case (the exchange solves an N×N system per face).
 pub const MAX_FIELDS: usize = 8;
 
@@ -915,6 +968,7 @@ impl Case {
     /// Reads, overrides (`--set path=value`) and validates a case file.
     pub fn load(file: &Path, overrides: &[String]) -> Result<Case> {
         let text = crate::input::read_text(file)?;
+        check_dimension(&text, overrides).map_err(|e| e.in_file(file))?;
         let mut case = Case::from_ron(&text, file)?;
         case = case.with_overrides(overrides).map_err(|e| e.in_file(file))?;
         case.validate().map_err(|e| e.in_file(file))?;
@@ -1035,21 +1089,95 @@ impl Case {
         }
     }
 
+    /// Refuses, naming the entry, what a 3D case cannot have yet: bodies (listed,
+    /// generated or as mass points), contact, the 2D regions, and the output that comes
+    /// with the rest of issue 17 (snapshots, pictures, checkpoints).
+    #[cfg(feature = "dim3")]
+    fn refuse_not_yet_3d(&self) -> Result<()> {
+        let not_yet = |path: String, what: &str| {
+            Err(Error::invalid(
+                path,
+                format!("{what} are not available in 3D yet (issue 17 brings Eulerian fields to 3D first)"),
+            ))
+        };
+        for f in &self.fields {
+            let path = |key: &str| format!("fields.{}.{key}", f.name);
+            match f.region {
+                Region::Bodies(_) => return not_yet(path("region"), "bodies (`Bodies([...])`)"),
+                Region::Rectangle { .. } | Region::Disk { .. } => {
+                    return Err(Error::invalid(path("region"), REGIONS_2D_IN_3D))
+                }
+                Region::All | Region::Rest | Region::Box { .. } | Region::Sphere { .. } => {}
+            }
+            if f.representation == Representation::MassPoint {
+                return not_yet(path("representation"), "mass points");
+            }
+            if !f.generate.is_empty() {
+                return not_yet(path("generate"), "generated bodies");
+            }
+        }
+        if self.contact.is_some() {
+            return not_yet("contact".into(), "contact models");
+        }
+        if self.domain.point_cells.is_some() {
+            return not_yet("domain.point_cells".into(), "mass points (and their grid)");
+        }
+        let o = &self.output;
+        if o.snapshots.is_some() {
+            return not_yet("output.snapshots".into(), "snapshots");
+        }
+        if o.pictures.is_some() {
+            return not_yet("output.pictures".into(), "pictures");
+        }
+        if o.checkpoints.is_some() {
+            return not_yet("output.checkpoints".into(), "checkpoints");
+        }
+        for m in &self.monitors {
+            if matches!(m.of, crate::monitor::Monitored::Suspension { .. } | crate::monitor::Monitored::Forces { .. }) {
+                return not_yet(format!("monitors.{}.of", m.name), "the monitors of bodies (`Forces`, `Suspension`)");
+            }
+        }
+        Ok(())
+    }
+
     /// Rejects impossible values before step 0, saying how to fix them.
     pub fn validate(&self) -> Result<()> {
         self.check_finite()?;
         let bad = |path: &str, message: String| Err(Error::invalid(path, message));
         let d = &self.domain;
-        if !(d.size[0] > 0.0 && d.size[1] > 0.0 && d.size.iter().all(|s| s.is_finite())) {
-            return bad("domain.size", format!("{:?}: both sides must be positive lengths", d.size));
+        if !d.size.iter().all(|&s| s > 0.0 && s.is_finite()) {
+            let every = if DIM == 2 { "both sides" } else { "all three sides" };
+            return bad("domain.size", format!("{:?}: {every} must be positive lengths", d.size));
         }
         for (path, cells) in
             std::iter::once(("domain.cells", d.cells)).chain(d.point_cells.map(|c| ("domain.point_cells", c)))
         {
-            if cells[0] < 2 || cells[1] < 2 {
+            if cells.iter().any(|&n| n < 2) {
                 return bad(path, format!("{cells:?}: at least 2 cells in each direction"));
             }
+            #[cfg(feature = "dim3")]
+            {
+                let h: Vec<Real> = (0..DIM).map(|a| d.size[a] / cells[a] as Real).collect();
+                if h.iter().any(|x| ((h[0] - x) / h[0]).abs() > 1e-9) {
+                    let suggestion: Vec<String> =
+                        (0..DIM).map(|a| ((d.size[a] / h[0]).round() as usize).to_string()).collect();
+                    return bad(
+                        path,
+                        format!(
+                            "cells must be cubes, but size {:?} with cells {cells:?} gives {} × {} × {}; use cells \
+                             proportional to the size, e.g. ({})",
+                            d.size,
+                            h[0],
+                            h[1],
+                            h[2],
+                            suggestion.join(", ")
+                        ),
+                    );
+                }
+            }
+            #[cfg(feature = "dim2")]
             let (hx, hy) = (d.size[0] / cells[0] as Real, d.size[1] / cells[1] as Real);
+            #[cfg(feature = "dim2")]
             if ((hx - hy) / hx).abs() > 1e-9 {
                 return bad(
                     path,
@@ -1064,6 +1192,8 @@ impl Case {
             }
         }
         self.boundaries.validate().map_err(|m| Error::invalid("boundaries", m))?;
+        #[cfg(feature = "dim3")]
+        self.refuse_not_yet_3d()?;
         if !self.gravity.iter().all(|g| g.is_finite()) {
             return bad("gravity", "must be finite".into());
         }
@@ -1119,12 +1249,7 @@ impl Case {
                 Region::All => {}
                 #[cfg(feature = "dim3")]
                 Region::Rectangle { .. } | Region::Disk { .. } => {
-                    return bad(
-                        &p("region"),
-                        "`Rectangle` and `Disk` are 2D regions; a 3D case takes `Box(min: (x, y, z), max: (x, y, z))` \
-                         or `Sphere(center: (x, y, z), radius: r)`"
-                            .into(),
-                    );
+                    return bad(&p("region"), REGIONS_2D_IN_3D.into());
                 }
                 #[cfg(feature = "dim3")]
                 Region::Box { min, max } => {

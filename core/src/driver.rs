@@ -725,8 +725,13 @@ pub fn number(x: Real) -> String {
 }
 
 /// The columns of `diagnostics.csv`, in order.
+#[cfg(feature = "dim2")]
 pub const CSV_HEADER: &str = "step,time,dt,dt_limit,kinetic_energy,momentum_x,momentum_y,mass,max_speed,\
 max_divergence,volume_fraction_error,pressure_iterations,pressure_residual,strain_energy,max_volume_fraction";
+/// The columns of `diagnostics.csv`, in order: the 2D ones, then `momentum_z`.
+#[cfg(feature = "dim3")]
+pub const CSV_HEADER: &str = "step,time,dt,dt_limit,kinetic_energy,momentum_x,momentum_y,mass,max_speed,\
+max_divergence,volume_fraction_error,pressure_iterations,pressure_residual,strain_energy,max_volume_fraction,momentum_z";
 
 /// Header of `bodies.csv` (one row per body per output time).
 pub const BODIES_HEADER: &str =
@@ -770,6 +775,8 @@ impl DiagnosticsCsv {
             x(d.pressure_residual),
             x(d.strain_energy),
             x(d.max_volume_fraction),
+            #[cfg(feature = "dim3")]
+            x(d.momentum.z),
         ];
         write_row(&mut self.file, &self.path, &row)?;
         flush(&mut self.file, &self.path)

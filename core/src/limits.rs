@@ -10,7 +10,7 @@
 
 use crate::case::{BodyShape, Case, Region, Representation};
 use crate::error::{Error, Result};
-use crate::math::Real;
+use crate::math::{Real, DIM};
 
 /// Most cells a case may have (nx × ny): 2³⁰, about 10⁹ (some 200 GB for one field).
 pub const MAX_CELLS: u64 = 1 << 30;
@@ -125,10 +125,34 @@ impl MemoryLimit {
     }
 }
 
+/// Cells and faces (of every lattice) of a grid of `n` cells, saturating.
+fn cells_and_faces(n: [u64; DIM]) -> (u64, u64) {
+    let product = |m: [u64; DIM]| m.iter().fold(1u64, |a, &b| a.saturating_mul(b));
+    let faces = (0..DIM).map(|a| {
+        let mut f = n;
+        f[a] = f[a].saturating_add(1);
+        product(f)
+    });
+    (product(n), faces.fold(0, u64::saturating_add))
+}
+
 /// Cells, x-faces and y-faces of an `nx × ny` grid, saturating.
 #[cfg(feature = "dim2")]
 fn lattice(nx: u64, ny: u64) -> (u64, u64, u64) {
     (nx.saturating_mul(ny), nx.saturating_add(1).saturating_mul(ny), nx.saturating_mul(ny.saturating_add(1)))
+}
+
+/// Bytes per face of the implicit viscous operators of a field on each face lattice
+/// (activity, a neighbour of 24 bytes per side, and six CG vectors); 0 for a field without
+/// them (no Newtonian stress, or explicit diffusion).
+fn implicit_viscous_per_face(f: &crate::case::FieldSpec) -> u64 {
+    let viscous = f.stress.iter().any(|s| s.model == "newtonian");
+    let implicit = f.frame.params.get("diffusion").and_then(|v| v.as_str()) != Some("explicit");
+    if viscous && implicit {
+        1 + crate::math::SIDES as u64 * 24 + 6 * R
+    } else {
+        0
+    }
 }
 
 /// `a × b` saturating.
@@ -268,47 +292,12 @@ impl Case {
                     .saturating_add(p3)
                     .saturating_add(fluxes);
                 b = b.saturating_add(mul(R, n));
-                let viscous = f.stress.iter().any(|s| s.model == "newtonian");
-                let implicit = f.frame.params.get("diffusion").and_then(|v| v.as_str()) != Some("explicit");
-                if viscous && implicit {
-                    // the implicit viscous operators on each face lattice: activity, four
-                    // neighbours of 24 bytes, and six CG vectors
-                    b = b.saturating_add(mul(faces, 1 + 4 * 24 + 6 * R));
-                }
+                b = b.saturating_add(mul(faces, implicit_viscous_per_face(f)));
             }
             parts.push((format!("field {}", f.name), b));
         }
-        let exchanges = self.exchange.iter().filter(|e| e.model != "direct_forcing").count() as u64;
-        if exchanges > 0 {
-            parts.push(("exchange coefficients".into(), mul(mul(exchanges, R), faces)));
-        }
-        if let Some(p) = &self.pressure {
-            // the problem (face coefficients, right-hand side) and the CG vectors in f64
-            // and f32, then every level of the multigrid (each a quarter of the one above)
-            // or, for the direct solver, the factor
-            let mut b = mul(R, faces).saturating_add(mul(R, c)).saturating_add(mul(3 * R + 2 * 4, c));
-            if p.model == "cholesky" {
-                b = b.saturating_add(cholesky_bytes(c));
-            } else {
-                let (mut lx, mut ly) = (nx, ny);
-                loop {
-                    let (lc, lx_faces, ly_faces) = lattice(lx, ly);
-                    // the level's 5-point operator (f64): face couplings, ghost terms, diagonal
-                    // and its inverse
-                    b = b.saturating_add(mul(R, lx_faces.saturating_add(ly_faces)).saturating_add(mul(3 * R, lc)));
-                    if !(lx.is_multiple_of(2) && ly.is_multiple_of(2) && lx >= 4 && ly >= 4) {
-                        b = b.saturating_add(cholesky_bytes(lc));
-                        break;
-                    }
-                    // smoothed levels: the f32 operator (4 per cell), the interpolation
-                    // weights (2 per cell), the coarse right-hand side and solution
-                    b = b.saturating_add(mul(4, mul(lc, 4 + 2)).saturating_add(mul(4, lc / 2)));
-                    lx /= 2;
-                    ly /= 2;
-                }
-            }
-            parts.push((format!("pressure solver {}", p.model), b));
-        }
+        parts.extend(self.exchange_bytes(faces));
+        parts.extend(self.pressure_bytes());
         self.with_output(parts, c, points_total)
     }
 
@@ -318,58 +307,59 @@ impl Case {
     #[cfg(feature = "dim3")]
     pub fn memory_estimate(&self) -> MemoryEstimate {
         let n = self.cells().map(|n| n as u64);
-        let product = |m: [u64; 3]| m.iter().fold(1u64, |a, &b| a.saturating_mul(b));
-        let lattices = |m: [u64; 3]| {
-            let faces = (0..3).map(|a| {
-                let mut f = m;
-                f[a] = f[a].saturating_add(1);
-                product(f)
-            });
-            (product(m), faces.fold(0, u64::saturating_add))
-        };
-        let (c, faces) = lattices(n);
+        let (c, faces) = cells_and_faces(n);
         let mut parts: Vec<(String, u64)> = vec![("pressure and seeding".into(), mul(3 * R, c))];
         for f in &self.fields {
             // FieldState: θ at cells; θ and mass on faces, five face velocities; the seeding's θ
             let mut b = mul(2 * R, c).saturating_add(mul(7 * R, faces));
             // θ, θ¹, its rate; four face velocities; four padded lattices (two ghost layers);
             // the nine momentum fluxes and the θ fluxes (about a lattice each)
-            let padded = product(n.map(|k| k.saturating_add(5)));
+            let (padded, _) = cells_and_faces(n.map(|k| k.saturating_add(5)));
             let work =
                 mul(3, c).saturating_add(mul(4, faces)).saturating_add(mul(4, padded)).saturating_add(mul(12, c));
             b = b.saturating_add(mul(R, work));
-            let viscous = f.stress.iter().any(|s| s.model == "newtonian");
-            let implicit = f.frame.params.get("diffusion").and_then(|v| v.as_str()) != Some("explicit");
-            if viscous && implicit {
-                // activity, six neighbours of 24 bytes, and six CG vectors per face
-                b = b.saturating_add(mul(faces, 1 + 6 * 24 + 6 * R));
-            }
+            b = b.saturating_add(mul(faces, implicit_viscous_per_face(f)));
             parts.push((format!("field {}", f.name), b));
         }
-        let exchanges = self.exchange.len() as u64;
-        if exchanges > 0 {
-            parts.push(("exchange coefficients".into(), mul(mul(exchanges, R), faces)));
-        }
-        if let Some(p) = &self.pressure {
-            let mut b = mul(R, faces).saturating_add(mul(R, c)).saturating_add(mul(3 * R + 2 * 4, c));
-            if p.model == "cholesky" {
-                b = b.saturating_add(cholesky_bytes(c));
-            } else {
-                let mut m = n;
-                loop {
-                    let (lc, lf) = lattices(m);
-                    b = b.saturating_add(mul(R, lf).saturating_add(mul(3 * R, lc)));
-                    if !m.iter().all(|&k| k.is_multiple_of(2) && k >= 4) {
-                        b = b.saturating_add(cholesky_bytes(lc));
-                        break;
-                    }
-                    b = b.saturating_add(mul(4, mul(lc, 4 + 3)).saturating_add(mul(4, lc / 4)));
-                    m = m.map(|k| k / 2);
-                }
-            }
-            parts.push((format!("pressure solver {}", p.model), b));
-        }
+        parts.extend(self.exchange_bytes(faces));
+        parts.extend(self.pressure_bytes());
         self.with_output(parts, c, 0)
+    }
+
+    /// The pressure solver's bytes, if the case has one: the problem (face coefficients,
+    /// right-hand side) and the CG vectors in f64 and f32, then every level of the multigrid
+    /// (each 2^DIM times smaller than the one above) or, for the direct solver, the factor.
+    fn pressure_bytes(&self) -> Option<(String, u64)> {
+        let p = self.pressure.as_ref()?;
+        let n = self.cells().map(|n| n as u64);
+        let (c, faces) = cells_and_faces(n);
+        let mut b = mul(R, faces).saturating_add(mul(R, c)).saturating_add(mul(3 * R + 2 * 4, c));
+        if p.model == "cholesky" {
+            b = b.saturating_add(cholesky_bytes(c));
+        } else {
+            let mut m = n;
+            loop {
+                let (lc, lf) = cells_and_faces(m);
+                // the level's operator (f64): face couplings, ghost terms, diagonal and its
+                // inverse
+                b = b.saturating_add(mul(R, lf).saturating_add(mul(3 * R, lc)));
+                if !m.iter().all(|&k| k.is_multiple_of(2) && k >= 4) {
+                    b = b.saturating_add(cholesky_bytes(lc));
+                    break;
+                }
+                // smoothed levels: the f32 operator (4 per cell), the interpolation weights
+                // (DIM per cell), the coarse right-hand side and solution
+                b = b.saturating_add(mul(4, mul(lc, 4 + DIM as u64)).saturating_add(mul(4, lc >> (DIM - 1))));
+                m = m.map(|k| k / 2);
+            }
+        }
+        Some((format!("pressure solver {}", p.model), b))
+    }
+
+    /// The exchanges' coefficients on `faces` faces (a direct forcing keeps none), if any.
+    fn exchange_bytes(&self, faces: u64) -> Option<(String, u64)> {
+        let exchanges = self.exchange.iter().filter(|e| e.model != "direct_forcing").count() as u64;
+        (exchanges > 0).then(|| ("exchange coefficients".into(), mul(mul(exchanges, R), faces)))
     }
 
     /// The estimate from the parts of the run, with the output's buffers added.

@@ -22,7 +22,7 @@ pub mod stress;
 pub const SHIPPED: &[(&str, &[&str])] = &[
     ("stress", &["newtonian"]),
     ("exchange", &["constant", "no_slip", "schiller_naumann", "stokes"]),
-    ("pressure", &["pcg"]),
+    ("pressure", &["cholesky", "multigrid", "pcg"]),
     ("contact", &[]),
 ];
 /// The names this crate registers, by role: the test of the registry checks them.

@@ -4,6 +4,7 @@
 //!
 //! One test binary: `cargo test --test dim3 [module::]`.
 
+mod case;
 mod eulerian;
 mod exchange;
 mod grid;

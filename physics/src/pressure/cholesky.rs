@@ -1,5 +1,11 @@
-//! Sparse Cholesky factorization A = L Lᵀ of the 5-point pressure operator (faer, with
-//! an approximate-minimum-degree ordering).
+//! Sparse Cholesky factorization A = L Lᵀ of the 5-point (7-point in 3D) pressure
+//! operator (faer, with an approximate-minimum-degree ordering).
+//!
+//! The factor fills in: about n (8 + 2 log₂ n) nonzeros for n cells in 2D, but about
+//! 2 n^{3/2} in 3D ([`factor_bytes`]); a grid whose factor would not fit in the memory
+//! available is refused with the number before anything is allocated. In 3D the
+//! factorization runs on one thread: faer's parallel supernodal kernels, which 3D's large
+//! supernodes reach, sum in an order that depends on the thread count.
 //!
 //! The symbolic factorization depends only on the grid size and the periodic axes, so it is
 //! kept while they do not change; each solve refactors the values. A singular (pure-Neumann)
@@ -15,7 +21,8 @@ use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use multifield_core::math::Real;
+use multifield_core::limits::{bytes_text, MemoryLimit};
+use multifield_core::math::{Index, Real, AXES, DIM};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -24,20 +31,55 @@ use serde::{Deserialize, Serialize};
 
 const NONE: usize = usize::MAX;
 
+/// Bytes of a factor of `nonzeros` entries: a value and a row index each.
+const BYTES_PER_NONZERO: u64 = 16;
+
+/// The estimated bytes of the sparse Cholesky factor of the operator on `n` cells (its
+/// values and row indices), before any factorization: n (8 + 2 log₂ n) nonzeros in 2D (as
+/// the memory estimate of a case counts them), 2 n^{3/2} in 3D (faer's AMD ordering on
+/// the 7-point operator of a cube: 1.50, 1.59, 1.79, 1.64, 1.83 n^{3/2} at 16³, 24³,
+/// 32³, 40³, 48³; nested dissection would reach n^{4/3}, but AMD grows faster).
+pub fn factor_bytes(n: Index) -> u64 {
+    let cells = n.iter().fold(1u64, |a, &k| a.saturating_mul(k as u64));
+    #[cfg(feature = "dim2")]
+    let nonzeros = {
+        let log = 64 - cells.max(2).leading_zeros() as u64;
+        cells.saturating_mul(8 + 2 * log)
+    };
+    #[cfg(feature = "dim3")]
+    let nonzeros = (2.0 * cells as Real * (cells as Real).sqrt()).min(u64::MAX as Real) as u64;
+    nonzeros.saturating_mul(BYTES_PER_NONZERO)
+}
+
+/// Cells as "64 × 64 × 64".
+fn times(n: Index) -> String {
+    n.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(" × ")
+}
+
+/// The refusal of a factor of `bytes` bytes (`what`: estimated or counted) above `limit`.
+fn refuse(n: Index, bytes: u64, what: &str, limit: &MemoryLimit) -> String {
+    format!(
+        "cholesky: the factor of the pressure operator on {} cells needs about {} ({what}), more than \
+         {}: use the solver pcg (its default multigrid preconditioner needs a few arrays per cell) \
+         or a coarser grid",
+        times(n),
+        bytes_text(bytes),
+        limit.describe()
+    )
+}
+
 /// A reusable sparse LLᵀ of a [`Stencil`]: symbolic part cached per pattern.
 #[derive(Default)]
 pub struct SparseLlt {
-    key: Option<(usize, usize, [bool; 2])>,
+    key: Option<(Index, [bool; DIM])>,
     symbolic: Option<SymbolicCholesky<usize>>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     values: Vec<Real>,
     /// Value slot of each cell's diagonal.
     diag_slot: Vec<usize>,
-    /// Value slot of each x-face coupling (NONE on a non-periodic side).
-    x_slot: Vec<usize>,
-    /// Value slot of each y-face coupling.
-    y_slot: Vec<usize>,
+    /// Value slot of the coupling across each face, per axis (NONE on a non-periodic side).
+    slots: [Vec<usize>; DIM],
     l_values: Vec<Real>,
     factor_stack: Option<MemBuffer>,
     solve_stack: Option<MemBuffer>,
@@ -46,6 +88,8 @@ pub struct SparseLlt {
     /// Cells with no coupling at all (diagonal 0): identity rows.
     dead: Vec<bool>,
     par: Option<Par>,
+    /// The memory the factor may use (bytes); `None`: [`MemoryLimit::resolve`]'s.
+    memory_limit: Option<u64>,
 }
 
 impl std::fmt::Debug for SparseLlt {
@@ -61,6 +105,10 @@ impl SparseLlt {
     }
 
     fn parallelism(&self) -> Par {
+        // 3D: one thread unless asked (see the module's note on determinism)
+        #[cfg(feature = "dim3")]
+        return self.par.unwrap_or(Par::Seq);
+        #[cfg(feature = "dim2")]
         self.par.unwrap_or_else(|| {
             let n = rayon::current_num_threads();
             if n > 1 {
@@ -71,34 +119,42 @@ impl SparseLlt {
         })
     }
 
+    /// Caps the memory of the factor at `bytes` (instead of the machine's available memory
+    /// or `MULTIFIELD_MAX_MEMORY`).
+    pub fn set_memory_limit(&mut self, bytes: u64) {
+        self.memory_limit = Some(bytes);
+    }
+
+    fn limit(&self) -> std::result::Result<MemoryLimit, String> {
+        match self.memory_limit {
+            Some(bytes) => MemoryLimit::resolve(Some(bytes)),
+            None => MemoryLimit::resolve(None),
+        }
+    }
+
     /// Number of nonzeros of L (0 before the first factorization).
     pub fn factor_nonzeros(&self) -> usize {
         self.l_values.len()
     }
 
     fn analyze(&mut self, s: &Stencil) -> std::result::Result<(), String> {
-        let (nx, ny) = (s.nx, s.ny);
-        let n = nx * ny;
-        let [px, py] = s.periodic;
-        // lower-triangle entries (row, column) of every coupling, per column
-        let mut cols: Vec<Vec<usize>> = (0..n).map(|k| vec![k]).collect();
-        let mut couple = |a: usize, b: usize| {
-            let (r, c) = (a.max(b), a.min(b));
-            if r != c && !cols[c].contains(&r) {
-                cols[c].push(r);
-            }
-        };
-        for j in 0..ny {
-            for i in 0..=nx {
-                if (i > 0 && i < nx) || (px && i == 0) {
-                    couple(s.west(i % nx) + j * nx, i % nx + j * nx);
-                }
-            }
+        let shape = s.n();
+        let n = s.len();
+        let limit = self.limit()?;
+        let estimate = factor_bytes(shape);
+        if estimate > limit.bytes {
+            return Err(refuse(shape, estimate, "estimated", &limit));
         }
-        for j in 0..=ny {
-            for i in 0..nx {
-                if (j > 0 && j < ny) || (py && j == 0) {
-                    couple(i + s.south(j % ny) * nx, i + (j % ny) * nx);
+        // lower-triangle entries (row, column) of every coupling, per column: each cell
+        // with the cell before it along each axis (wrapped on a periodic axis)
+        let mut cols: Vec<Vec<usize>> = (0..n).map(|k| vec![k]).collect();
+        for a in AXES {
+            for (b, at) in cells(shape) {
+                if let Some(o) = before(shape, s.periodic, a, at) {
+                    let (r, c) = (o.max(b), o.min(b));
+                    if r != c && !cols[c].contains(&r) {
+                        cols[c].push(r);
+                    }
                 }
             }
         }
@@ -110,54 +166,47 @@ impl SparseLlt {
             self.row_idx.extend_from_slice(c);
             self.col_ptr.push(self.row_idx.len());
         }
+        drop(cols);
         let slot = |cp: &[usize], ri: &[usize], a: usize, b: usize| {
             let (r, c) = (a.max(b), a.min(b));
             cp[c] + ri[cp[c]..cp[c + 1]].binary_search(&r).expect("entry in pattern")
         };
         self.diag_slot = (0..n).map(|k| slot(&self.col_ptr, &self.row_idx, k, k)).collect();
-        self.x_slot = vec![NONE; (nx + 1) * ny];
-        for j in 0..ny {
-            for i in 0..nx {
-                if i > 0 || px {
-                    let (a, b) = (s.west(i) + j * nx, i + j * nx);
-                    if a != b {
-                        self.x_slot[i + j * (nx + 1)] = slot(&self.col_ptr, &self.row_idx, a, b);
+        for a in AXES {
+            // the low face of each cell; the wrap face is counted once, at 0
+            let mut slots = vec![NONE; s.coupling(a).len()];
+            for (b, at) in cells(shape) {
+                if let Some(o) = before(shape, s.periodic, a, at) {
+                    if o != b {
+                        slots[face(shape, a, at)] = slot(&self.col_ptr, &self.row_idx, o, b);
                     }
                 }
             }
-            if px {
-                self.x_slot[nx + j * (nx + 1)] = NONE; // the wrap face is counted once, at i = 0
-            }
-        }
-        self.y_slot = vec![NONE; nx * (ny + 1)];
-        for j in 0..ny {
-            for i in 0..nx {
-                if j > 0 || py {
-                    let (a, b) = (i + s.south(j) * nx, i + j * nx);
-                    if a != b {
-                        self.y_slot[i + j * nx] = slot(&self.col_ptr, &self.row_idx, a, b);
-                    }
-                }
-            }
+            self.slots[a] = slots;
         }
         self.values = vec![0.0; self.row_idx.len()];
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let symbolic = factorize_symbolic_cholesky(pattern, Side::Lower, Default::default(), Default::default())
             .map_err(|e| format!("symbolic Cholesky factorization failed: {e:?}"))?;
+        let bytes = (symbolic.len_val() as u64).saturating_mul(BYTES_PER_NONZERO);
+        if bytes > limit.bytes {
+            self.key = None;
+            return Err(refuse(shape, bytes, &format!("{} nonzeros", symbolic.len_val()), &limit));
+        }
         self.l_values = vec![0.0; symbolic.len_val()];
         self.symbolic = Some(symbolic);
         self.factor_stack = None;
         self.solve_stack = None;
-        self.key = Some((nx, ny, s.periodic));
+        self.key = Some((shape, s.periodic));
         Ok(())
     }
 
     /// Factors the operator `s` (refactoring the values only when the pattern is unchanged).
     pub fn factor(&mut self, s: &Stencil) -> std::result::Result<(), String> {
-        if self.key != Some((s.nx, s.ny, s.periodic)) {
+        if self.key != Some((s.n(), s.periodic)) {
             self.analyze(s)?;
         }
-        let (nx, n) = (s.nx, s.len());
+        let (shape, n) = (s.n(), s.len());
         self.singular = s.is_singular();
         self.dead.clear();
         self.dead.extend(s.diag.iter().map(|&d| d <= 0.0));
@@ -168,21 +217,13 @@ impl SparseLlt {
         for k in 0..n {
             values[self.diag_slot[k]] = if off(k) { 1.0 } else { s.diag[k] };
         }
-        for j in 0..s.ny {
-            for i in 0..nx {
-                let b = i + j * nx;
-                let f = i + j * (nx + 1);
-                if self.x_slot[f] != NONE {
-                    let a = s.west(i) + j * nx;
-                    if !off(a) && !off(b) {
-                        values[self.x_slot[f]] -= s.ax[f];
-                    }
-                }
-                let f = i + j * nx;
-                if self.y_slot[f] != NONE {
-                    let a = i + s.south(j) * nx;
-                    if !off(a) && !off(b) {
-                        values[self.y_slot[f]] -= s.ay[f];
+        for (b, at) in cells(shape) {
+            for a in AXES {
+                let f = face(shape, a, at);
+                if self.slots[a][f] != NONE {
+                    let o = before(shape, s.periodic, a, at).expect("a coupled face");
+                    if !off(o) && !off(b) {
+                        values[self.slots[a][f]] -= s.coupling(a)[f];
                     }
                 }
             }
@@ -248,6 +289,54 @@ impl SparseLlt {
     }
 }
 
+/// The cells of an `n` grid in storage order (x fastest), with their positions.
+fn cells(n: Index) -> impl Iterator<Item = (usize, Index)> {
+    let count: usize = n.iter().product();
+    let mut at = [0; DIM];
+    (0..count).map(move |k| {
+        let here = at;
+        for a in AXES {
+            at[a] += 1;
+            if at[a] < n[a] {
+                break;
+            }
+            at[a] = 0;
+        }
+        (k, here)
+    })
+}
+
+/// Storage index of node `at` of a lattice of shape `shape`.
+#[inline]
+fn index(shape: Index, at: Index) -> usize {
+    let mut k = at[DIM - 1];
+    for a in (0..DIM - 1).rev() {
+        k = at[a] + shape[a] * k;
+    }
+    k
+}
+
+/// Index of the face below cell `at` along axis `a`.
+#[inline]
+fn face(n: Index, a: usize, at: Index) -> usize {
+    let mut shape = n;
+    shape[a] += 1;
+    index(shape, at)
+}
+
+/// The cell before `at` along axis `a` (wrapped on a periodic axis), if any.
+#[inline]
+fn before(n: Index, periodic: [bool; DIM], a: usize, mut at: Index) -> Option<usize> {
+    if at[a] > 0 {
+        at[a] -= 1;
+    } else if periodic[a] {
+        at[a] = n[a] - 1;
+    } else {
+        return None;
+    }
+    Some(index(n, at))
+}
+
 /// Direct solve by sparse Cholesky factorization.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -298,6 +387,11 @@ impl Cholesky {
     /// Nonzeros of the last factor L.
     pub fn factor_nonzeros(&self) -> usize {
         self.llt.factor_nonzeros()
+    }
+
+    /// Caps the memory of the factor at `bytes` (see [`SparseLlt::set_memory_limit`]).
+    pub fn set_memory_limit(&mut self, bytes: u64) {
+        self.llt.set_memory_limit(bytes);
     }
 }
 

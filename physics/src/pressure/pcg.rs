@@ -4,11 +4,8 @@
 //! is bit-identical for any number of threads. Not converging is an error that carries
 //! the residual history.
 
-#[cfg(feature = "dim2")]
 use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
-#[cfg(feature = "dim2")]
-use super::stencil::dot_lanes;
-use super::stencil::Stencil;
+use super::stencil::{dot_lanes, Stencil};
 use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
@@ -43,20 +40,17 @@ pub struct Pcg {
     #[serde(default = "default_iters")]
     pub max_iterations: usize,
     /// Multigrid hierarchy, kept across solves.
-    #[cfg(feature = "dim2")]
     #[serde(skip)]
     multigrid: Hierarchy,
     /// The operator (without multigrid), kept across solves.
     #[serde(skip)]
     stencil: Stencil,
     /// Vectors of the multigrid-preconditioned iteration, kept across solves.
-    #[cfg(feature = "dim2")]
     #[serde(skip)]
     scratch: Scratch,
 }
 
 /// CG vectors in f64 (r, p, q) and the V-cycle's input and output in f32.
-#[cfg(feature = "dim2")]
 #[derive(Clone, Debug, Default)]
 struct Scratch {
     r: Vec<Real>,
@@ -70,7 +64,6 @@ struct Scratch {
 /// passes fused: A p with p · q; the update of r with r · r and the f32 copy of r; x += α p
 /// with the next p = z + β p (z read in f32). Reductions go by fixed chunks or rows: the result is
 /// the same to the bit for any number of threads.
-#[cfg(feature = "dim2")]
 fn pcg_multigrid(
     problem: &PoissonProblem,
     x: &mut [Real],
@@ -147,7 +140,6 @@ fn pcg_multigrid(
 }
 
 /// r · z with z in f32, by fixed chunks.
-#[cfg(feature = "dim2")]
 fn dot_mixed(r: &[Real], z: &[F]) -> Real {
     let partial: Vec<Real> = r
         .par_chunks(CHUNK)
@@ -168,7 +160,6 @@ fn dot_mixed(r: &[Real], z: &[F]) -> Real {
 }
 
 /// r −= α q, r32 = r in f32; returns r · r (by fixed chunks).
-#[cfg(feature = "dim2")]
 fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
     let partial: Vec<Real> = r
         .par_chunks_mut(CHUNK)
@@ -184,11 +175,6 @@ fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
         .collect();
     partial.iter().sum()
 }
-
-/// The refusal of the multigrid preconditioner in 3D until it is ported.
-#[cfg(feature = "dim3")]
-const MULTIGRID_NOT_YET_3D: &str = "pcg: preconditioner \"multigrid\" is not yet available in 3D (issue 17, P2b); \
-     use preconditioner: \"jacobi\" (or \"none\")";
 
 /// Multigrid: a V-cycle costs a few Jacobi iterations and takes the iteration count from
 /// O(N^½) to a handful at any size (the lid-driven cavity at 64², Re 1000: 4.2× faster).
@@ -209,20 +195,15 @@ impl Pcg {
             preconditioner,
             tolerance,
             max_iterations,
-            #[cfg(feature = "dim2")]
             multigrid: Hierarchy::new(default_sweeps()),
             stencil: Stencil::default(),
-            #[cfg(feature = "dim2")]
             scratch: Scratch::default(),
         }
     }
 
     /// Sizes of the multigrid levels of the last solve, finest first (empty without multigrid).
     pub fn multigrid_levels(&self) -> Vec<Index> {
-        #[cfg(feature = "dim2")]
-        return self.multigrid.level_sizes();
-        #[cfg(feature = "dim3")]
-        return Vec::new();
+        self.multigrid.level_sizes()
     }
 
     /// Checks the parameters.
@@ -233,14 +214,7 @@ impl Pcg {
         if self.max_iterations == 0 {
             return Err("max_iterations must be at least 1".into());
         }
-        #[cfg(feature = "dim2")]
-        {
-            self.multigrid = Hierarchy::new(default_sweeps());
-        }
-        #[cfg(feature = "dim3")]
-        if self.preconditioner == PreconditionerKind::Multigrid {
-            return Err(MULTIGRID_NOT_YET_3D.into());
-        }
+        self.multigrid = Hierarchy::new(default_sweeps());
         Ok(())
     }
 }
@@ -343,14 +317,9 @@ impl PressureSolver for Pcg {
     }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
         let (tol, cap) = (self.tolerance, self.max_iterations);
-        #[cfg(feature = "dim2")]
         if self.preconditioner == PreconditionerKind::Multigrid {
             self.multigrid.setup(problem).map_err(Error::Model)?;
             return pcg_multigrid(problem, x, tol, cap, &mut self.multigrid, &mut self.scratch);
-        }
-        #[cfg(feature = "dim3")]
-        if self.preconditioner == PreconditionerKind::Multigrid {
-            return Err(Error::Model(MULTIGRID_NOT_YET_3D.into()));
         }
         self.stencil.assign(problem);
         let op = &self.stencil;
