@@ -365,6 +365,10 @@ fn region_text(r: &Region) -> String {
         Region::Rest => "what the other fields leave".into(),
         Region::Rectangle { min, max } => format!("rectangle {min:?}–{max:?}"),
         Region::Disk { center, radius } => format!("disk at {center:?}, radius {radius}"),
+        #[cfg(feature = "dim3")]
+        Region::Box { min, max } => format!("box {min:?}–{max:?}"),
+        #[cfg(feature = "dim3")]
+        Region::Sphere { center, radius } => format!("sphere at {center:?}, radius {radius}"),
         Region::Bodies(bodies) => format!(
             "{} bod{} ({}{})",
             bodies.len(),

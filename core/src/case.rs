@@ -7,7 +7,7 @@
 
 use crate::boundary::{Boundaries, Side};
 use crate::error::{Error, Result};
-use crate::math::{Real, DIM};
+use crate::math::{Real, Vector, DIM};
 
 /// An angular velocity in a case file: counter-clockwise positive in 2D, `(ωx, ωy, ωz)`
 /// in 3D.
@@ -123,6 +123,22 @@ pub enum Region {
     Disk {
         /// Centre.
         center: [Real; 2],
+        /// Radius.
+        radius: Real,
+    },
+    /// An axis-aligned box (3D).
+    #[cfg(feature = "dim3")]
+    Box {
+        /// Lower corner.
+        min: [Real; 3],
+        /// Upper corner.
+        max: [Real; 3],
+    },
+    /// A sphere (3D).
+    #[cfg(feature = "dim3")]
+    Sphere {
+        /// Centre.
+        center: [Real; 3],
         /// Radius.
         radius: Real,
     },
@@ -260,14 +276,41 @@ impl BodySpec {
     }
 }
 
+/// The refusal of a 2D region in a 3D case, with the 3D shapes as the fix.
+#[cfg(feature = "dim3")]
+const REGIONS_2D_IN_3D: &str = "`Rectangle` and `Disk` are 2D regions; a 3D case takes `All`, `Rest`, \
+     `Box(min: (x, y, z), max: (x, y, z))` or `Sphere(center: (x, y, z), radius: r)`";
+
 impl Region {
-    /// Whether the point `(x, y)` lies in the region (`Rest` and `All` contain everything).
+    /// Whether the point `(x, y)` lies in the region (`Rest` and `All` contain everything);
+    /// in 3D a box or a sphere contains no point of the plane (use
+    /// [`Region::contains_point`]).
     pub fn contains(&self, x: Real, y: Real) -> bool {
         match self {
             Region::All | Region::Rest => true,
+            #[cfg(feature = "dim3")]
+            Region::Box { .. } | Region::Sphere { .. } => {
+                let _ = (x, y);
+                false
+            }
             Region::Rectangle { min, max } => x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1],
             Region::Disk { center, radius } => (x - center[0]).powi(2) + (y - center[1]).powi(2) <= radius * radius,
             Region::Bodies(bodies) => bodies.iter().any(|b| b.shape.contains(x, y)),
+        }
+    }
+
+    /// Whether the point `p` lies in the region: [`Region::contains`] in 2D; in 3D the box
+    /// (faces included) or the sphere (surface included).
+    pub fn contains_point(&self, p: Vector) -> bool {
+        match self {
+            #[cfg(feature = "dim3")]
+            Region::Box { min, max } => (0..3).all(|a| p[a] >= min[a] && p[a] <= max[a]),
+            #[cfg(feature = "dim3")]
+            Region::Sphere { center, radius } => {
+                let (x, y, z) = (p[0] - center[0], p[1] - center[1], p[2] - center[2]);
+                x * x + y * y + z * z <= radius * radius
+            }
+            _ => self.contains(p[0], p[1]),
         }
     }
 
@@ -1062,13 +1105,9 @@ impl Case {
             match f.region {
                 Region::Bodies(_) => return not_yet(path("region"), "bodies (`Bodies([...])`)"),
                 Region::Rectangle { .. } | Region::Disk { .. } => {
-                    return Err(Error::invalid(
-                        path("region"),
-                        "`Rectangle` and `Disk` are 2D regions; a 3D case has `All` and `Rest` (boxes and spheres \
-                         come with 3D Eulerian fields)",
-                    ))
+                    return Err(Error::invalid(path("region"), REGIONS_2D_IN_3D))
                 }
-                Region::All | Region::Rest => {}
+                Region::All | Region::Rest | Region::Box { .. } | Region::Sphere { .. } => {}
             }
             if f.representation == Representation::MassPoint {
                 return not_yet(path("representation"), "mass points");
@@ -1202,6 +1241,36 @@ impl Case {
             match &f.region {
                 Region::Rest => rest += 1,
                 Region::All => {}
+                #[cfg(feature = "dim3")]
+                Region::Rectangle { .. } | Region::Disk { .. } => {
+                    return bad(&p("region"), REGIONS_2D_IN_3D.into());
+                }
+                #[cfg(feature = "dim3")]
+                Region::Box { min, max } => {
+                    let (lo, hi) = (d.origin, std::array::from_fn::<Real, 3, _>(|a| d.origin[a] + d.size[a]));
+                    if !(0..3).all(|a| min[a] < max[a]) {
+                        return bad(&p("region"), format!("box min {min:?} must lie below max {max:?} on every axis"));
+                    }
+                    if (0..3).any(|a| min[a] < lo[a] - 1e-12 || max[a] > hi[a] + 1e-12) {
+                        return bad(
+                            &p("region"),
+                            format!("box {min:?}–{max:?} reaches outside the domain {lo:?}–{hi:?}; move it inside"),
+                        );
+                    }
+                }
+                #[cfg(feature = "dim3")]
+                Region::Sphere { center, radius } => {
+                    let (lo, hi) = (d.origin, std::array::from_fn::<Real, 3, _>(|a| d.origin[a] + d.size[a]));
+                    if !(*radius > 0.0) {
+                        return bad(&p("region"), format!("sphere radius {radius}: must be positive"));
+                    }
+                    if (0..3).any(|a| center[a] - radius < lo[a] - 1e-12 || center[a] + radius > hi[a] + 1e-12) {
+                        return bad(&p("region"), format!(
+                            "sphere at {center:?} with radius {radius} reaches outside the domain {lo:?}–{hi:?}; move it inside or make it smaller"
+                        ));
+                    }
+                }
+                #[cfg(feature = "dim2")]
                 Region::Rectangle { min, max } => {
                     if !(min[0] < max[0] && min[1] < max[1]) {
                         return bad(
@@ -1281,6 +1350,7 @@ impl Case {
                         }
                     }
                 }
+                #[cfg(feature = "dim2")]
                 Region::Disk { center, radius } => {
                     if !(*radius > 0.0) {
                         return bad(&p("region"), format!("disk radius {radius}: must be positive"));

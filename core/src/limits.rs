@@ -224,6 +224,9 @@ impl Case {
             Region::All | Region::Rest => domain_area,
             Region::Rectangle { min, max } => (max[0] - min[0]) * (max[1] - min[1]),
             Region::Disk { radius, .. } => std::f64::consts::PI * radius * radius,
+            // no Lagrangian field in 3D yet (issue 17)
+            #[cfg(feature = "dim3")]
+            Region::Box { .. } | Region::Sphere { .. } => domain_area,
             Region::Bodies(bodies) => bodies.iter().map(|b| body_area(&b.shape)).sum(),
         }
         .min(domain_area);

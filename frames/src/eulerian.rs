@@ -395,6 +395,10 @@ struct Work {
     fty: Vec<Real>,
     theta1: Vec<Real>,
     theta_rate: Vec<Real>,
+    /// 3D: the fluxes of one component (or of θ) through the faces of its control
+    /// volumes, one array per direction (`eulerian/dim3.rs`).
+    #[cfg(feature = "dim3")]
+    fluxes: [Vec<Real>; 3],
 }
 
 #[cfg(feature = "dim2")]

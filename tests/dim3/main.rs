@@ -5,7 +5,11 @@
 //! One test binary: `cargo test --test dim3 [module::]`.
 
 mod case;
+mod eulerian;
+mod exchange;
 mod grid;
 mod output;
 mod poisson;
 mod pressure;
+mod regions;
+mod stress;

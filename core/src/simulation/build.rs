@@ -326,7 +326,7 @@ fn overlap(
         .iter()
         .enumerate()
         .filter(|(k, (_, rest))| !rest && !forcings.iter().any(|p| p.bodies == *k))
-        .filter(|(k, _)| case.fields[*k].region.contains(x.x, x.y))
+        .filter(|(k, _)| case.fields[*k].region.contains_point(x))
         .map(|(_, (name, _))| format!("`{name}`"))
         .collect();
     let with = if others.is_empty() { "the fields before it".to_string() } else { others.join(", ") };

@@ -449,8 +449,9 @@ impl Simulation {
             let s = &mut f.state;
             // gravity after the stresses: a viscous stencil must not act on the gravity
             // increment Δt g, which the pressure cancels at rest (hydrostatic box with walls)
-            s.velocity.u.iter_mut().for_each(|u| *u += dt * g.x);
-            s.velocity.v.iter_mut().for_each(|v| *v += dt * g.y);
+            for a in AXES {
+                s.velocity[a].iter_mut().for_each(|u| *u += dt * g[a]);
+            }
             self.boundaries.enforce(&self.grid, &mut s.velocity);
         }
         Ok(())

@@ -4,9 +4,9 @@
 //!
 //! Instead of padded copies, a value outside its lattice is made on demand from the ghost
 //! rules of its line ([`Lines::get`]): every flux of the scheme reads nodes that are outside
-//! along one axis at most. Each flux is computed where it is needed by both control volumes
-//! that share it, by the same function of the same values: the same bits, so the scheme
-//! stays exactly conservative. The rate of a component sums its directions in axis order,
+//! along one axis at most. Each flux is computed once, into an array per direction, and the
+//! two control volumes that share it take the same value: the scheme is exactly
+//! conservative. The rate of a component sums its directions in axis order,
 //! `−((F₀⁺ − F₀⁻) + F₁⁺ − F₁⁻ + F₂⁺ − F₂⁻)/h`, the 2D expression with the z terms appended.
 //! Every loop writes disjoint nodes: the same bits on any number of threads.
 
@@ -107,12 +107,6 @@ impl Lines<'_> {
     }
 }
 
-/// The node `at` of a lattice as a signed index.
-#[inline]
-fn signed(at: Index) -> At {
-    at.map(|i| i as isize)
-}
-
 /// `at` moved by `k` nodes along `d`.
 #[inline]
 fn moved(mut at: At, d: usize, k: isize) -> At {
@@ -137,6 +131,55 @@ fn momentum_flux(lines: &[Lines; 3], lim: Limiter, c: usize, d: usize, base: At)
     vel * lim.face_value(step(-1), step(0), step(1), step(2), vel)
 }
 
+/// The shape of the fluxes in direction `d` of a lattice of shape `shape`: one more node
+/// along `d` (the flux between nodes `b` and `b + e_d` for `b[d]` = −1 … shape[d] − 1, stored
+/// at `b + e_d`).
+fn flux_shape(shape: Index, d: usize) -> Index {
+    let mut s = shape;
+    s[d] += 1;
+    s
+}
+
+/// Fills `fluxes[d]` with `flux(d, b)` for every base node `b` of a lattice of shape `shape`
+/// and direction `d` (rows along x in parallel): each flux computed once.
+fn fill_fluxes(fluxes: &mut [Vec<Real>; 3], shape: Index, flux: impl Fn(usize, At) -> Real + Sync) {
+    for (d, out) in fluxes.iter_mut().enumerate() {
+        let s = flux_shape(shape, d);
+        out.resize(s[0] * s[1] * s[2], 0.0);
+        let flux = &flux;
+        out.par_chunks_mut(s[0]).enumerate().for_each(|(row, out)| {
+            let (j, k) = ((row % s[1]) as isize, (row / s[1]) as isize);
+            for (i, f) in out.iter_mut().enumerate() {
+                // stored at b + e_d
+                let b = moved([i as isize, j, k], d, -1);
+                *f = flux(d, b);
+            }
+        });
+    }
+}
+
+/// `out[at] = −((F₀(at) − F₀(at − e₀)) + F₁(at) − F₁(at − e₁) + F₂(at) − F₂(at − e₂))/h` on a
+/// lattice of shape `shape`, F_d(b) the flux between `b` and `b + e_d` (the 2D expression
+/// with the z terms appended).
+fn divergence(fluxes: &[Vec<Real>; 3], shape: Index, h: Real, out: &mut [Real]) {
+    let s: [Index; 3] = std::array::from_fn(|d| flux_shape(shape, d));
+    // F_d(at) (stored at at + e_d) and F_d(at − e_d) (stored at at)
+    let index = |s: Index, at: [usize; 3]| at[0] + s[0] * (at[1] + s[1] * at[2]);
+    out.par_chunks_mut(shape[0]).enumerate().for_each(|(row, out)| {
+        let (j, k) = (row % shape[1], row / shape[1]);
+        for (i, rate) in out.iter_mut().enumerate() {
+            let at = [i, j, k];
+            let pair = |d: usize| {
+                let mut up = at;
+                up[d] += 1;
+                (fluxes[d][index(s[d], up)], fluxes[d][index(s[d], at)])
+            };
+            let ((x1, x0), (y1, y0), (z1, z0)) = (pair(0), pair(1), pair(2));
+            *rate = -(x1 - x0 + y1 - y0 + z1 - z0) / h;
+        }
+    });
+}
+
 impl Work {
     /// The grid's indexing (at the origin: the kernels need no positions).
     fn grid(&self) -> Grid {
@@ -159,6 +202,7 @@ impl Work {
             rate: FaceVelocity::zeros(grid),
             theta1: vec![0.0; grid.n_cells()],
             theta_rate: vec![0.0; grid.n_cells()],
+            fluxes: Default::default(),
         }
     }
 
@@ -168,19 +212,10 @@ impl Work {
         let (grid, h, periodic) = (&self.grid(), self.h, self.periodic);
         let lines: [Lines; 3] = std::array::from_fn(|c| Lines::component(grid, bc, periodic, &vel[c], c));
         for c in AXES {
-            let lattice = Lattice::face(c);
-            let row = grid.shape(lattice)[0];
+            let shape = grid.shape(Lattice::face(c));
             let lines = &lines;
-            self.rate[c].par_chunks_mut(row).enumerate().for_each(|(r, out)| {
-                for (i, rate) in out.iter_mut().enumerate() {
-                    let at = signed(grid.node(lattice, r * row + i));
-                    let dir = |d: usize| {
-                        (momentum_flux(lines, lim, c, d, at), momentum_flux(lines, lim, c, d, moved(at, d, -1)))
-                    };
-                    let ((x1, x0), (y1, y0), (z1, z0)) = (dir(0), dir(1), dir(2));
-                    *rate = -(x1 - x0 + y1 - y0 + z1 - z0) / h;
-                }
-            });
+            fill_fluxes(&mut self.fluxes, shape, |d, base| momentum_flux(lines, lim, c, d, base));
+            divergence(&self.fluxes, shape, h, &mut self.rate[c]);
         }
     }
 
@@ -199,14 +234,8 @@ impl Work {
             let q = |k: isize| t.get(moved(base, d, k));
             u * lim.face_value(q(-1), q(0), q(1), q(2), u)
         };
-        self.theta_rate.par_chunks_mut(n[0]).enumerate().for_each(|(r, out)| {
-            for (i, rate) in out.iter_mut().enumerate() {
-                let at = signed(grid.node(Lattice::Cell, r * n[0] + i));
-                let dir = |d: usize| (flux(d, at), flux(d, moved(at, d, -1)));
-                let ((x1, x0), (y1, y0), (z1, z0)) = (dir(0), dir(1), dir(2));
-                *rate = -(x1 - x0 + y1 - y0 + z1 - z0) / h;
-            }
-        });
+        fill_fluxes(&mut self.fluxes, n, flux);
+        divergence(&self.fluxes, n, h, &mut self.theta_rate);
     }
 
     /// Volume fraction on the face `at` normal to `a` (mean of the neighbours, wrapped if
