@@ -13,6 +13,7 @@
 //! }
 //! ```
 
+use crate::core::boundary::Side;
 use crate::core::case::{Case, Region, Representation};
 use crate::core::error::Error;
 use crate::core::generate::Generated;
@@ -201,6 +202,17 @@ pub fn main() -> ExitCode {
     if dimension_of(&cli) == Some(3) {
         return multifield3d::cli::main();
     }
+    #[cfg(feature = "dim2")]
+    if let Some(Command::Study { study, .. }) = &cli.command {
+        if study_dimension(study) == Some(3) {
+            eprintln!(
+                "error: {}: its base case is a 3D case (domain.cells has 3 numbers); studies run 2D cases only so \
+                 far: run the 3D cases with `multifield run`",
+                study.display()
+            );
+            return ExitCode::from(2);
+        }
+    }
     crate::link_all();
     if let Err(e) = crate::run::catch_signals() {
         eprintln!("warning: {e}; an interrupt will end the process without a summary");
@@ -281,6 +293,16 @@ fn dimension_of(cli: &Cli) -> Option<usize> {
     };
     let text = crate::core::input::read_text(file).ok()?;
     crate::core::case::dimension(&text, overrides)
+}
+
+/// The dimension of a study's base case (with the study's `set` overrides); `None` when
+/// the study or its base cannot be read that far (the study's loading then says why).
+#[cfg(feature = "dim2")]
+fn study_dimension(file: &Path) -> Option<usize> {
+    let text = crate::core::input::read_text(file).ok()?;
+    let study = crate::study::Study::from_ron(&text, file).ok()?;
+    let base = file.parent().unwrap_or(Path::new(".")).join(&study.base);
+    crate::core::case::dimension(&crate::core::input::read_text(&base).ok()?, &study.set)
 }
 
 /// Reads, overrides and validates a case file, and turns its `generate` entries into
@@ -413,12 +435,17 @@ fn check(case: &Case, generated: &[Generated], file: &Path, max_memory: &Option<
     if !c.description.is_empty() {
         println!("  {}", c.description.trim());
     }
+    let times = |v: Vec<String>| v.join(" × ");
     println!(
-        "domain   {} × {} from {:?}, {} × {} cells of h = {}",
-        c.domain.size[0], c.domain.size[1], c.domain.origin, g.nx, g.ny, g.h
+        "domain   {} from {:?}, {} cells of h = {}",
+        times(c.domain.size.iter().map(|s| s.to_string()).collect()),
+        c.domain.origin,
+        times(g.n().iter().map(|n| n.to_string()).collect()),
+        g.h
     );
     let b = &c.boundaries;
-    println!("sides    left {:?}, right {:?}, bottom {:?}, top {:?}", b.left, b.right, b.bottom, b.top);
+    let sides: Vec<String> = Side::ALL.iter().map(|&s| format!("{} {:?}", s.name(), b.side(s))).collect();
+    println!("sides    {}", sides.join(", "));
     println!("gravity  {:?}", c.gravity);
     let t = &c.time;
     println!(

@@ -360,19 +360,21 @@ pub fn default_checks(sim: &Simulation) -> Vec<Box<dyn StopCheck>> {
 }
 
 /// Energy scale E_ref of the instability bound: max(E₀, ½ M |g| L, ½ M U_b², ½ M (L / t_end)²),
-/// E₀ the initial kinetic energy, M the total mass, L the longer side of the domain, U_b the
+/// E₀ the initial kinetic energy, M the total mass, L the longest side of the domain, U_b the
 /// fastest prescribed boundary velocity and t_end `time.end`. Each term is an energy the
 /// case can reach physically (the start, a fall across the domain, the driving walls, a
 /// flow crossing the domain once in the run); a million times the largest is a blow-up.
 pub fn reference_energy(sim: &Simulation) -> Real {
     let case = &sim.case;
     let mass: Real = sim.fields.iter().map(|f| f.frame.mass()).sum();
-    let length = case.domain.size[0].max(case.domain.size[1]);
-    let g = (case.gravity[0].powi(2) + case.gravity[1].powi(2)).sqrt();
+    let length = case.domain.size.iter().fold(0.0, |m: Real, &s| m.max(s));
+    // (a sum from −0.0 of the squares: the bits of g₀² + g₁² in 2D)
+    let norm = |v: &[Real]| v.iter().map(|x| x.powi(2)).sum::<Real>().sqrt();
+    let g = norm(&case.gravity);
     let wall = Side::ALL
         .iter()
         .map(|&s| match case.boundaries.side(s) {
-            Boundary::Velocity { velocity, .. } => (velocity[0].powi(2) + velocity[1].powi(2)).sqrt(),
+            Boundary::Velocity { velocity, .. } => norm(&velocity),
             _ => 0.0,
         })
         .fold(0.0, Real::max);

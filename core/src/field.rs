@@ -111,8 +111,7 @@ impl FieldState {
         let n = grid.n();
         for a in AXES {
             let lattice = Lattice::face(a);
-            for f in 0..grid.n_faces(a) {
-                let at = grid.node(lattice, f);
+            for (f, at) in grid.nodes(lattice) {
                 let side = |c: Option<usize>| {
                     c.map(|c| {
                         let mut cell = at;

@@ -147,6 +147,26 @@ impl Grid {
             (index, here)
         })
     }
+    /// The nodes of a lattice whose coordinate along `axis` is `i` (a layer one node
+    /// thick, e.g. the faces on a side), in storage order, with their positions in storage.
+    pub fn layer(&self, lattice: Lattice, axis: usize, i: usize) -> impl Iterator<Item = (usize, Index)> + '_ {
+        let mut shape = self.shape(lattice);
+        shape[axis] = 1;
+        let count: usize = shape.iter().product();
+        let mut at = [0; DIM];
+        at[axis] = i;
+        (0..count).map(move |_| {
+            let here = at;
+            for a in AXES.into_iter().filter(|&a| a != axis) {
+                at[a] += 1;
+                if at[a] < shape[a] {
+                    break;
+                }
+                at[a] = 0;
+            }
+            (self.index(lattice, here), here)
+        })
+    }
     /// Volume (area in 2D) of one cell.
     pub fn cell_volume(&self) -> Real {
         #[cfg(feature = "dim2")]
@@ -312,6 +332,11 @@ mod tests {
         assert_eq!((g.n_faces(0), g.n_faces(1), g.cell_volume()), (18, 20, 0.25));
         assert_eq!(g.position(Lattice::Cell, [1, 2]), g.cell_center(1, 2));
         for lattice in [Lattice::Cell, Lattice::XFace, Lattice::YFace] {
+            for (axis, i) in [(0, 0), (0, 4), (1, 2)] {
+                let layer: Vec<_> = g.layer(lattice, axis, i).collect();
+                let expect: Vec<_> = g.nodes(lattice).filter(|(_, at)| at[axis] == i).collect();
+                assert_eq!(layer, expect);
+            }
             let nodes: Vec<_> = g.nodes(lattice).collect();
             assert_eq!(nodes.len(), g.shape(lattice).iter().product::<usize>());
             assert!(nodes.iter().all(|&(k, at)| g.node(lattice, k) == at && g.index(lattice, at) == k));

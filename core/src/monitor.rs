@@ -337,12 +337,13 @@ fn place(field: &Option<String>) -> Place {
     }
 }
 
-/// Names of a value's columns: `base` for a scalar, `base_x, base_y` for a vector.
+/// Names of a value's columns: `base` for a scalar, `base_x, base_y` (`, base_z` in 3D)
+/// for a vector.
 fn components(base: &str, n: usize) -> Vec<String> {
     if n == 1 {
         vec![base.to_string()]
     } else {
-        vec![format!("{base}_x"), format!("{base}_y")]
+        (0..n).map(|a| format!("{base}_{}", crate::math::axis_name(a))).collect()
     }
 }
 
@@ -350,7 +351,7 @@ impl MonitorSpec {
     /// The monitor's own columns (after `step,time`); `Err` names an unknown quantity.
     pub fn columns(&self) -> std::result::Result<Vec<String>, String> {
         let n = match self.of.quantity() {
-            Some((q, field)) => crate::quantity::find(q.as_str(), place(field))?.components.min(2),
+            Some((q, field)) => crate::quantity::find(q.as_str(), place(field))?.components.min(DIM),
             None => 1,
         };
         Ok(match &self.of {
@@ -774,8 +775,8 @@ impl Source {
     fn components(&self) -> usize {
         match self {
             Source::Pressure => 1,
-            Source::Faces(_) => 2,
-            Source::Cells { quantity, .. } => quantity.components.min(2),
+            Source::Faces(_) => DIM,
+            Source::Cells { quantity, .. } => quantity.components.min(DIM),
         }
     }
 }
@@ -1096,9 +1097,9 @@ impl TimeAverage {
     }
 
     /// The monitor's row: the window, the samples, and the average's mean over the cells
-    /// (per component, at most two); NaN before the first sample.
+    /// (per component, at most DIM); NaN before the first sample.
     fn row(&self) -> Vec<Real> {
-        let n = self.components.min(2);
+        let n = self.components.min(DIM);
         let mean = self.mean();
         let cells = mean.len() / self.components.max(1);
         let mut row = vec![self.window(), self.samples as Real];

@@ -76,10 +76,7 @@ impl PoissonProblem {
                 dirichlet[k] = true;
                 let a = side.axis();
                 let (cell_at, face_at) = if side.high() { (n[a] - 1, n[a]) } else { (0, 0) };
-                for (cell, mut at) in grid.nodes(Lattice::Cell) {
-                    if at[a] != cell_at {
-                        continue;
-                    }
+                for (cell, mut at) in grid.layer(Lattice::Cell, a, cell_at) {
                     at[a] = face_at;
                     rhs[cell] += 2.0 * c[a][grid.index(Lattice::face(a), at)] * pressure;
                 }

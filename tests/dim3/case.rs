@@ -137,3 +137,18 @@ fn a_grid_beyond_the_memory_is_refused_with_the_number_before_anything_is_built(
     assert!(stderr.contains("GB needed for 768 × 768 × 768 cells") && stderr.contains("16"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_study_of_a_3d_case_is_refused_by_name() {
+    let dir = std::env::temp_dir().join(format!("multifield-dim3-study-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("tgv3.ron"), TGV).unwrap();
+    let study =
+        r#"(name: "s", base: "tgv3.ron", axes: [(name: "n", values: List(path: "time.end", values: [0.1, 0.2]))])"#;
+    std::fs::write(dir.join("s.ron"), study).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_multifield")).arg("study").arg(dir.join("s.ron")).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("its base case is a 3D case") && stderr.contains("studies run 2D cases only"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}

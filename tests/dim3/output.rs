@@ -17,8 +17,16 @@ fn dir(name: &str) -> PathBuf {
 
 /// The low-Re Taylor–Green vortex on an n³ periodic cube, with `output`.
 fn tgv(n: usize, end: f64, output: &str) -> Case {
+    let text = tgv_text(n, end, output);
+    let case = Case::from_ron(&text, Path::new("tgv3.ron")).unwrap();
+    case.validate().unwrap();
+    case
+}
+
+/// The case file of [`tgv`].
+fn tgv_text(n: usize, end: f64, output: &str) -> String {
     multifield3d::link_all();
-    let text = format!(
+    format!(
         r#"(
     name: "tgv3",
     domain: (size: (6.283185307179586, 6.283185307179586, 6.283185307179586), cells: ({n}, {n}, {n})),
@@ -29,10 +37,7 @@ fn tgv(n: usize, end: f64, output: &str) -> Case {
     pressure: Some((model: "multigrid")),
     output: ({output}),
 )"#
-    );
-    let case = Case::from_ron(&text, Path::new("tgv3.ron")).unwrap();
-    case.validate().unwrap();
-    case
+    )
 }
 
 #[test]
@@ -136,4 +141,27 @@ fn snapshots_hold_the_3d_arrays_that_h5py_and_the_xdmf_reader_read() {
             assert!((read_max / speed_max - 1.0).abs() < 1e-12, "{read_max} against {speed_max}");
         }
     }
+}
+
+#[test]
+fn monitors_sample_all_three_components() {
+    let monitors = r#"output: (), monitors: [
+        (name: "probe", of: Probes(quantity: "velocity", points: [(1.5707963267948966, 3.141592653589793, 0.0)])),
+        (name: "vorticity", of: Average(quantity: "vorticity", min: (0.0, 0.0, 0.0), max: (6.28, 6.28, 6.28))),
+    ],"#;
+    let text = tgv_text(16, 0.1, "").replacen("output: (),", monitors, 1);
+    let case = Case::from_ron(&text, Path::new("tgv3.ron")).unwrap();
+    let out = dir("monitors");
+    run(&case, &out, &RunOptions::quiet()).unwrap();
+    let probe = std::fs::read_to_string(out.join("monitors/probe.csv")).unwrap();
+    let mut lines = probe.lines();
+    assert_eq!(lines.next(), Some("step,time,p0_x,p0_y,p0_z"));
+    // at t = 0, (π/2, π, 0): u = A sin x cos y cos z = −A, v = w = 0 (bilinear on the faces:
+    // u is interpolated between the faces either side along y and z, O(h²))
+    let first: Vec<f64> = lines.next().unwrap().split(',').map(|x| x.parse().unwrap()).collect();
+    let h = std::f64::consts::TAU / 16.0;
+    assert!((first[2] + 1e-3).abs() < 1e-3 * h * h, "{first:?}");
+    assert!(first[3].abs() < 1e-18 && first[4] == 0.0, "{first:?}");
+    let vorticity = std::fs::read_to_string(out.join("monitors/vorticity.csv")).unwrap();
+    assert!(vorticity.starts_with("step,time,mean_x,mean_y,mean_z\n"), "{vorticity}");
 }

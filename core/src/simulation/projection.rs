@@ -30,10 +30,8 @@ impl Simulation {
             let lattice = Lattice::face(a);
             for i in [0, n[a]] {
                 if bc.face_fixed(g, a, i) {
-                    for (f, at) in g.nodes(lattice) {
-                        if at[a] == i {
-                            c[a][f] = 0.0;
-                        }
+                    for (f, _) in g.layer(lattice, a, i) {
+                        c[a][f] = 0.0;
                     }
                 }
             }
