@@ -21,8 +21,9 @@ use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
+use multifield_core::grid::{Grid, Lattice};
 use multifield_core::limits::{bytes_text, MemoryLimit};
-use multifield_core::math::{Index, Real, AXES, DIM};
+use multifield_core::math::{Index, Real, Vector, AXES, DIM};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -289,39 +290,21 @@ impl SparseLlt {
     }
 }
 
-/// The cells of an `n` grid in storage order (x fastest), with their positions.
-fn cells(n: Index) -> impl Iterator<Item = (usize, Index)> {
-    let count: usize = n.iter().product();
-    let mut at = [0; DIM];
-    (0..count).map(move |k| {
-        let here = at;
-        for a in AXES {
-            at[a] += 1;
-            if at[a] < n[a] {
-                break;
-            }
-            at[a] = 0;
-        }
-        (k, here)
-    })
+/// The grid of `n` cells (its spacing and origin unused): its lattices' storage order is
+/// the operator's.
+fn grid(n: Index) -> Grid {
+    Grid::from_cells(n, 1.0, Vector::zeros())
 }
 
-/// Storage index of node `at` of a lattice of shape `shape`.
-#[inline]
-fn index(shape: Index, at: Index) -> usize {
-    let mut k = at[DIM - 1];
-    for a in (0..DIM - 1).rev() {
-        k = at[a] + shape[a] * k;
-    }
-    k
+/// The cells of an `n` grid in storage order (x fastest), with their positions.
+fn cells(n: Index) -> impl Iterator<Item = (usize, Index)> {
+    grid(n).nodes(Lattice::Cell)
 }
 
 /// Index of the face below cell `at` along axis `a`.
 #[inline]
 fn face(n: Index, a: usize, at: Index) -> usize {
-    let mut shape = n;
-    shape[a] += 1;
-    index(shape, at)
+    grid(n).index(Lattice::face(a), at)
 }
 
 /// The cell before `at` along axis `a` (wrapped on a periodic axis), if any.
@@ -334,7 +317,7 @@ fn before(n: Index, periodic: [bool; DIM], a: usize, mut at: Index) -> Option<us
     } else {
         return None;
     }
-    Some(index(n, at))
+    Some(grid(n).index(Lattice::Cell, at))
 }
 
 /// Direct solve by sparse Cholesky factorization.
