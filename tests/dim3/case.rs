@@ -152,3 +152,24 @@ fn a_study_of_a_3d_case_is_refused_by_name() {
     assert!(stderr.contains("its base case is a 3D case") && stderr.contains("studies run 2D cases only"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_memory_estimate_counts_the_3d_fill_of_a_cholesky_factor() {
+    // 64³ cells: the factor alone about 2 n^{3/2} = 4.3·10⁸ entries of 24 bytes, 10 GB;
+    // the multigrid's levels a few hundred MB
+    let case = |p: &str| {
+        Case::from_ron(
+            &TGV.replace("cells: (8, 8, 8)", "cells: (64, 64, 64)").replace("\"multigrid\"", p),
+            Path::new("t"),
+        )
+        .unwrap()
+        .memory_estimate()
+        .bytes
+    };
+    let n = 64.0f64.powi(3);
+    let factor = 2.0 * n * n.sqrt() * 24.0;
+    let (cholesky, multigrid) = (case("\"cholesky\""), case("\"multigrid\""));
+    assert!(cholesky > multigrid, "{cholesky} {multigrid}");
+    let difference = (cholesky - multigrid) as f64;
+    assert!((difference / factor - 1.0).abs() < 0.05, "{difference} against {factor}");
+}
