@@ -6,7 +6,7 @@
 //! `u_inside` for a free-slip wall or an outflow.
 
 use crate::grid::{FaceVelocity, Grid};
-use crate::math::{Real, Vector, DIM, SIDES};
+use crate::math::{Index, Real, Vector, DIM, SIDES};
 use serde::{Deserialize, Serialize};
 
 /// One side of the rectangular domain.
@@ -43,6 +43,19 @@ pub const MIDDLE: Along = 0.5;
 /// The middle of a side.
 #[cfg(feature = "dim3")]
 pub const MIDDLE: Along = [0.5, 0.5];
+
+/// What lies across one side of a face in the stencils of a face lattice
+/// ([`Boundaries::face_neighbour`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaceNeighbour {
+    /// The face at this node of the same lattice (wrapped across a periodic side).
+    Face(Index),
+    /// Along the component at an open end (outflow): the face itself.
+    Itself,
+    /// Across the component at a wall or an inflow: the boundary's ghost value, at this
+    /// position along the side ([`Boundaries::ghost`]).
+    Ghost(Along),
+}
 
 /// The axes along a side normal to `axis`, in order.
 pub fn tangential_axes(axis: usize) -> [usize; DIM - 1] {
@@ -348,6 +361,43 @@ impl Boundaries {
                 }
             }
         }
+    }
+
+    /// The neighbour across `side` of face `at` of the faces normal to `axis` (component
+    /// `axis` of the velocity), on a grid of `n` cells: along the component the next face,
+    /// or at an open end the face itself; across it the next face (wrapped when periodic)
+    /// or the boundary's ghost, at the face's own coordinate along its axis and the cell
+    /// centre's along the others. The 5-point (7-point) stencils of the viscous terms.
+    pub fn face_neighbour(&self, n: Index, axis: usize, at: Index, side: Side) -> FaceNeighbour {
+        let (d, high) = (side.axis(), side.high());
+        let mut m = at;
+        if d == axis {
+            if !high && at[axis] > 0 {
+                m[axis] -= 1;
+            } else if !high && self.periodic(axis) {
+                m[axis] = n[axis] - 1;
+            } else if high && at[axis] < n[axis] {
+                m[axis] += 1;
+            } else {
+                return FaceNeighbour::Itself;
+            }
+        } else if !high && at[d] > 0 {
+            m[d] -= 1;
+        } else if high && at[d] + 1 < n[d] {
+            m[d] += 1;
+        } else if self.periodic(d) {
+            m[d] = if high { 0 } else { n[d] - 1 };
+        } else {
+            let s = tangential_axes(d).map(|t| {
+                if t == axis {
+                    at[axis] as Real / n[axis] as Real
+                } else {
+                    (at[t] as Real + 0.5) / n[t] as Real
+                }
+            });
+            return FaceNeighbour::Ghost(along(s));
+        }
+        FaceNeighbour::Face(m)
     }
 
     /// Whether the faces normal to `axis` at position `i` along it have a fixed velocity

@@ -18,7 +18,7 @@
 //! c ≲ 1. Every loop writes disjoint faces and every dot product sums fixed chunks in order:
 //! the same bits on any number of threads.
 
-use multifield_core::boundary::{along, tangential_axes, Along, Boundaries, Side};
+use multifield_core::boundary::{Along, Boundaries, FaceNeighbour, Side};
 use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Index, Real, DIM, SIDES};
 use rayon::prelude::*;
@@ -98,40 +98,10 @@ impl LatticeOperator {
             if !active[k] {
                 continue;
             }
-            // along the component (normal neighbours): the next faces, or at an open end
-            // (outflow) the face itself; across it (tangential): the next faces or a ghost
-            neighbours[k] = Side::ALL.map(|side| {
-                let (d, high) = (side.axis(), side.high());
-                let mut m = at;
-                if d == a {
-                    if !high && at[a] > 0 {
-                        m[a] -= 1;
-                    } else if !high && periodic {
-                        m[a] = n[a] - 1;
-                    } else if high && at[a] < n[a] {
-                        m[a] += 1;
-                    } else {
-                        return Neighbour::Ghost(1.0, 0.0);
-                    }
-                } else if !high && at[d] > 0 {
-                    m[d] -= 1;
-                } else if high && at[d] + 1 < n[d] {
-                    m[d] += 1;
-                } else if bc.periodic(d) {
-                    m[d] = if high { 0 } else { n[d] - 1 };
-                } else {
-                    // the fraction along the side: the face's own axis at the face, the
-                    // others at the cell centre
-                    let s = tangential_axes(d).map(|t| {
-                        if t == a {
-                            at[a] as Real / n[a] as Real
-                        } else {
-                            (at[t] as Real + 0.5) / n[t] as Real
-                        }
-                    });
-                    return ghost(side, along(s));
-                }
-                face(m)
+            neighbours[k] = Side::ALL.map(|side| match bc.face_neighbour(n, a, at, side) {
+                FaceNeighbour::Face(m) => face(m),
+                FaceNeighbour::Itself => Neighbour::Ghost(1.0, 0.0),
+                FaceNeighbour::Ghost(s) => ghost(side, s),
             });
         }
         LatticeOperator { active, neighbours, copies, ..Default::default() }

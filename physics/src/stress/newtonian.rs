@@ -5,7 +5,7 @@
 //! The 5-point (in 3D 7-point) Laplacian of each face lattice takes its ghost values from the boundary conditions: −u on a
 //! no-slip wall (zero at the wall), u on a free-slip wall or outflow, 2u_w − u on a moving wall.
 
-use multifield_core::boundary::{along, tangential_axes, Side};
+use multifield_core::boundary::{FaceNeighbour, Side};
 use multifield_core::grid::Lattice;
 use multifield_core::math::{Real, AXES, DIM};
 use multifield_core::plugin::{GridStressContext, StressKind, StressModel, TimeStepContext};
@@ -88,41 +88,12 @@ impl StressModel for Newtonian {
                     continue;
                 }
                 let c = u[f];
-                // the neighbour across `side`: along the component (normal) the next face or,
-                // at an open end, the face itself; across it (tangential) the next face or
-                // the boundary's ghost
                 let neighbour = |side: Side| -> Real {
-                    let d = side.axis();
-                    let mut m = at;
-                    if d == a {
-                        if !side.high() && at[a] > 0 {
-                            m[a] -= 1;
-                        } else if !side.high() && periodic {
-                            m[a] = n[a] - 1;
-                        } else if side.high() && at[a] < n[a] {
-                            m[a] += 1;
-                        } else {
-                            return c;
-                        }
-                    } else if !side.high() && at[d] > 0 {
-                        m[d] -= 1;
-                    } else if side.high() && at[d] + 1 < n[d] {
-                        m[d] += 1;
-                    } else if bc.periodic(d) {
-                        m[d] = if side.high() { 0 } else { n[d] - 1 };
-                    } else {
-                        // the fraction along the side: the face's own axis at the face, the
-                        // others at the cell centre
-                        let s = tangential_axes(d).map(|t| {
-                            if t == a {
-                                at[a] as Real / n[a] as Real
-                            } else {
-                                (at[t] as Real + 0.5) / n[t] as Real
-                            }
-                        });
-                        return bc.ghost(side, a, c, along(s));
+                    match bc.face_neighbour(n, a, at, side) {
+                        FaceNeighbour::Face(m) => u[g.index(lattice, m)],
+                        FaceNeighbour::Itself => c,
+                        FaceNeighbour::Ghost(s) => bc.ghost(side, a, c, s),
                     }
-                    u[g.index(lattice, m)]
                 };
                 // Σ neighbours in side order (2D: w + e + s + n)
                 let mut sum = neighbour(Side::ALL[0]);
