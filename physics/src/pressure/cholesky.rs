@@ -3,9 +3,12 @@
 //!
 //! The factor fills in: about n (8 + 2 log₂ n) nonzeros for n cells in 2D, but about
 //! 2 n^{3/2} in 3D ([`factor_bytes`]); a grid whose factor would not fit in the memory
-//! available is refused with the number before anything is allocated. In 3D the
-//! factorization runs on one thread: faer's parallel supernodal kernels, which 3D's large
-//! supernodes reach, sum in an order that depends on the thread count.
+//! available is refused with the number before anything is allocated. The factorization
+//! and the solves run on one thread: faer's parallel supernodal kernels sum in an order
+//! that depends on the thread count (at 512² in 2D, 178,880 of the 262,144 values changed
+//! between 1 and 2 threads; at 32³, 32,553 of 32,768), and on this 2-core machine they
+//! bought nothing measurable (1024², factor and solve: 3.2–3.6 s on 1 thread, 3.8–3.9 s on
+//! 2, under load).
 //!
 //! The symbolic factorization depends only on the grid size and the periodic axes, so it is
 //! kept while they do not change; each solve refactors the values. A singular (pure-Neumann)
@@ -88,7 +91,6 @@ pub struct SparseLlt {
     singular: bool,
     /// Cells with no coupling at all (diagonal 0): identity rows.
     dead: Vec<bool>,
-    par: Option<Par>,
     /// The memory the factor may use (bytes); `None`: [`MemoryLimit::resolve`]'s.
     memory_limit: Option<u64>,
 }
@@ -100,26 +102,6 @@ impl std::fmt::Debug for SparseLlt {
 }
 
 impl SparseLlt {
-    /// A factorization that runs on one thread (bit-identical whatever the pool size).
-    pub fn sequential() -> Self {
-        Self { par: Some(Par::Seq), ..Self::default() }
-    }
-
-    fn parallelism(&self) -> Par {
-        // 3D: one thread unless asked (see the module's note on determinism)
-        #[cfg(feature = "dim3")]
-        return self.par.unwrap_or(Par::Seq);
-        #[cfg(feature = "dim2")]
-        self.par.unwrap_or_else(|| {
-            let n = rayon::current_num_threads();
-            if n > 1 {
-                Par::rayon(n)
-            } else {
-                Par::Seq
-            }
-        })
-    }
-
     /// Caps the memory of the factor at `bytes` (instead of the machine's available memory
     /// or `MULTIFIELD_MAX_MEMORY`).
     pub fn set_memory_limit(&mut self, bytes: u64) {
@@ -229,7 +211,7 @@ impl SparseLlt {
                 }
             }
         }
-        let par = self.parallelism();
+        let par = Par::Seq; // bit-identical whatever the pool (see the module's note)
         let symbolic = self.symbolic.as_ref().expect("analyzed");
         let stack = self.factor_stack.get_or_insert_with(|| {
             MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<Real>(par, Default::default()))
@@ -273,7 +255,7 @@ impl SparseLlt {
         if let Some(p) = self.pin {
             x[p] = 0.0;
         }
-        let par = self.parallelism();
+        let par = Par::Seq; // bit-identical whatever the pool (see the module's note)
         let symbolic = self.symbolic.as_ref().expect("factored");
         let stack =
             self.solve_stack.get_or_insert_with(|| MemBuffer::new(symbolic.solve_in_place_scratch::<Real>(1, par)));

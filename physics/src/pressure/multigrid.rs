@@ -183,7 +183,7 @@ impl Clone for Hierarchy {
 impl Hierarchy {
     /// An empty hierarchy with `sweeps` smoothing sweeps.
     pub fn new(sweeps: usize) -> Self {
-        Self { cycle: Cycle { sweeps, coarse: SparseLlt::sequential(), ..Cycle::default() }, ..Self::default() }
+        Self { cycle: Cycle { sweeps, coarse: SparseLlt::default(), ..Cycle::default() }, ..Self::default() }
     }
 
     /// Red-black sweeps before and after each coarse correction.
