@@ -10,6 +10,7 @@ use multifield_core::grid::Lattice;
 use multifield_core::math::{Real, AXES, DIM};
 use multifield_core::plugin::{GridStressContext, StressKind, StressModel, TimeStepContext};
 use multifield_core::registry::{params_value, ParamDoc};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Newtonian viscous stress.
@@ -81,27 +82,53 @@ impl StressModel for Newtonian {
         for a in AXES {
             let lattice = Lattice::face(a);
             let periodic = bc.periodic(a);
-            // component a on the faces normal to a
-            let u = ctx.state.velocity[a].clone();
-            for (f, at) in g.nodes(lattice) {
-                if bc.face_fixed(g, a, at[a]) || (periodic && at[a] == n[a]) {
-                    continue;
-                }
-                let c = u[f];
-                let neighbour = |side: Side| -> Real {
-                    match bc.face_neighbour(n, a, at, side) {
-                        FaceNeighbour::Face(m) => u[g.index(lattice, m)],
-                        FaceNeighbour::Itself => c,
-                        FaceNeighbour::Ghost(s) => bc.ghost(side, a, c, s),
-                    }
-                };
-                // Σ neighbours in side order (2D: w + e + s + n)
-                let mut sum = neighbour(Side::ALL[0]);
-                for &side in &Side::ALL[1..] {
-                    sum += neighbour(side);
-                }
-                ctx.state.velocity[a][f] = c + k * (sum - centre * c);
+            let shape = g.shape(lattice);
+            // storage strides of the lattice (x fastest)
+            let mut stride = [1; DIM];
+            for d in 1..DIM {
+                stride[d] = stride[d - 1] * shape[d - 1];
             }
+            // component a on the faces normal to a; each face reads only `u`, so the rows
+            // run in parallel with the same bits
+            let u = ctx.state.velocity[a].clone();
+            let rows = ctx.state.velocity[a].par_chunks_mut(shape[0]).enumerate();
+            rows.for_each(|(r, row)| {
+                let mut at = g.node(lattice, r * shape[0]);
+                for (i, out) in row.iter_mut().enumerate() {
+                    at[0] = i;
+                    if bc.face_fixed(g, a, at[a]) || (periodic && at[a] == n[a]) {
+                        continue;
+                    }
+                    let f = r * shape[0] + i;
+                    let c = u[f];
+                    // every neighbour a face of the lattice at ± one stride: no boundary
+                    let inside = AXES.into_iter().all(|d| at[d] > 0 && at[d] + 1 < shape[d]);
+                    // Σ neighbours in side order (2D: w + e + s + n)
+                    let sum = if inside {
+                        let mut sum = u[f - stride[0]];
+                        sum += u[f + stride[0]];
+                        for d in 1..DIM {
+                            sum += u[f - stride[d]];
+                            sum += u[f + stride[d]];
+                        }
+                        sum
+                    } else {
+                        let neighbour = |side: Side| -> Real {
+                            match bc.face_neighbour(n, a, at, side) {
+                                FaceNeighbour::Face(m) => u[g.index(lattice, m)],
+                                FaceNeighbour::Itself => c,
+                                FaceNeighbour::Ghost(s) => bc.ghost(side, a, c, s),
+                            }
+                        };
+                        let mut sum = neighbour(Side::ALL[0]);
+                        for &side in &Side::ALL[1..] {
+                            sum += neighbour(side);
+                        }
+                        sum
+                    };
+                    *out = c + k * (sum - centre * c);
+                }
+            });
         }
         bc.enforce(g, &mut ctx.state.velocity);
         Ok(())
