@@ -12,6 +12,7 @@ pub mod boundary;
 pub mod case;
 pub mod driver;
 pub mod error;
+pub mod exact;
 pub mod exchange;
 pub mod field;
 pub mod finite;
