@@ -335,36 +335,42 @@ impl Work {
         divergence(&self.fluxes, n, h, &mut self.theta_rate);
     }
 
-    /// Volume fraction on the face `at` normal to `a` (mean of the neighbours, wrapped if
-    /// periodic) and the share of its control volume inside the domain (½ on a
-    /// non-periodic side), as the 2D `xface_weight`.
-    fn face_weight(&self, a: usize, at: Index) -> (Real, Real) {
-        let g = &self.grid();
-        let n = g.n()[a];
-        let t = |c: usize| {
-            let mut cell = at;
-            cell[a] = c;
-            self.theta[g.index(Lattice::Cell, cell)]
-        };
-        let i = at[a];
-        if i > 0 && i < n {
-            (0.5 * (t(i - 1) + t(i)), 1.0)
-        } else if self.periodic[a] {
-            // face n repeats face 0: count it once
-            (0.5 * (t(n - 1) + t(0)), if i == 0 { 1.0 } else { 0.0 })
-        } else {
-            (t(if i == 0 { 0 } else { n - 1 }), 0.5)
-        }
-    }
-
     /// Σ over the faces of each lattice of f(face mass, velocity component), in storage order.
+    /// The face mass is w θ_f ρ h³: θ_f the mean of the two neighbouring cells (wrapped if
+    /// periodic), w the share of its control volume inside the domain (½ on a non-periodic
+    /// side; 0 on the periodic copy of face 0, counted once), as the 2D `xface_weight`.
     pub(super) fn face_sums(&self, f: impl Fn(Real, Real) -> Real) -> [Real; 3] {
         let m0 = self.density * self.h * self.h * self.h;
+        let n = self.n;
+        let theta = &self.theta;
         std::array::from_fn(|a| {
+            let mut shape = n;
+            shape[a] += 1;
+            let (na, periodic, vel) = (n[a], self.periodic[a], &self.velocity[a]);
             let mut sum = 0.0;
-            for (k, at) in self.grid().nodes(Lattice::face(a)) {
-                let (t, w) = self.face_weight(a, at);
-                sum += f(w * t * m0, self.velocity[a][k]);
+            let mut k = 0;
+            for z in 0..shape[2] {
+                for y in 0..shape[1] {
+                    for x in 0..shape[0] {
+                        let at = [x, y, z];
+                        let t = |c: usize| {
+                            let mut m = at;
+                            m[a] = c;
+                            theta[m[0] + n[0] * (m[1] + n[1] * m[2])]
+                        };
+                        let i = at[a];
+                        let (t, w) = if i > 0 && i < na {
+                            (0.5 * (t(i - 1) + t(i)), 1.0)
+                        } else if periodic {
+                            // face n repeats face 0: count it once
+                            (0.5 * (t(na - 1) + t(0)), if i == 0 { 1.0 } else { 0.0 })
+                        } else {
+                            (t(if i == 0 { 0 } else { na - 1 }), 0.5)
+                        };
+                        sum += f(w * t * m0, vel[k]);
+                        k += 1;
+                    }
+                }
             }
             sum
         })
