@@ -348,27 +348,52 @@ impl Work {
             shape[a] += 1;
             let (na, periodic, vel) = (n[a], self.periodic[a], &self.velocity[a]);
             let mut sum = 0.0;
-            let mut k = 0;
+            // the terms of a row along x, then added in storage order
+            let mut terms = vec![0.0; shape[0]];
             for z in 0..shape[2] {
                 for y in 0..shape[1] {
-                    for x in 0..shape[0] {
-                        let at = [x, y, z];
-                        let t = |c: usize| {
-                            let mut m = at;
-                            m[a] = c;
-                            theta[m[0] + n[0] * (m[1] + n[1] * m[2])]
+                    let row = shape[0] * (y + shape[1] * z);
+                    let vel = &vel[row..row + shape[0]];
+                    if a == 0 {
+                        let cells = &theta[n[0] * (y + n[1] * z)..][..n[0]];
+                        for (x, term) in terms.iter_mut().enumerate() {
+                            let (t, w) = if x > 0 && x < na {
+                                (0.5 * (cells[x - 1] + cells[x]), 1.0)
+                            } else if periodic {
+                                // face n repeats face 0: count it once
+                                (0.5 * (cells[na - 1] + cells[0]), if x == 0 { 1.0 } else { 0.0 })
+                            } else {
+                                (cells[if x == 0 { 0 } else { na - 1 }], 0.5)
+                            };
+                            *term = f(w * t * m0, vel[x]);
+                        }
+                    } else {
+                        // the rows of cells at i − 1 and i along a (i = y or z)
+                        let i = [y, z][a - 1];
+                        let cells = |c: usize| {
+                            let (y, z) = if a == 1 { (c, z) } else { (y, c) };
+                            &theta[n[0] * (y + n[1] * z)..][..n[0]]
                         };
-                        let i = at[a];
-                        let (t, w) = if i > 0 && i < na {
-                            (0.5 * (t(i - 1) + t(i)), 1.0)
+                        if i > 0 && i < na {
+                            let (lo, hi) = (cells(i - 1), cells(i));
+                            for (x, term) in terms.iter_mut().enumerate() {
+                                *term = f(1.0 * (0.5 * (lo[x] + hi[x])) * m0, vel[x]);
+                            }
                         } else if periodic {
-                            // face n repeats face 0: count it once
-                            (0.5 * (t(na - 1) + t(0)), if i == 0 { 1.0 } else { 0.0 })
+                            let (lo, hi) = (cells(na - 1), cells(0));
+                            let w = if i == 0 { 1.0 } else { 0.0 };
+                            for (x, term) in terms.iter_mut().enumerate() {
+                                *term = f(w * (0.5 * (lo[x] + hi[x])) * m0, vel[x]);
+                            }
                         } else {
-                            (t(if i == 0 { 0 } else { na - 1 }), 0.5)
-                        };
-                        sum += f(w * t * m0, vel[k]);
-                        k += 1;
+                            let t = cells(if i == 0 { 0 } else { na - 1 });
+                            for (x, term) in terms.iter_mut().enumerate() {
+                                *term = f(0.5 * t[x] * m0, vel[x]);
+                            }
+                        }
+                    }
+                    for term in &terms {
+                        sum += term;
                     }
                 }
             }

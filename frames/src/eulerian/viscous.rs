@@ -186,7 +186,14 @@ impl LatticeOperator {
         diag.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
             for (o, d) in out.iter_mut().enumerate() {
                 let k = ch * CHUNK + o;
-                *d = if act[k] { 1.0 / self.diagonal(c, k) } else { 0.0 };
+                // a plain face has no ghost: Σα = +0
+                *d = if !act[k] {
+                    0.0
+                } else if plain[k] {
+                    1.0 / (1.0 + c * (CENTRE - 0.0))
+                } else {
+                    1.0 / self.diagonal(c, k)
+                };
             }
         });
         let norm_b = dot(&b, &b).sqrt();
