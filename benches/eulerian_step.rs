@@ -66,7 +66,11 @@ fn case_text(dim: usize, n: usize, diffusion: &str) -> String {
             "left: Periodic, right: Periodic, bottom: Periodic, top: Periodic, back: Periodic, front: Periodic",
         )
     } else {
-        (format!("({l:?}, {l:?})"), format!("({n}, {n})"), "left: Periodic, right: Periodic, bottom: Periodic, top: Periodic")
+        (
+            format!("({l:?}, {l:?})"),
+            format!("({n}, {n})"),
+            "left: Periodic, right: Periodic, bottom: Periodic, top: Periodic",
+        )
     };
     format!(
         r#"(
@@ -139,13 +143,15 @@ fn measure(dim: usize, n: usize, threads: usize, diffusion: &str, steps: usize) 
 /// solves after one untimed, and the CG iterations.
 fn viscous3d(n: usize, threads: usize) {
     use multifield3d::core::{case::Case, simulation::Simulation};
-    use multifield3d::frames::eulerian::viscous::FaceDiffusion;
+    use multifield3d::frames::eulerian::{viscous::FaceDiffusion, Eulerian};
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     let case = Case::from_ron(&case_text(3, n, "cn"), Path::new("eulerian_step.ron")).expect("3D bench case");
     let sim = pool.install(|| Simulation::new(&case)).expect("3D simulation");
     let (g, dt) = (&sim.grid, case.time.fixed_dt.expect("fixed dt"));
     let c = 0.5 * dt * 0.000625 / (g.h * g.h);
-    let u = sim.fields[0].state.velocity[0].clone();
+    // the frame's uⁿ (the state's velocity is filled by the step)
+    let frame = sim.fields[0].frame.as_any().downcast_ref::<Eulerian>().expect("an Eulerian field");
+    let u = frame.velocity()[0].clone();
     let mut d = FaceDiffusion::new(g, &sim.boundaries);
     let mut x = u.clone();
     let (mut times, mut iterations) = (vec![], 0);

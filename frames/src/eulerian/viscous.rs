@@ -231,11 +231,7 @@ impl LatticeOperator {
                 .map(|(ch, out)| {
                     for (o, y) in out.iter_mut().enumerate() {
                         let k = ch * CHUNK + o;
-                        *y = if act[k] {
-                            p_ref[k] - c * (st.sum(k, p_ref, false) - CENTRE * p_ref[k])
-                        } else {
-                            0.0
-                        };
+                        *y = if act[k] { p_ref[k] - c * (st.sum(k, p_ref, false) - CENTRE * p_ref[k]) } else { 0.0 };
                     }
                     let p = &p_ref[ch * CHUNK..ch * CHUNK + out.len()];
                     p.iter().zip(out.iter()).map(|(x, y)| x * y).sum::<Real>()
