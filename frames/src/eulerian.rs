@@ -399,6 +399,11 @@ struct Work {
     /// volumes, one array per direction (`eulerian/dim3.rs`).
     #[cfg(feature = "dim3")]
     fluxes: [Vec<Real>; 3],
+    /// 3D: the velocity components and θ with their ghost layers (`eulerian/dim3.rs`).
+    #[cfg(feature = "dim3")]
+    padded: [dim3::Padded; 3],
+    #[cfg(feature = "dim3")]
+    padded_theta: dim3::Padded,
 }
 
 #[cfg(feature = "dim2")]

@@ -2,8 +2,9 @@
 //! kernels of `eulerian.rs` (conservative limited advection of every velocity component on
 //! its staggered control volume and of θ, the same ghost rules), written over the axes.
 //!
-//! Instead of padded copies, a value outside its lattice is made on demand from the ghost
-//! rules of its line ([`Lines::get`]): every flux of the scheme reads nodes that are outside
+//! The values outside a lattice come from the ghost rules of its lines ([`Lines::get`]),
+//! made once per call into a copy with two ghost layers on every side ([`Padded`]), so the
+//! flux loops read plain memory rows: every flux of the scheme reads nodes that are outside
 //! along one axis at most. Each flux is computed once, into an array per direction, and the
 //! two control volumes that share it take the same value: the scheme is exactly
 //! conservative. The rate of a component sums its directions in axis order,
@@ -114,21 +115,102 @@ fn moved(mut at: At, d: usize, k: isize) -> At {
     at
 }
 
-/// The momentum flux of component `c` in direction `d` between the nodes `base` and
-/// `base + e_d` of its lattice: through a cell centre for `d == c` (advecting velocity the
-/// mean of the two faces), through an edge otherwise (advecting velocity the mean of the
-/// two `d`-faces on either side along `c`), times the limited upwind reconstruction.
+/// Ghost layers on each side of a [`Padded`] array (the scheme reads two nodes beyond a side).
+const G: usize = 2;
+
+/// A lattice array with two ghost layers on every side, the ghosts made once per call from
+/// the rules of [`Lines::get`], so that the flux loops read plain memory: each node holds
+/// the value `Lines::get` gives it, the same bits. Nodes outside along two or more axes are
+/// never read by the scheme and hold NaN (a read would show in every result).
+#[derive(Clone, Debug, Default)]
+pub(super) struct Padded {
+    data: Vec<Real>,
+    /// Shape with the ghosts (the lattice's shape + 2 G along each axis).
+    outer: Index,
+}
+
+impl Padded {
+    /// Position in `data` of node `at` of the lattice (−G ≤ at[d] < shape[d] + G).
+    #[inline]
+    fn index(&self, at: At) -> usize {
+        let p = |d: usize| (at[d] + G as isize) as usize;
+        p(0) + self.outer[0] * (p(1) + self.outer[1] * p(2))
+    }
+
+    /// The step in `data` of one node along `d`.
+    #[inline]
+    fn stride(&self, d: usize) -> usize {
+        match d {
+            0 => 1,
+            1 => self.outer[0],
+            _ => self.outer[0] * self.outer[1],
+        }
+    }
+
+    /// Copies the lattice of `lines` and makes its ghosts (rows along x in parallel).
+    fn fill(&mut self, lines: &Lines) {
+        let s = lines.shape;
+        let o = s.map(|v| v + 2 * G);
+        self.outer = o;
+        self.data.resize(o[0] * o[1] * o[2], 0.0);
+        let inside = |v: isize, d: usize| v >= 0 && v < s[d] as isize;
+        self.data.par_chunks_mut(o[0]).enumerate().for_each(|(row, out)| {
+            let (j, k) = ((row % o[1]) as isize - G as isize, (row / o[1]) as isize - G as isize);
+            let (jin, kin) = (inside(j, 1), inside(k, 2));
+            let ends = (0..G).chain(G + s[0]..o[0]);
+            if jin && kin {
+                let start = s[0] * (j as usize + s[1] * k as usize);
+                out[G..G + s[0]].copy_from_slice(&lines.q[start..start + s[0]]);
+                for i in ends {
+                    out[i] = lines.get([i as isize - G as isize, j, k]);
+                }
+            } else if jin || kin {
+                for (i, v) in out.iter_mut().enumerate().skip(G).take(s[0]) {
+                    *v = lines.get([i as isize - G as isize, j, k]);
+                }
+                for i in ends {
+                    out[i] = Real::NAN;
+                }
+            } else {
+                out.fill(Real::NAN);
+            }
+        });
+    }
+}
+
+/// The momentum fluxes of component `c` in direction `d` from the base nodes `b0 + i e₀`
+/// (i = 0 … out.len() − 1) to `+ e_d` of its lattice, as [`Lines`] would give them: through a
+/// cell centre for `d == c` (advecting velocity the mean of the two faces), through an edge
+/// otherwise (advecting velocity the mean of the two `d`-faces on either side along `c`),
+/// times the limited upwind reconstruction.
 #[inline]
-fn momentum_flux(lines: &[Lines; 3], lim: Limiter, c: usize, d: usize, base: At) -> Real {
-    let q = &lines[c];
-    let step = |k: isize| q.get(moved(base, d, k));
-    let vel = if d == c {
-        0.5 * (step(0) + step(1))
+fn momentum_fluxes(pads: &[Padded; 3], lim: Limiter, c: usize, d: usize, b0: At, out: &mut [Real]) {
+    let q = &pads[c];
+    let len = out.len();
+    let st = q.stride(d);
+    // the transported component at b − e_d, b, b + e_d, b + 2 e_d
+    let i0 = q.index(b0);
+    let (qm, q0, q1, q2) = (
+        &q.data[i0 - st..i0 - st + len],
+        &q.data[i0..i0 + len],
+        &q.data[i0 + st..i0 + st + len],
+        &q.data[i0 + 2 * st..i0 + 2 * st + len],
+    );
+    if d == c {
+        for (i, f) in out.iter_mut().enumerate() {
+            let vel = 0.5 * (q0[i] + q1[i]);
+            *f = vel * lim.face_value(qm[i], q0[i], q1[i], q2[i], vel);
+        }
     } else {
-        let m = moved(base, d, 1);
-        0.5 * (lines[d].get(moved(m, c, -1)) + lines[d].get(m))
-    };
-    vel * lim.face_value(step(-1), step(0), step(1), step(2), vel)
+        // the d-faces at m − e_c and m, m = b + e_d
+        let p = &pads[d];
+        let m = p.index(moved(b0, d, 1));
+        let (vb, va) = (&p.data[m - p.stride(c)..m - p.stride(c) + len], &p.data[m..m + len]);
+        for (i, f) in out.iter_mut().enumerate() {
+            let vel = 0.5 * (vb[i] + va[i]);
+            *f = vel * lim.face_value(qm[i], q0[i], q1[i], q2[i], vel);
+        }
+    }
 }
 
 /// The shape of the fluxes in direction `d` of a lattice of shape `shape`: one more node
@@ -140,20 +222,18 @@ fn flux_shape(shape: Index, d: usize) -> Index {
     s
 }
 
-/// Fills `fluxes[d]` with `flux(d, b)` for every base node `b` of a lattice of shape `shape`
-/// and direction `d` (rows along x in parallel): each flux computed once.
-fn fill_fluxes(fluxes: &mut [Vec<Real>; 3], shape: Index, flux: impl Fn(usize, At) -> Real + Sync) {
+/// Fills `fluxes[d]` for every direction `d` of a lattice of shape `shape`, a row along x
+/// at a time (in parallel): `row(d, b0, out)` writes the fluxes from the base nodes
+/// `b0 + i e₀` to `+ e_d`, stored at `b + e_d`. Each flux is computed once.
+fn fill_fluxes(fluxes: &mut [Vec<Real>; 3], shape: Index, row: impl Fn(usize, At, &mut [Real]) + Sync) {
     for (d, out) in fluxes.iter_mut().enumerate() {
         let s = flux_shape(shape, d);
         out.resize(s[0] * s[1] * s[2], 0.0);
-        let flux = &flux;
-        out.par_chunks_mut(s[0]).enumerate().for_each(|(row, out)| {
-            let (j, k) = ((row % s[1]) as isize, (row / s[1]) as isize);
-            for (i, f) in out.iter_mut().enumerate() {
-                // stored at b + e_d
-                let b = moved([i as isize, j, k], d, -1);
-                *f = flux(d, b);
-            }
+        let row = &row;
+        out.par_chunks_mut(s[0]).enumerate().for_each(|(r, out)| {
+            let (j, k) = ((r % s[1]) as isize, (r / s[1]) as isize);
+            // stored at b + e_d
+            row(d, moved([0, j, k], d, -1), out);
         });
     }
 }
@@ -163,19 +243,21 @@ fn fill_fluxes(fluxes: &mut [Vec<Real>; 3], shape: Index, flux: impl Fn(usize, A
 /// with the z terms appended).
 fn divergence(fluxes: &[Vec<Real>; 3], shape: Index, h: Real, out: &mut [Real]) {
     let s: [Index; 3] = std::array::from_fn(|d| flux_shape(shape, d));
-    // F_d(at) (stored at at + e_d) and F_d(at − e_d) (stored at at)
-    let index = |s: Index, at: [usize; 3]| at[0] + s[0] * (at[1] + s[1] * at[2]);
-    out.par_chunks_mut(shape[0]).enumerate().for_each(|(row, out)| {
-        let (j, k) = (row % shape[1], row / shape[1]);
+    let nx = shape[0];
+    // the row (j, k) of the flux lattice of direction d
+    let row = |d: usize, j: usize, k: usize| {
+        let start = s[d][0] * (j + s[d][1] * k);
+        &fluxes[d][start..start + s[d][0]]
+    };
+    out.par_chunks_mut(nx).enumerate().for_each(|(r, out)| {
+        let (j, k) = (r % shape[1], r / shape[1]);
+        // F_d(at) is stored at at + e_d, F_d(at − e_d) at at
+        let fx = row(0, j, k);
+        let (y0, y1) = (row(1, j, k), row(1, j + 1, k));
+        let (z0, z1) = (row(2, j, k), row(2, j, k + 1));
         for (i, rate) in out.iter_mut().enumerate() {
-            let at = [i, j, k];
-            let pair = |d: usize| {
-                let mut up = at;
-                up[d] += 1;
-                (fluxes[d][index(s[d], up)], fluxes[d][index(s[d], at)])
-            };
-            let ((x1, x0), (y1, y0), (z1, z0)) = (pair(0), pair(1), pair(2));
-            *rate = -(x1 - x0 + y1 - y0 + z1 - z0) / h;
+            let (x1, x0) = (fx[i + 1], fx[i]);
+            *rate = -(x1 - x0 + y1[i] - y0[i] + z1[i] - z0[i]) / h;
         }
     });
 }
@@ -202,6 +284,8 @@ impl Work {
             rate: FaceVelocity::zeros(grid),
             theta1: vec![0.0; grid.n_cells()],
             theta_rate: vec![0.0; grid.n_cells()],
+            padded: Default::default(),
+            padded_theta: Padded::default(),
             fluxes: Default::default(),
         }
     }
@@ -210,11 +294,13 @@ impl Work {
     /// `self.rate`.
     pub(super) fn advect_rate(&mut self, vel: &FaceVelocity, bc: &Boundaries, lim: Limiter) {
         let (grid, h, periodic) = (&self.grid(), self.h, self.periodic);
-        let lines: [Lines; 3] = std::array::from_fn(|c| Lines::component(grid, bc, periodic, &vel[c], c));
+        for (c, pad) in self.padded.iter_mut().enumerate() {
+            pad.fill(&Lines::component(grid, bc, periodic, &vel[c], c));
+        }
         for c in AXES {
             let shape = grid.shape(Lattice::face(c));
-            let lines = &lines;
-            fill_fluxes(&mut self.fluxes, shape, |d, base| momentum_flux(lines, lim, c, d, base));
+            let pads = &self.padded;
+            fill_fluxes(&mut self.fluxes, shape, |d, b0, out| momentum_fluxes(pads, lim, c, d, b0, out));
             divergence(&self.fluxes, shape, h, &mut self.rate[c]);
         }
     }
@@ -223,51 +309,93 @@ impl Work {
     /// `self.theta_rate`.
     pub(super) fn theta_rate(&mut self, theta: &[Real], bc: &Boundaries, lim: Limiter) {
         let (grid, h) = (&self.grid(), self.h);
-        let t = Lines::cells(grid, bc, self.periodic, theta);
-        let vel = &self.velocity;
+        self.padded_theta.fill(&Lines::cells(grid, bc, self.periodic, theta));
+        let (t, vel) = (&self.padded_theta, &self.velocity);
         let n = grid.n();
-        // the flux through the d-face between the cells `base` and `base + e_d`
-        let flux = |d: usize, base: At| {
-            let face = moved(base, d, 1);
+        // the fluxes through the d-faces between the cells `b` and `b + e_d`, b = b0 + i e₀:
+        // the flux lattice of direction d is the d-face lattice (the flux stored at the face)
+        let row = |d: usize, b0: At, out: &mut [Real]| {
+            let len = out.len();
+            let face = moved(b0, d, 1);
             let s = grid.shape(Lattice::face(d));
-            let u = vel[d][face[0] as usize + s[0] * (face[1] as usize + s[1] * face[2] as usize)];
-            let q = |k: isize| t.get(moved(base, d, k));
-            u * lim.face_value(q(-1), q(0), q(1), q(2), u)
+            let start = face[0] as usize + s[0] * (face[1] as usize + s[1] * face[2] as usize);
+            let u = &vel[d][start..start + len];
+            let (i0, st) = (t.index(b0), t.stride(d));
+            let (qm, q0, q1, q2) = (
+                &t.data[i0 - st..i0 - st + len],
+                &t.data[i0..i0 + len],
+                &t.data[i0 + st..i0 + st + len],
+                &t.data[i0 + 2 * st..i0 + 2 * st + len],
+            );
+            for (i, f) in out.iter_mut().enumerate() {
+                *f = u[i] * lim.face_value(qm[i], q0[i], q1[i], q2[i], u[i]);
+            }
         };
-        fill_fluxes(&mut self.fluxes, n, flux);
+        fill_fluxes(&mut self.fluxes, n, row);
         divergence(&self.fluxes, n, h, &mut self.theta_rate);
     }
 
-    /// Volume fraction on the face `at` normal to `a` (mean of the neighbours, wrapped if
-    /// periodic) and the share of its control volume inside the domain (½ on a
-    /// non-periodic side), as the 2D `xface_weight`.
-    fn face_weight(&self, a: usize, at: Index) -> (Real, Real) {
-        let g = &self.grid();
-        let n = g.n()[a];
-        let t = |c: usize| {
-            let mut cell = at;
-            cell[a] = c;
-            self.theta[g.index(Lattice::Cell, cell)]
-        };
-        let i = at[a];
-        if i > 0 && i < n {
-            (0.5 * (t(i - 1) + t(i)), 1.0)
-        } else if self.periodic[a] {
-            // face n repeats face 0: count it once
-            (0.5 * (t(n - 1) + t(0)), if i == 0 { 1.0 } else { 0.0 })
-        } else {
-            (t(if i == 0 { 0 } else { n - 1 }), 0.5)
-        }
-    }
-
     /// Σ over the faces of each lattice of f(face mass, velocity component), in storage order.
+    /// The face mass is w θ_f ρ h³: θ_f the mean of the two neighbouring cells (wrapped if
+    /// periodic), w the share of its control volume inside the domain (½ on a non-periodic
+    /// side; 0 on the periodic copy of face 0, counted once), as the 2D `xface_weight`.
     pub(super) fn face_sums(&self, f: impl Fn(Real, Real) -> Real) -> [Real; 3] {
         let m0 = self.density * self.h * self.h * self.h;
+        let n = self.n;
+        let theta = &self.theta;
         std::array::from_fn(|a| {
+            let mut shape = n;
+            shape[a] += 1;
+            let (na, periodic, vel) = (n[a], self.periodic[a], &self.velocity[a]);
             let mut sum = 0.0;
-            for (k, at) in self.grid().nodes(Lattice::face(a)) {
-                let (t, w) = self.face_weight(a, at);
-                sum += f(w * t * m0, self.velocity[a][k]);
+            // the terms of a row along x, then added in storage order
+            let mut terms = vec![0.0; shape[0]];
+            for z in 0..shape[2] {
+                for y in 0..shape[1] {
+                    let row = shape[0] * (y + shape[1] * z);
+                    let vel = &vel[row..row + shape[0]];
+                    if a == 0 {
+                        let cells = &theta[n[0] * (y + n[1] * z)..][..n[0]];
+                        for (x, term) in terms.iter_mut().enumerate() {
+                            let (t, w) = if x > 0 && x < na {
+                                (0.5 * (cells[x - 1] + cells[x]), 1.0)
+                            } else if periodic {
+                                // face n repeats face 0: count it once
+                                (0.5 * (cells[na - 1] + cells[0]), if x == 0 { 1.0 } else { 0.0 })
+                            } else {
+                                (cells[if x == 0 { 0 } else { na - 1 }], 0.5)
+                            };
+                            *term = f(w * t * m0, vel[x]);
+                        }
+                    } else {
+                        // the rows of cells at i − 1 and i along a (i = y or z)
+                        let i = [y, z][a - 1];
+                        let cells = |c: usize| {
+                            let (y, z) = if a == 1 { (c, z) } else { (y, c) };
+                            &theta[n[0] * (y + n[1] * z)..][..n[0]]
+                        };
+                        if i > 0 && i < na {
+                            let (lo, hi) = (cells(i - 1), cells(i));
+                            for (x, term) in terms.iter_mut().enumerate() {
+                                *term = f(1.0 * (0.5 * (lo[x] + hi[x])) * m0, vel[x]);
+                            }
+                        } else if periodic {
+                            let (lo, hi) = (cells(na - 1), cells(0));
+                            let w = if i == 0 { 1.0 } else { 0.0 };
+                            for (x, term) in terms.iter_mut().enumerate() {
+                                *term = f(w * (0.5 * (lo[x] + hi[x])) * m0, vel[x]);
+                            }
+                        } else {
+                            let t = cells(if i == 0 { 0 } else { na - 1 });
+                            for (x, term) in terms.iter_mut().enumerate() {
+                                *term = f(0.5 * t[x] * m0, vel[x]);
+                            }
+                        }
+                    }
+                    for term in &terms {
+                        sum += term;
+                    }
+                }
             }
             sum
         })

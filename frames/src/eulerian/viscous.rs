@@ -39,6 +39,12 @@ enum Neighbour {
 struct LatticeOperator {
     /// Whether each face is an unknown.
     active: Vec<bool>,
+    /// Whether each face is an unknown whose neighbours are all unknown faces of the lattice
+    /// one step away along each axis (no wrap, no wall): its stencil reads `u[k ∓ stride]`
+    /// without the neighbour list (the same sum in the same order).
+    plain: Vec<bool>,
+    /// The step in storage of one face along each axis.
+    strides: [usize; DIM],
     /// The neighbours of each face, in the order of [`Side::ALL`] (unused for inactive faces).
     neighbours: Vec<[Neighbour; SIDES]>,
     /// Periodic copies: (copy, master) pairs, set after each solve.
@@ -104,16 +110,33 @@ impl LatticeOperator {
                 FaceNeighbour::Ghost(s) => ghost(side, s),
             });
         }
-        LatticeOperator { active, neighbours, copies, ..Default::default() }
+        let shape = grid.shape(lattice);
+        let strides: [usize; DIM] = std::array::from_fn(|d| shape[..d].iter().product());
+        let plain = (0..count)
+            .map(|k| {
+                active[k]
+                    && Side::ALL.iter().zip(&neighbours[k]).all(|(side, nb)| {
+                        let st = strides[side.axis()];
+                        let m = if side.high() { k.checked_add(st) } else { k.checked_sub(st) };
+                        matches!((nb, m), (Neighbour::Face(i), Some(m)) if *i as usize == m)
+                    })
+            })
+            .collect();
+        LatticeOperator { active, plain, strides, neighbours, copies, ..Default::default() }
+    }
+
+    /// The stencil's view of the operator.
+    fn stencils(&self) -> Stencils<'_> {
+        Stencils { plain: &self.plain, strides: self.strides, neighbours: &self.neighbours }
     }
 
     /// `out = L u` on the unknown faces (0 elsewhere), with the fixed faces' values from `u`.
     fn laplacian(&self, u: &[Real], out: &mut [Real]) {
-        let (act, nb) = (&self.active, &self.neighbours);
+        let (act, st) = (&self.active, self.stencils());
         out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
             for (o, y) in out.iter_mut().enumerate() {
                 let k = c * CHUNK + o;
-                *y = if act[k] { stencil(&nb[k], u, u[k], true) - CENTRE * u[k] } else { 0.0 };
+                *y = if act[k] { st.sum(k, u, true) - CENTRE * u[k] } else { 0.0 };
             }
         });
     }
@@ -121,11 +144,11 @@ impl LatticeOperator {
     /// `out = (I − c L₀) x` on the unknown faces: the linear part of the operator (fixed
     /// faces and ghost offsets β left out), 0 elsewhere.
     fn apply(&self, c: Real, x: &[Real], out: &mut [Real]) {
-        let (act, nb) = (&self.active, &self.neighbours);
+        let (act, st) = (&self.active, self.stencils());
         out.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
             for (o, y) in out.iter_mut().enumerate() {
                 let k = ch * CHUNK + o;
-                *y = if act[k] { x[k] - c * (stencil(&nb[k], x, x[k], false) - CENTRE * x[k]) } else { 0.0 };
+                *y = if act[k] { x[k] - c * (st.sum(k, x, false) - CENTRE * x[k]) } else { 0.0 };
             }
         });
     }
@@ -147,34 +170,53 @@ impl LatticeOperator {
             v.resize(n, 0.0);
         }
         // b = rhs + c (known neighbours + ghost offsets), the constant part moved right
-        let (act, nb) = (&self.active, &self.neighbours);
+        let (act, nb, plain) = (&self.active, &self.neighbours, &self.plain);
+        let st = Stencils { plain, strides: self.strides, neighbours: nb };
         let known: &[Real] = x;
         let mut b = std::mem::take(&mut self.b);
         b.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
             for (o, y) in out.iter_mut().enumerate() {
                 let k = ch * CHUNK + o;
-                *y = if act[k] { rhs[k] + c * constants(&nb[k], known) } else { 0.0 };
+                // a plain face has no constant part: Σ of its six (four) zeros is +0
+                let constant = if plain[k] { 0.0 } else { constants(&nb[k], known) };
+                *y = if act[k] { rhs[k] + c * constant } else { 0.0 };
             }
         });
         let mut diag = std::mem::take(&mut self.inverse_diagonal);
-        for (k, d) in diag.iter_mut().enumerate() {
-            *d = if act[k] { 1.0 / self.diagonal(c, k) } else { 0.0 };
-        }
+        diag.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
+            for (o, d) in out.iter_mut().enumerate() {
+                let k = ch * CHUNK + o;
+                // a plain face has no ghost: Σα = +0
+                *d = if !act[k] {
+                    0.0
+                } else if plain[k] {
+                    1.0 / (1.0 + c * (CENTRE - 0.0))
+                } else {
+                    1.0 / self.diagonal(c, k)
+                };
+            }
+        });
         let norm_b = dot(&b, &b).sqrt();
         let mut q = std::mem::take(&mut self.q);
         self.apply(c, x, &mut q);
         let (r, z, p) = (&mut self.r, &mut self.z, &mut self.p);
-        for k in 0..n {
-            r[k] = b[k] - q[k];
-            z[k] = diag[k] * r[k];
-            p[k] = z[k];
-        }
+        r.par_chunks_mut(CHUNK).zip(z.par_chunks_mut(CHUNK)).zip(p.par_chunks_mut(CHUNK)).enumerate().for_each(
+            |(ch, ((r, z), p))| {
+                let o = ch * CHUNK;
+                for i in 0..r.len() {
+                    r[i] = b[o + i] - q[o + i];
+                    z[i] = diag[o + i] * r[i];
+                    p[i] = z[i];
+                }
+            },
+        );
         let mut rz = dot(r, z);
+        let mut rr = dot(r, r);
         let mut iterations = 0;
         let target = tolerance * norm_b;
-        while dot(r, r).sqrt() > target {
+        while rr.sqrt() > target {
             if iterations >= 1000 {
-                let residual = dot(r, r).sqrt();
+                let residual = rr.sqrt();
                 (self.q, self.b, self.inverse_diagonal) = (q, b, diag);
                 return Err(format!(
                     "the implicit viscous solve did not converge in 1000 iterations (residual {residual:.2e} \
@@ -182,33 +224,47 @@ impl LatticeOperator {
                 ));
             }
             let p_ref: &[Real] = p;
-            // q = A p
-            let (act, nb) = (&self.active, &self.neighbours);
-            q.par_chunks_mut(CHUNK).enumerate().for_each(|(ch, out)| {
-                for (o, y) in out.iter_mut().enumerate() {
-                    let k = ch * CHUNK + o;
-                    *y = if act[k] {
-                        p_ref[k] - c * (stencil(&nb[k], p_ref, p_ref[k], false) - CENTRE * p_ref[k])
-                    } else {
-                        0.0
-                    };
-                }
-            });
-            let alpha = rz / dot(p, &q);
+            // q = A p, with the chunks' partial sums of p·q (as `dot`)
+            let parts: Vec<Real> = q
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(|(ch, out)| {
+                    for (o, y) in out.iter_mut().enumerate() {
+                        let k = ch * CHUNK + o;
+                        *y = if act[k] { p_ref[k] - c * (st.sum(k, p_ref, false) - CENTRE * p_ref[k]) } else { 0.0 };
+                    }
+                    let p = &p_ref[ch * CHUNK..ch * CHUNK + out.len()];
+                    p.iter().zip(out.iter()).map(|(x, y)| x * y).sum::<Real>()
+                })
+                .collect();
+            let alpha = rz / parts.iter().sum::<Real>();
             if !alpha.is_finite() {
                 break;
             }
-            x.par_iter_mut().zip(p.par_iter()).zip(act.par_iter()).with_min_len(CHUNK).for_each(|((x, p), a)| {
-                if *a {
-                    *x += alpha * p;
-                }
-            });
-            r.par_iter_mut().zip(q.par_iter()).with_min_len(CHUNK).for_each(|(r, q)| *r -= alpha * q);
-            z.par_iter_mut()
-                .zip(r.par_iter().zip(diag.par_iter()))
-                .with_min_len(CHUNK)
-                .for_each(|(z, (r, d))| *z = d * r);
-            let rz_new = dot(r, z);
+            // x += α p (unknowns), r −= α q, z = D⁻¹ r, with the chunks' partial sums of r·z
+            // and r·r (as `dot`)
+            let q_ref: &[Real] = &q;
+            let parts: Vec<(Real, Real)> = x
+                .par_chunks_mut(CHUNK)
+                .zip(r.par_chunks_mut(CHUNK).zip(z.par_chunks_mut(CHUNK)))
+                .enumerate()
+                .map(|(ch, (x, (r, z)))| {
+                    let o = ch * CHUNK;
+                    for i in 0..x.len() {
+                        if act[o + i] {
+                            x[i] += alpha * p_ref[o + i];
+                        }
+                        r[i] -= alpha * q_ref[o + i];
+                        z[i] = diag[o + i] * r[i];
+                    }
+                    (
+                        r.iter().zip(z.iter()).map(|(x, y)| x * y).sum::<Real>(),
+                        r.iter().zip(r.iter()).map(|(x, y)| x * y).sum::<Real>(),
+                    )
+                })
+                .collect();
+            let rz_new: Real = parts.iter().map(|v| v.0).sum();
+            rr = parts.iter().map(|v| v.1).sum();
             let beta = rz_new / rz;
             rz = rz_new;
             p.par_iter_mut().zip(z.par_iter()).with_min_len(CHUNK).for_each(|(p, z)| *p = z + beta * *p);
@@ -234,6 +290,40 @@ fn stencil(nb: &[Neighbour; SIDES], u: &[Real], own: Real, constants: bool) -> R
             Neighbour::Known(_) => 0.0,
             Neighbour::Ghost(a, b) => a * own + if constants { b } else { 0.0 },
         };
+    }
+    s
+}
+
+/// What the stencil of a face reads: the plain faces, the storage strides and the neighbour
+/// lists of the others.
+#[derive(Clone, Copy)]
+struct Stencils<'a> {
+    plain: &'a [bool],
+    strides: [usize; DIM],
+    neighbours: &'a [[Neighbour; SIDES]],
+}
+
+impl Stencils<'_> {
+    /// Σ over the neighbours of face `k` of their values in `u` (`constants`: fixed faces'
+    /// values and ghost offsets included), by the plain stencil where it holds.
+    #[inline(always)]
+    fn sum(&self, k: usize, u: &[Real], constants: bool) -> Real {
+        if self.plain[k] {
+            plain_sum(u, k, &self.strides)
+        } else {
+            stencil(&self.neighbours[k], u, u[k], constants)
+        }
+    }
+}
+
+/// The neighbour sum of a plain face `k` (every neighbour the face one stride away), in the
+/// order of [`Side::ALL`]: the sum [`stencil`] makes from its list, the same bits.
+#[inline(always)]
+fn plain_sum(u: &[Real], k: usize, strides: &[usize; DIM]) -> Real {
+    let mut s = 0.0;
+    for &st in strides {
+        s += u[k - st];
+        s += u[k + st];
     }
     s
 }
