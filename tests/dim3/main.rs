@@ -9,6 +9,7 @@ mod eulerian;
 mod exchange;
 mod grid;
 mod output;
+mod pictures;
 mod poisson;
 mod pressure;
 mod regions;
