@@ -353,7 +353,7 @@ fn a_slice_of_a_flow_uniform_along_z_is_the_2d_picture() {
         let (png3, png2) = (Png::read(&p3), Png::read(&p2));
         assert_eq!((png3.width, png3.height), (png2.width, png2.height));
         // the domain, the colour bar and its frame
-        let bar_bottom = (lay3.bar_row - lay3.font / 2 + lay3.font) as u32;
+        let bar_bottom = lay3.bar_row - lay3.font / 2 + lay3.font;
         let rows = lay3.field_top..bar_bottom + 1;
         assert!(png3.rows(rows.clone()) == png2.rows(rows.clone()), "{quantity}: the pixels differ");
         // and not all of one colour: the picture shows the flow
