@@ -641,7 +641,10 @@ fn check(
         let (q, field) = crate::picture::picked(&sim, p).map_err(|e| Failure::Input(e.in_file(file)))?;
         let of = field.map_or("the mixture".to_string(), |k| format!("field {}", sim.fields[k].name));
         let w = when(p.interval, &p.times, p.at_end);
-        println!("output   a picture of the {} of {of} {w}, {} pixels wide", q.name, p.width);
+        let slices: Vec<String> =
+            p.slice.iter().map(|s| format!("{} = {} (frames/{}/)", s.axis.name(), s.at, s.folder())).collect();
+        let on = if slices.is_empty() { String::new() } else { format!(" on the planes {}", slices.join(", ")) };
+        println!("output   a picture of the {} of {of} {w}, {} pixels wide{on}", q.name, p.width);
     }
     if let Some(k) = &c.output.checkpoints {
         println!("output   a checkpoint every {}", k.interval);
