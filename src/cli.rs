@@ -63,13 +63,18 @@ enum Command {
         #[arg(long, value_name = "SIZE")]
         max_memory: Option<String>,
     },
-    /// Parse, validate and build every plugin of a case without stepping; describe it.
+    /// Parse, validate and build every plugin of a case without stepping; describe it, with
+    /// its memory and an estimate of its run time (timed on a coarsened copy, which writes
+    /// nothing).
     Check {
         /// The case file (RON).
         case: PathBuf,
         /// Override an entry, as for `run`.
         #[arg(long = "set", value_name = "PATH=VALUE")]
         overrides: Vec<String>,
+        /// Worker threads the time estimate is measured on, as for `run` [default: all cores].
+        #[arg(long, short = 'j', default_value_t = 0, hide_default_value = true, value_parser = thread_count)]
+        threads: usize,
         /// The most memory a run may use, as for `run`.
         #[arg(long, value_name = "SIZE")]
         max_memory: Option<String>,
@@ -236,8 +241,8 @@ pub fn main() -> ExitCode {
                 resources(&c, &case, &max_memory)?;
                 run_case(&c, &case, out, &RunOptions { threads, quiet, restart, case_file: Some(case.clone()) })
             }),
-        Some(Command::Check { case, overrides, max_memory }) => {
-            load(&case, &overrides).and_then(|(c, generated)| check(&c, &generated, &case, &max_memory))
+        Some(Command::Check { case, overrides, threads, max_memory }) => {
+            load(&case, &overrides).and_then(|(c, generated)| check(&c, &generated, &case, threads, &max_memory))
         }
         Some(Command::Plugins) => {
             plugins();
@@ -425,7 +430,82 @@ fn params_text(v: &serde_json::Value) -> String {
 /// Bodies named in `check`'s description of a region.
 const SHOWN_BODIES: usize = 8;
 
-fn check(case: &Case, generated: &[Generated], file: &Path, max_memory: &Option<String>) -> Result<(), Failure> {
+/// Seconds of wall time the calibration of `check`'s time estimate steps for (the case's
+/// calibration grid; the grid of half its cells gets a quarter of it).
+pub const CALIBRATION_BUDGET: f64 = 0.5;
+
+/// A duration for people: "0.8 s", "27 min", "3.2 h", "2.1 days".
+pub fn duration_text(seconds: f64) -> String {
+    if !seconds.is_finite() {
+        "an unbounded time".into()
+    } else if seconds < 0.1 {
+        format!("{} ms", significant(seconds * 1e3))
+    } else if seconds < 100.0 {
+        format!("{} s", significant(seconds))
+    } else if seconds < 6000.0 {
+        format!("{} min", significant(seconds / 60.0))
+    } else if seconds < 48.0 * 3600.0 {
+        format!("{} h", significant(seconds / 3600.0))
+    } else {
+        format!("{} days", significant(seconds / 86400.0))
+    }
+}
+
+/// Two significant digits (no exponent).
+fn significant(x: f64) -> String {
+    if x >= 10.0 {
+        format!("{:.0}", x)
+    } else if x >= 1.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.2}")
+    }
+}
+
+/// `check`'s line of the time a run takes ([`limits::time_estimate`]).
+pub fn time_text(e: &limits::TimeEstimate) -> String {
+    let c = &e.calibration;
+    let grid = |n: &[usize]| n.iter().map(|k| k.to_string()).collect::<Vec<_>>().join(" × ");
+    let scaled = e.cells as f64 / c.cell_count() as f64;
+    let pressure = if c.pressure_share > 0.0 {
+        let growth = match &e.half {
+            Some(h) => format!(
+                ", its iterations {:.1} there and {:.1} on {} cells: growing as n^{:.2} with the cells n along an axis",
+                c.iterations,
+                h.iterations,
+                grid(&h.cells),
+                e.growth
+            ),
+            None => format!(", {:.1} iterations", c.iterations),
+        };
+        format!(", {:.0} % of it in the pressure solve{growth}", 100.0 * c.pressure_share)
+    } else {
+        String::new()
+    };
+    format!(
+        "about {} steps × {} ≈ {} on {} thread{} of this machine (a step timed on {} cells: {} over {} steps{pressure}; \
+         scaled by the cells, × {}); the steps keep the first Δt {:.3e} ({}) to the end: the flow may change it",
+        limits::group(e.steps),
+        duration_text(e.seconds_per_step),
+        duration_text(e.seconds()),
+        e.threads,
+        if e.threads == 1 { "" } else { "s" },
+        grid(&c.cells),
+        duration_text(c.seconds_per_step),
+        c.steps,
+        if scaled >= 10.0 { format!("{scaled:.0}") } else { format!("{scaled:.2}") },
+        e.first_dt.0,
+        e.first_dt.1
+    )
+}
+
+fn check(
+    case: &Case,
+    generated: &[Generated],
+    file: &Path,
+    threads: usize,
+    max_memory: &Option<String>,
+) -> Result<(), Failure> {
     // the estimate and the caps before anything is allocated
     let (estimate, allowed) = resources(case, file, max_memory)?;
     let sim = Simulation::new(case).map_err(|e| Failure::Input(e.in_file(file)))?;
@@ -503,14 +583,31 @@ fn check(case: &Case, generated: &[Generated], file: &Path, max_memory: &Option<
         Some(p) => println!("pressure {} {}", p.model, params_text(&p.params)),
         None => println!("pressure none (no incompressibility constraint)"),
     }
-    let (dt, limit) = sim.choose_dt();
+    // the time: the planned steps, and a step timed on a coarsened copy (which writes nothing)
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Failure::Run(format!("cannot start {threads} worker threads: {e}")))?;
+    let timing = pool.install(|| limits::time_estimate(&sim, CALIBRATION_BUDGET));
+    let (steps, dt, limit) = match &timing {
+        Ok(e) => (e.steps, e.first_dt.0, e.first_dt.1.clone()),
+        Err(_) => sim.planned_steps(limits::WALKED_STEPS),
+    };
     println!(
-        "start    kinetic energy {:.6e}; first Δt {:.3e} (limited by {limit}), about {:.0} steps to t = {}",
+        "start    kinetic energy {:.6e}; first Δt {:.3e} (limited by {limit}), about {} steps to t = {}{}",
         sim.initial_energy,
         dt,
-        (t.end / dt).ceil(),
-        t.end
+        limits::group(steps),
+        t.end,
+        match t.max_steps {
+            Some(m) if steps >= m => format!(" (time.max_steps = {m} ends it before)"),
+            _ => String::new(),
+        }
     );
+    match &timing {
+        Ok(e) => println!("time     {}", time_text(e)),
+        Err(e) => println!("time     not estimated: {e}"),
+    }
     println!(
         "output   a diagnostics row every {}",
         if c.output.interval > 0.0 { format!("{} of simulated time", c.output.interval) } else { "step".into() }
@@ -544,7 +641,10 @@ fn check(case: &Case, generated: &[Generated], file: &Path, max_memory: &Option<
         let (q, field) = crate::picture::picked(&sim, p).map_err(|e| Failure::Input(e.in_file(file)))?;
         let of = field.map_or("the mixture".to_string(), |k| format!("field {}", sim.fields[k].name));
         let w = when(p.interval, &p.times, p.at_end);
-        println!("output   a picture of the {} of {of} {w}, {} pixels wide", q.name, p.width);
+        let slices: Vec<String> =
+            p.slice.iter().map(|s| format!("{} = {} (frames/{}/)", s.axis.name(), s.at, s.folder())).collect();
+        let on = if slices.is_empty() { String::new() } else { format!(" on the planes {}", slices.join(", ")) };
+        println!("output   a picture of the {} of {of} {w}, {} pixels wide{on}", q.name, p.width);
     }
     if let Some(k) = &c.output.checkpoints {
         println!("output   a checkpoint every {}", k.interval);

@@ -21,7 +21,14 @@ pub fn writers(sim: &Simulation, dir: &Path) -> Result<Vec<Box<dyn Writer>>, Err
         out.push(Box::new(crate::snapshot::Snapshots::create(sim, dir, s)?));
     }
     if let Some(p) = sim.case.output.pictures.clone() {
-        out.push(Box::new(crate::picture::Pictures::create(sim, dir, p)?));
+        if p.slice.is_empty() {
+            out.push(Box::new(crate::picture::Pictures::create(sim, dir, p, None)?));
+        } else {
+            // 3D: a writer per slice, each into its own folder
+            for s in &p.slice {
+                out.push(Box::new(crate::picture::Pictures::create(sim, dir, p.clone(), Some(s))?));
+            }
+        }
     }
     Ok(out)
 }

@@ -30,6 +30,13 @@
 //! reconstructed from the initial condition at t = 0), so the frame at t = 0 shows the
 //! initial state.
 //!
+//! A 3D case is drawn on planes of cells, its `slice`s ([`Plane`]): each slice has a
+//! writer and a folder of its own, `frames/<axis>_<at>/` ([`Slice::folder`]), and is drawn
+//! as a 2D picture of the plane (the in-plane axes across and up: (x, y) normal to z,
+//! (x, z) normal to y, (y, z) normal to x, named in the title with the slice), with the
+//! same quantities and colour maps; a vector is drawn as its magnitude, a signed vector
+//! (the vorticity) as its component normal to the plane. Points and bodies are 2D only.
+//!
 //! Make an animation of the frames with ffmpeg:
 //!
 //! ```text
@@ -45,11 +52,11 @@
 //! (read from `frames.csv`) and draws on from there ([`Pictures::create`]). A frame of a domain 320 × 1280 cells, 640 pixels wide, takes
 //! 0.08–0.17 s on two cores (most of it the PNG encoder).
 
-use crate::core::case::{PictureSpec, Representation};
+use crate::core::case::{PictureSpec, Representation, Slice};
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
-use crate::core::grid::Grid;
-use crate::core::math::Real;
+use crate::core::grid::{Grid, Lattice};
+use crate::core::math::{Real, DIM};
 use crate::core::quantity::{self, Colours, Place, PointSet, Quantity, Sample};
 use crate::core::simulation::Simulation;
 use crate::output::{Due, Moments};
@@ -169,16 +176,160 @@ pub fn sequential(t: f64) -> [u8; 3] {
     ramp(&VIRIDIS, t)
 }
 
-/// A cell-centred scalar of the picture and its colour range. A vector is held as its two
-/// components (`values`, `second`), interpolated apart and then combined, so that a zero
-/// of the vector stays a zero between cell centres.
-struct Scalar {
-    values: Vec<Real>,
-    second: Option<Vec<Real>>,
-    lo: Real,
-    hi: Real,
+/// The cells a picture draws, row-major (`i + j·cells[0]`, j up): the whole grid in 2D; in
+/// 3D a plane normal to an axis ([`Slice`]), its values interpolated linearly between the
+/// two layers of cell centres nearest the plane.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plane {
+    /// Cells across (left to right) and up.
+    pub cells: [usize; 2],
+    /// Lower-left corner of the plane, in its two axes' coordinates.
+    pub origin: [Real; 2],
+    /// Width and height.
+    pub size: [Real; 2],
+    /// The axes across, up and normal to the plane (0, 1 and 2 in 2D: x across, y up).
+    pub axes: [usize; 3],
+    /// The slice: its layers of cells along the normal axis and the weight of the second.
+    cut: Option<(Slice, usize, usize, Real)>,
+}
+
+impl Plane {
+    /// The plane of `slice` (required in 3D, refused in 2D).
+    pub fn of(grid: &Grid, periodic: [bool; DIM], slice: Option<&Slice>) -> Result<Plane, Error> {
+        let n = grid.n();
+        let size = grid.size();
+        let origin = grid.origin;
+        match slice {
+            None if DIM == 2 => Ok(Plane {
+                cells: [n[0], n[1]],
+                origin: [origin[0], origin[1]],
+                size: [size[0], size[1]],
+                axes: [0, 1, 2],
+                cut: None,
+            }),
+            None => Err(Error::invalid(
+                "output.pictures.slice",
+                "a 3D picture needs a slice, e.g. `slice: (axis: z, at: 0.5)`",
+            )),
+            Some(_) if DIM == 2 => {
+                Err(Error::invalid("output.pictures.slice", "a 2D case is drawn whole: leave `slice` out"))
+            }
+            Some(s) => {
+                let normal = s.axis.index();
+                let axes = match normal {
+                    0 => [1, 2, 0],
+                    1 => [0, 2, 1],
+                    _ => [0, 1, 2],
+                };
+                // cell centres of the normal axis at (k + ½) h: `at` between centres k0 and k0 + 1
+                let m = n[normal];
+                // (a coordinate within 10⁻⁹ cells of a centre is that centre)
+                let f = (s.at - origin[normal]) / grid.h - 0.5;
+                let f = if (f - f.round()).abs() < 1e-9 { f.round() } else { f };
+                let (k0, k1, w) = if f < 0.0 {
+                    if periodic[normal] {
+                        (m - 1, 0, f + 1.0)
+                    } else {
+                        (0, 0, 0.0)
+                    }
+                } else if f >= (m - 1) as Real {
+                    if periodic[normal] {
+                        (m - 1, 0, (f - (m - 1) as Real).min(1.0))
+                    } else {
+                        (m - 1, m - 1, 0.0)
+                    }
+                } else {
+                    let k = f.floor() as usize;
+                    (k, k + 1, f - k as Real)
+                };
+                Ok(Plane {
+                    cells: [n[axes[0]], n[axes[1]]],
+                    origin: [origin[axes[0]], origin[axes[1]]],
+                    size: [size[axes[0]], size[axes[1]]],
+                    axes,
+                    cut: Some((*s, k0, k1, w)),
+                })
+            }
+        }
+    }
+
+    /// The slice drawn (None in 2D).
+    pub fn slice(&self) -> Option<Slice> {
+        self.cut.map(|c| c.0)
+    }
+
+    /// The layers of cells along the normal axis the plane lies between, and the weight of
+    /// the second (None in 2D).
+    pub fn layers(&self) -> Option<(usize, usize, Real)> {
+        self.cut.map(|(_, k0, k1, w)| (k0, k1, w))
+    }
+
+    /// The plane's values of a cell array of the grid: the array itself in 2D; in 3D
+    /// (1 − w) a + w b of the two layers' values a and b (a where w = 0, b where w = 1,
+    /// a where a = b, the finite one where one is not).
+    pub fn cut(&self, grid: &Grid, values: Vec<Real>) -> Vec<Real> {
+        let Some((_, k0, k1, w)) = self.cut else { return values };
+        let [h, v, normal] = self.axes;
+        let mut out = Vec::with_capacity(self.cells[0] * self.cells[1]);
+        for j in 0..self.cells[1] {
+            for i in 0..self.cells[0] {
+                let at = |k: usize| {
+                    let mut c = [0; DIM];
+                    c[h] = i;
+                    c[v] = j;
+                    c[normal] = k;
+                    values[grid.index(Lattice::Cell, c)]
+                };
+                let (a, b) = (at(k0), at(k1));
+                out.push(if w == 0.0 || a == b || !b.is_finite() {
+                    a
+                } else if w == 1.0 || !a.is_finite() {
+                    b
+                } else {
+                    (1.0 - w) * a + w * b
+                });
+            }
+        }
+        out
+    }
+
+    /// "x", "y" or "z" of an axis.
+    fn axis_name(a: usize) -> &'static str {
+        ["x", "y", "z"][a]
+    }
+
+    /// The slice and the axes of the picture for its title: "z = 3.14 (x →, y ↑)"; empty
+    /// in 2D.
+    pub fn title(&self) -> String {
+        match self.cut {
+            None => String::new(),
+            Some((s, ..)) => format!(
+                "{} = {} ({} →, {} ↑)",
+                s.axis.name(),
+                format_number(s.at),
+                Self::axis_name(self.axes[0]),
+                Self::axis_name(self.axes[1])
+            ),
+        }
+    }
+}
+
+/// The values a picture colours and their colour range, on the cells of its [`Plane`]. A
+/// vector is held as its components (two in 2D, three in 3D), interpolated apart and then
+/// combined, so that a zero of the vector stays a zero between cell centres; a signed
+/// vector (the vorticity in 3D) is drawn as its component normal to the plane.
+pub struct Scalar {
+    /// The first component (or the scalar) on the plane's cells; NaN where no field is.
+    pub values: Vec<Real>,
+    /// The other components of a vector.
+    pub rest: Vec<Vec<Real>>,
+    /// Lower end of the colour range.
+    pub lo: Real,
+    /// Upper end of the colour range.
+    pub hi: Real,
     diverging: bool,
-    label: String,
+    /// The colour bar's label.
+    pub label: String,
 }
 
 /// The `q` quantile of the finite values (0 when there are none).
@@ -223,21 +374,34 @@ pub fn picked(sim: &Simulation, spec: &PictureSpec) -> Result<(&'static Quantity
     }
 }
 
-fn scalar(sim: &Simulation, spec: &PictureSpec) -> Result<Scalar, Error> {
+/// The values a picture of `spec` colours on the cells of `plane`, and their range.
+pub fn scalar(sim: &Simulation, spec: &PictureSpec, plane: &Plane) -> Result<Scalar, Error> {
     let (q, field) = picked(sim, spec)?;
     let sample = Sample::of(sim);
-    let n = sim.grid.n_cells();
+    let g = &sim.grid;
+    let n = g.n_cells();
     let values = sample.cells(q, field).unwrap_or_else(|| vec![0.0; q.components * n]);
     let empty = |c: usize| sample.theta[c] <= 1e-6;
-    let (values, second) = if q.components == 3 && values.len() == 3 * n {
-        let part = |k: usize| (0..n).map(|c| if empty(c) { Real::NAN } else { values[3 * c + k] }).collect::<Vec<_>>();
-        (part(0), Some(part(1)))
-    } else {
-        ((0..n).map(|c| if empty(c) { Real::NAN } else { values.get(c).copied().unwrap_or(0.0) }).collect(), None)
+    let part = |k: usize| {
+        let v = (0..n).map(|c| if empty(c) { Real::NAN } else { values[3 * c + k] }).collect::<Vec<_>>();
+        plane.cut(g, v)
     };
-    let magnitude: Vec<Real> = match &second {
-        Some(v) => values.iter().zip(v).map(|(u, v)| u.hypot(*v)).collect(),
-        None => values.clone(),
+    let vector = q.components == 3 && values.len() == 3 * n;
+    // a signed vector in 3D: its component normal to the plane
+    let normal = vector && DIM == 3 && q.colours == Colours::Diverging;
+    let (values, rest) = if normal {
+        (part(plane.axes[2]), Vec::new())
+    } else if vector {
+        (part(0), (1..DIM).map(part).collect())
+    } else {
+        let v = (0..n).map(|c| if empty(c) { Real::NAN } else { values.get(c).copied().unwrap_or(0.0) }).collect();
+        (plane.cut(g, v), Vec::new())
+    };
+    let magnitude: Vec<Real> = match rest.as_slice() {
+        [] => values.clone(),
+        [v] => values.iter().zip(v).map(|(u, v)| u.hypot(*v)).collect(),
+        [v, w] => (0..values.len()).map(|c| values[c].hypot(v[c]).hypot(w[c])).collect(),
+        _ => unreachable!("at most three components"),
     };
     let finite = || magnitude.iter().copied().filter(|x| x.is_finite());
     let (lo, hi) = match q.colours {
@@ -259,12 +423,13 @@ fn scalar(sim: &Simulation, spec: &PictureSpec) -> Result<Scalar, Error> {
             }
         }
     };
+    let name = if normal { format!("{}_{}", q.name, Plane::axis_name(plane.axes[2])) } else { q.name.to_string() };
     let label = match field {
-        Some(k) if spec.field.is_some() || !q.has_mixture() => format!("{} of {}", q.name, sim.fields[k].name),
-        _ => q.name.to_string(),
+        Some(k) if spec.field.is_some() || !q.has_mixture() => format!("{name} of {}", sim.fields[k].name),
+        _ => name,
     };
-    let label = if second.is_some() { format!("|{label}|") } else { label };
-    Ok(Scalar { values, second, lo, hi, diverging: q.colours == Colours::Diverging, label })
+    let label = if rest.is_empty() { label } else { format!("|{label}|") };
+    Ok(Scalar { values, rest, lo, hi, diverging: q.colours == Colours::Diverging, label })
 }
 
 /// Colour of a value of `s`.
@@ -281,11 +446,11 @@ fn colour(s: &Scalar, x: Real) -> [u8; 3] {
 
 /// Paints the domain: the scalar interpolated bilinearly between cell centres at every
 /// pixel centre (cells without a value left out of the weights).
-fn paint_field(rgb: &mut [u8], lay: &Layout, g: &Grid, s: &Scalar) {
+fn paint_field(rgb: &mut [u8], lay: &Layout, plane: &Plane, s: &Scalar) {
     let w = lay.width as usize;
     let start = lay.field_top as usize * w * 3;
     let rows = &mut rgb[start..start + lay.field_height as usize * w * 3];
-    let (nx, ny) = (g.nx, g.ny);
+    let [nx, ny] = plane.cells;
     let (fw, fh) = (lay.width as Real, lay.field_height as Real);
     rows.par_chunks_mut(w * 3).enumerate().for_each(|(r, row)| {
         let fy = (1.0 - (r as Real + 0.5) / fh) * ny as Real - 0.5;
@@ -297,18 +462,24 @@ fn paint_field(rgb: &mut [u8], lay: &Layout, g: &Grid, s: &Scalar) {
             let i0 = fx.floor().clamp(0.0, (nx - 1) as Real) as usize;
             let i1 = (i0 + 1).min(nx - 1);
             let a = (fx - i0 as Real).clamp(0.0, 1.0);
-            let (mut sum, mut sum2, mut wsum) = (0.0, 0.0, 0.0);
+            let (mut sum, mut sums, mut wsum) = (0.0, [0.0; 2], 0.0);
             for (i, j, wt) in
                 [(i0, j0, (1.0 - a) * (1.0 - b)), (i1, j0, a * (1.0 - b)), (i0, j1, (1.0 - a) * b), (i1, j1, a * b)]
             {
                 let x = s.values[i + j * nx];
                 if x.is_finite() && wt > 0.0 {
                     sum += wt * x;
-                    sum2 += s.second.as_ref().map_or(0.0, |y| wt * y[i + j * nx]);
+                    for (acc, y) in sums.iter_mut().zip(&s.rest) {
+                        *acc += wt * y[i + j * nx];
+                    }
                     wsum += wt;
                 }
             }
-            let value = if s.second.is_some() { sum.hypot(sum2) } else { sum };
+            let value = match s.rest.len() {
+                0 => sum,
+                1 => sum.hypot(sums[0]),
+                _ => sum.hypot(sums[0]).hypot(sums[1]),
+            };
             let c = if wsum > 1e-12 { colour(s, value / wsum) } else { EMPTY };
             px.copy_from_slice(&c);
         }
@@ -412,14 +583,28 @@ pub fn format_number(x: Real) -> String {
     s.replace('-', "−")
 }
 
-/// Draws one picture of `sim` into `path` (PNG, through `tmp` and a rename).
-fn write_picture(sim: &Simulation, spec: &PictureSpec, lay: &Layout, path: &Path, tmp: &Path) -> Result<(), Error> {
-    let s = scalar(sim, spec)?;
+/// Draws one picture of `sim` on `plane` into `path` (PNG, through `tmp` and a rename).
+fn write_picture(
+    sim: &Simulation,
+    spec: &PictureSpec,
+    plane: &Plane,
+    lay: &Layout,
+    path: &Path,
+    tmp: &Path,
+) -> Result<(), Error> {
+    let s = scalar(sim, spec, plane)?;
     let mut rgb = vec![255u8; lay.width as usize * lay.height as usize * 3];
-    paint_field(&mut rgb, lay, &sim.grid, &s);
-    paint_points(&mut rgb, lay, sim);
-    paint_bodies(&mut rgb, lay, sim);
+    paint_field(&mut rgb, lay, plane, &s);
+    // (points and bodies are 2D so far)
+    if plane.slice().is_none() {
+        paint_points(&mut rgb, lay, sim);
+        paint_bodies(&mut rgb, lay, sim);
+    }
     paint_bar(&mut rgb, lay, &s);
+    let title = match plane.slice() {
+        None => sim.case.name.clone(),
+        Some(_) => format!("{} · {}", sim.case.name, plane.title()),
+    };
     crate::plot::register_font();
     let draw = || -> Result<(), String> {
         let root = BitMapBackend::new(tmp, (lay.width, lay.height)).into_drawing_area();
@@ -429,7 +614,7 @@ fn write_picture(sim: &Simulation, spec: &PictureSpec, lay: &Layout, path: &Path
         let f = lay.font as i32;
         let style = |h, v| ("sans-serif", f).into_font().color(&BLACK).pos(Pos::new(h, v));
         let top = lay.field_top as i32 / 2;
-        root.draw(&Text::new(sim.case.name.clone(), (f / 2, top), style(HPos::Left, VPos::Center)))
+        root.draw(&Text::new(title.clone(), (f / 2, top), style(HPos::Left, VPos::Center)))
             .map_err(|e| e.to_string())?;
         root.draw(&Text::new(
             time_label(sim.time, spec.interval),
@@ -494,6 +679,7 @@ pub struct Pictures {
     dir: PathBuf,
     index: crate::core::driver::CsvWriter,
     spec: PictureSpec,
+    plane: Plane,
     layout: Layout,
     due: Moments,
     next: usize,
@@ -510,7 +696,10 @@ impl Pictures {
     /// however many output times a step crosses. (Frames of a run that wrote no
     /// `frames.csv` are counted from the schedule: ⌊T/Δ⌋ + 1 and the times reached, right
     /// when every interval holds a step.)
-    pub fn create(sim: &Simulation, dir: &Path, spec: PictureSpec) -> Result<Self, Error> {
+    ///
+    /// In 3D each slice has a writer of its own, drawing into `frames/<axis>_<at>/`
+    /// ([`Slice::folder`]) with its own `frames.csv`.
+    pub fn create(sim: &Simulation, dir: &Path, spec: PictureSpec, slice: Option<&Slice>) -> Result<Self, Error> {
         if !(spec.interval >= 0.0 && spec.interval.is_finite())
             || (spec.interval == 0.0 && spec.times.is_empty() && !spec.at_end)
         {
@@ -520,8 +709,8 @@ impl Pictures {
             ));
         }
         picked(sim, &spec)?;
-        let size = sim.grid.size();
-        let layout = Layout::new([size.x, size.y], spec.width);
+        let plane = Plane::of(&sim.grid, sim.boundaries.periodic_axes(), slice)?;
+        let layout = Layout::new(plane.size, spec.width);
         if layout.width as u64 * layout.height as u64 > MAX_PIXELS || spec.width < 16 {
             return Err(Error::invalid(
                 "output.pictures.width",
@@ -534,7 +723,10 @@ impl Pictures {
                 ),
             ));
         }
-        let frames = dir.join("frames");
+        let frames = match slice {
+            None => dir.join("frames"),
+            Some(s) => dir.join("frames").join(s.folder()),
+        };
         std::fs::create_dir_all(&frames).map_err(|source| Error::Io { path: frames.clone(), source })?;
         let existing: Vec<(usize, PathBuf)> = std::fs::read_dir(&frames)
             .map_err(|source| Error::Io { path: frames.clone(), source })?
@@ -567,7 +759,7 @@ impl Pictures {
         let resumed = sim.steps > 0;
         let due =
             Moments::new((spec.interval > 0.0).then(|| Due::new(0.0, spec.interval)), &spec.times, spec.at_end, 0.0);
-        Ok(Self { dir: frames, index, spec, layout, due, next, last_step: None, resumed })
+        Ok(Self { dir: frames, index, spec, plane, layout, due, next, last_step: None, resumed })
     }
 
     /// The layout of this run's pictures.
@@ -579,7 +771,7 @@ impl Pictures {
         let name = frame_name(self.next);
         let path = self.dir.join(&name);
         let tmp = self.dir.join(format!(".{}.partial.png", name.trim_end_matches(".png")));
-        write_picture(sim, &self.spec, &self.layout, &path, &tmp)?;
+        write_picture(sim, &self.spec, &self.plane, &self.layout, &path, &tmp)?;
         let row = [sim.steps.to_string(), crate::core::driver::number(sim.time), self.next.to_string()];
         crate::core::driver::append_row(&mut self.index, &self.dir.join(INDEX), &row)?;
         self.next += 1;
@@ -614,12 +806,24 @@ impl Writer for Pictures {
     }
 }
 
-/// Draws the picture of `sim` now into `path` (PNG), as the run's frames are drawn.
+/// Draws the picture of `sim` now into `path` (PNG), as the run's frames are drawn (in 3D,
+/// on the first of the spec's slices).
 pub fn write_frame(sim: &Simulation, spec: &PictureSpec, path: &Path) -> Result<Layout, Error> {
-    let size = sim.grid.size();
-    let layout = Layout::new([size.x, size.y], spec.width);
+    write_slice(sim, spec, spec.slice.first(), path).map(|(layout, _)| layout)
+}
+
+/// Draws the picture of `sim` on `slice` (None in 2D) now into `path` (PNG); returns its
+/// layout and plane.
+pub fn write_slice(
+    sim: &Simulation,
+    spec: &PictureSpec,
+    slice: Option<&Slice>,
+    path: &Path,
+) -> Result<(Layout, Plane), Error> {
+    let plane = Plane::of(&sim.grid, sim.boundaries.periodic_axes(), slice)?;
+    let layout = Layout::new(plane.size, spec.width);
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{}.partial.png", name.trim_end_matches(".png")));
-    write_picture(sim, spec, &layout, path, &tmp)?;
-    Ok(layout)
+    write_picture(sim, spec, &plane, &layout, path, &tmp)?;
+    Ok((layout, plane))
 }

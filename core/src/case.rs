@@ -834,6 +834,82 @@ pub struct PictureSpec {
     /// Width of the picture in pixels (the height follows the domain's aspect).
     #[serde(default = "default_picture_width")]
     pub width: u32,
+    /// The planes a 3D case is drawn in (3D only, where it is required): one,
+    /// `slice: (axis: z, at: 0.5)`, or several, `slice: [(axis: z, at: 0.5), (axis: x,
+    /// at: 1.0)]`, each drawn into its own folder `frames/<axis>_<at>/`. A 2D case is
+    /// drawn whole and refuses it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", deserialize_with = "one_or_more_slices")]
+    pub slice: Vec<Slice>,
+}
+
+/// The plane of a 3D picture: the cells' plane normal to `axis` through the coordinate
+/// `at`, a position in the domain's units (from `domain.origin[axis]` to `origin + size`,
+/// both ends included). The plane's values are interpolated linearly between the two
+/// layers of cell centres nearest `at` (exactly one layer's values when `at` is a cell
+/// centre; between the outermost centre and a wall, the outermost layer's values; across
+/// a periodic side, the layers on either side of it).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Slice {
+    /// The axis normal to the plane: `x`, `y` or `z`.
+    pub axis: SliceAxis,
+    /// Where the plane cuts that axis (length): a coordinate of the domain.
+    pub at: Real,
+}
+
+impl Slice {
+    /// The folder of its frames under `frames/`: `z_0.5` (the shortest text of `at` that
+    /// reads back as it).
+    pub fn folder(&self) -> String {
+        format!("{}_{}", self.axis.name(), self.at)
+    }
+}
+
+/// An axis of a slice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SliceAxis {
+    /// x.
+    #[serde(rename = "x")]
+    X,
+    /// y.
+    #[serde(rename = "y")]
+    Y,
+    /// z.
+    #[serde(rename = "z")]
+    Z,
+}
+
+impl SliceAxis {
+    /// Its index (0, 1, 2).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+    /// `x`, `y` or `z`.
+    pub fn name(self) -> &'static str {
+        ["x", "y", "z"][self as usize]
+    }
+}
+
+/// `slice` of a picture: one slice, or a list of them.
+fn one_or_more_slices<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<Slice>, D::Error> {
+    struct Slices;
+    impl<'de> serde::de::Visitor<'de> for Slices {
+        type Value = Vec<Slice>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a slice `(axis: z, at: 0.5)` or a list of them `[(axis: z, at: 0.5), (axis: x, at: 1.0)]`")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> std::result::Result<Self::Value, A::Error> {
+            Slice::deserialize(serde::de::value::MapAccessDeserializer::new(map)).map(|s| vec![s])
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<Self::Value, A::Error> {
+            let mut out = Vec::new();
+            while let Some(s) = seq.next_element::<Slice>()? {
+                out.push(s);
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_any(Slices)
 }
 
 fn default_picture_width() -> u32 {
@@ -1090,8 +1166,7 @@ impl Case {
     }
 
     /// Refuses, naming the entry, what a 3D case cannot have yet: bodies (listed,
-    /// generated or as mass points), contact, the 2D regions, and the output that comes
-    /// with the rest of issue 17 (pictures).
+    /// generated or as mass points), contact, the 2D regions and the monitors of bodies.
     #[cfg(feature = "dim3")]
     fn refuse_not_yet_3d(&self) -> Result<()> {
         let not_yet = |path: String, what: &str| {
@@ -1122,13 +1197,62 @@ impl Case {
         if self.domain.point_cells.is_some() {
             return not_yet("domain.point_cells".into(), "mass points (and their grid)");
         }
-        let o = &self.output;
-        if o.pictures.is_some() {
-            return not_yet("output.pictures".into(), "pictures");
-        }
         for m in &self.monitors {
             if matches!(m.of, crate::monitor::Monitored::Suspension { .. } | crate::monitor::Monitored::Forces { .. }) {
                 return not_yet(format!("monitors.{}.of", m.name), "the monitors of bodies (`Forces`, `Suspension`)");
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses the slices of a picture that cannot be drawn: any in 2D (a 2D case is
+    /// drawn whole), none in 3D, a coordinate outside the domain (with the valid range),
+    /// the same slice twice.
+    fn check_slices(&self, slices: &[Slice]) -> Result<()> {
+        let path = "output.pictures.slice";
+        let bad = |path: String, m: String| Err(Error::invalid(path, m));
+        if DIM == 2 {
+            if !slices.is_empty() {
+                return bad(
+                    path.into(),
+                    "a 2D case is drawn whole: `slice` chooses the planes of a 3D case's pictures; leave it out".into(),
+                );
+            }
+            return Ok(());
+        }
+        let d = &self.domain;
+        let range = |a: usize| (d.origin[a], d.origin[a] + d.size[a]);
+        if slices.is_empty() {
+            let (lo, hi) = range(DIM - 1);
+            return bad(
+                path.into(),
+                format!(
+                    "a 3D picture is a plane of cells: give one, e.g. `slice: (axis: z, at: {})` (the middle of the \
+                     domain's z range [{lo}, {hi}]), or several, `slice: [(axis: z, at: ...), (axis: x, at: ...)]`",
+                    0.5 * (lo + hi)
+                ),
+            );
+        }
+        if slices.len() > crate::limits::MAX_LIST {
+            return bad(path.into(), format!("{} slices; at most {}", slices.len(), crate::limits::MAX_LIST));
+        }
+        for (k, s) in slices.iter().enumerate() {
+            let entry = if slices.len() == 1 { path.to_string() } else { format!("{path}.{k}") };
+            let a = s.axis.index();
+            let (lo, hi) = range(a);
+            if !(s.at >= lo && s.at <= hi) {
+                return bad(
+                    entry,
+                    format!(
+                        "at = {}: outside the domain along {}; give a coordinate in [{lo}, {hi}] (a position in the \
+                         domain's units, not a fraction)",
+                        s.at,
+                        s.axis.name()
+                    ),
+                );
+            }
+            if slices[..k].contains(s) {
+                return bad(entry, format!("({}, at: {}) is listed twice", s.axis.name(), s.at));
             }
         }
         Ok(())
@@ -1522,6 +1646,7 @@ impl Case {
             if let Err(m) = crate::quantity::find(p.quantity.as_str(), place) {
                 return bad("output.pictures.quantity", m);
             }
+            self.check_slices(&p.slice)?;
         }
         if let Some(s) = &self.output.snapshots {
             for (path, list, place) in [

@@ -601,7 +601,7 @@ impl Driver {
         let steps_at_start = sim.steps;
         let mut status = Status::Completed;
         let mut reason = String::new();
-        let done = |t: Real| t >= time.end * (1.0 - 1e-12);
+        let done = |t: Real| reached_end(t, time.end);
         while !done(sim.time) {
             if interrupted() {
                 status = stop(sim);
@@ -957,6 +957,13 @@ pub fn resume_csv(
         .open(path)
         .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     Ok((table::writer(file), kept))
+}
+
+/// Whether a run at simulated time `t` has reached `end` (to round-off: the last step lands
+/// on it): the run loop's condition to stop, which the planned steps
+/// ([`crate::simulation::Simulation::planned_steps`]) share.
+pub fn reached_end(t: Real, end: Real) -> bool {
+    t >= end * (1.0 - 1e-12)
 }
 
 /// The next time of a schedule of `interval` that lies past `bound`, from `next`: `next`

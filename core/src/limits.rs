@@ -7,6 +7,12 @@
 //! exceed the caps below or whose estimate exceeds the memory it may use. Every product of
 //! user numbers here saturates: an absurd case gives an absurd (but finite) estimate, never
 //! an overflow. docs/limits.md compares the estimate with measured peak memory.
+//!
+//! [`time_estimate`] estimates how long a case runs on this machine: its steps, and the
+//! time of a step measured on a coarsened copy of the case (`limits/time.rs`).
+
+mod time;
+pub use time::*;
 
 use crate::case::{BodyShape, Case, Region, Representation};
 use crate::error::{Error, Result};

@@ -102,7 +102,8 @@ fn what_a_3d_case_cannot_have_yet_is_refused_by_name() {
         ("region: All", "fields.water.region", "bodies (`Bodies([...])`) are not available in 3D yet"),
         ("region: All", "fields.water.region", "`Rectangle` and `Disk` are 2D regions"),
         ("density: 1.0,", "fields.water.representation", "mass points are not available in 3D yet"),
-        ("max_dt: 0.01)", "output.pictures", "pictures are not available in 3D yet"),
+        // pictures are drawn in 3D on slices (tests/dim3/pictures.rs): one without is refused
+        ("max_dt: 0.01)", "output.pictures.slice", "a 3D picture is a plane of cells: give one"),
     ] {
         let replacement = match path {
             "fields.water.region" if what.starts_with("bodies") => "region: Bodies([])",

@@ -5,10 +5,12 @@
 //! One test binary: `cargo test --test dim3 [module::]`.
 
 mod case;
+mod check;
 mod eulerian;
 mod exchange;
 mod grid;
 mod output;
+mod pictures;
 mod poisson;
 mod pressure;
 mod regions;

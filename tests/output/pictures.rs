@@ -567,5 +567,6 @@ fn picture(quantity: &str, width: u32) -> PictureSpec {
         quantity: QuantityName(quantity.into()),
         field: None,
         width,
+        slice: Vec::new(),
     }
 }

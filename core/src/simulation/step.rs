@@ -9,17 +9,33 @@ use crate::grid::FaceVelocity;
 /// The limit of a step shortened to land on an exact output time ([`Simulation::choose_dt`]).
 pub const OUTPUT_TIME: &str = "output time";
 
+/// A step `best` (Δt, limit) shortened to the `remaining` time when it would reach or pass
+/// it ("end").
+fn cut_to_end(best: (Real, String), remaining: Real) -> (Real, String) {
+    if remaining < best.0 * (1.0 + 1e-9) {
+        (remaining, "end".into())
+    } else {
+        best
+    }
+}
+
 impl Simulation {
     /// The next time step and what limits it: the stable Δt (or `time.fixed_dt`), cut to
     /// land on `time.end` ("end") and on the next exact output time
     /// ([`crate::case::OutputSpec::next_moment`], [`OUTPUT_TIME`]); the steps after go on
     /// with the normal Δt.
     pub fn choose_dt(&self) -> (Real, String) {
-        let (dt, label) = self.choose_dt_to_end();
+        self.choose_dt_at(self.time, &self.stable_dt())
+    }
+
+    /// The Δt of [`Simulation::choose_dt`] at simulated time `time` when the stable Δt is
+    /// `stable` ([`Simulation::stable_dt`]).
+    fn choose_dt_at(&self, time: Real, stable: &(Real, String)) -> (Real, String) {
+        let (dt, label) = self.choose_dt_to_end(time, stable);
         // shortened to land on the next exact output time (`output.snapshots.times`, …)
-        match self.case.output.next_moment(self.time) {
+        match self.case.output.next_moment(time) {
             Some(m) => {
-                let r = m - self.time;
+                let r = m - time;
                 let lands_at_end = label == "end" && r >= dt * (1.0 - 1e-12);
                 if r > 0.0 && r < dt * (1.0 + 1e-9) && !lands_at_end {
                     (r, OUTPUT_TIME.to_string())
@@ -31,16 +47,27 @@ impl Simulation {
         }
     }
 
-    /// The Δt of [`Simulation::choose_dt`] before it lands on an output time.
-    fn choose_dt_to_end(&self) -> (Real, String) {
+    /// The stable Δt of the current state and what limits it, before any cut to land on a
+    /// time: the adaptive one (CFL, `max_dt`, every model's limit); with `time.fixed_dt`,
+    /// the adaptive limit without `max_dt`, which the fixed step is compared with.
+    pub fn stable_dt(&self) -> (Real, String) {
         let t = &self.case.time;
-        let remaining = t.end - self.time;
-        if let Some(dt) = t.fixed_dt {
-            // the adaptive choice says whether the fixed step exceeds a stable limit
-            let mut adaptive = self.case.time.clone();
+        if t.fixed_dt.is_some() {
+            let mut adaptive = t.clone();
             adaptive.fixed_dt = None;
             adaptive.max_dt = Real::INFINITY;
-            let (limit, by) = self.adaptive_dt(&adaptive, Real::INFINITY);
+            return self.adaptive_dt(&adaptive, Real::INFINITY);
+        }
+        self.adaptive_dt(t, Real::INFINITY)
+    }
+
+    /// The Δt of [`Simulation::choose_dt`] at `time` before it lands on an output time.
+    fn choose_dt_to_end(&self, time: Real, stable: &(Real, String)) -> (Real, String) {
+        let t = &self.case.time;
+        let remaining = t.end - time;
+        let (limit, by) = stable;
+        if let Some(dt) = t.fixed_dt {
+            // the adaptive choice says whether the fixed step exceeds a stable limit
             let dt = dt.min(remaining.max(0.0)).max(0.0);
             let label = if dt > limit * (1.0 + 1e-9) {
                 format!("fixed (exceeds the {by} limit {limit:.3e})")
@@ -49,11 +76,40 @@ impl Simulation {
             };
             return (dt, label);
         }
-        self.adaptive_dt(t, remaining)
+        cut_to_end((*limit, by.clone()), remaining)
+    }
+
+    /// The steps a run from the current state takes to `time.end` (at most
+    /// `time.max_steps`) if the stable Δt stays that of the current state, each step
+    /// chosen as the run chooses it ([`Simulation::choose_dt`]: landing on the exact output
+    /// times and on the end) and the clock advanced as the run advances it; the first Δt
+    /// and what limits it. Steps beyond `walk` are counted as whole steps of the stable
+    /// Δt, not walked.
+    pub fn planned_steps(&self, walk: u64) -> (u64, Real, String) {
+        let stable = self.stable_dt();
+        let first = self.choose_dt_at(self.time, &stable);
+        let end = self.case.time.end;
+        let max = self.case.time.max_steps.unwrap_or(u64::MAX);
+        let (mut time, mut steps) = (self.time, self.steps);
+        while !crate::driver::reached_end(time, end) && steps < max {
+            if steps - self.steps >= walk {
+                let rest = ((end - time) / self.choose_dt_at(time, &stable).0).ceil();
+                let rest = if rest.is_finite() { rest as u64 } else { u64::MAX };
+                steps = steps.saturating_add(rest).min(max);
+                break;
+            }
+            let (dt, _) = self.choose_dt_at(time, &stable);
+            if time + dt == time {
+                break;
+            }
+            time += dt;
+            steps += 1;
+        }
+        (steps - self.steps, first.0, first.1)
     }
 
     /// The adaptive Δt under `t` (CFL, `max_dt`, every model's limit) and what limits it,
-    /// cut to `remaining`.
+    /// cut to `remaining` ([`cut_to_end`]).
     pub(super) fn adaptive_dt(&self, t: &crate::case::TimeControl, remaining: Real) -> (Real, String) {
         let h = self.grid.h;
         let umax = self.max_speed();
@@ -103,10 +159,7 @@ impl Simulation {
                 }
             }
         }
-        if remaining < best.0 * (1.0 + 1e-9) {
-            best = (remaining, "end".into());
-        }
-        best
+        cut_to_end(best, remaining)
     }
 
     /// Advances one step.
