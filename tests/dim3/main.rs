@@ -5,6 +5,7 @@
 //! One test binary: `cargo test --test dim3 [module::]`.
 
 mod case;
+mod cavity;
 mod check;
 mod eulerian;
 mod exchange;
