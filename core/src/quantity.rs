@@ -606,7 +606,10 @@ inventory::submit! { Quantity {
     name: "vorticity",
     components: VORTICITY_COMPONENTS,
     units: "1/time",
+    #[cfg(feature = "dim2")]
     description: "∂v/∂x − ∂u/∂y of the cell-centred velocity by central differences (one-sided at a domain edge, wrapped across a periodic side)",
+    #[cfg(feature = "dim3")]
+    description: "∇ × u (x, y, z components) of the cell-centred velocity by central differences (one-sided at a domain edge, wrapped across a periodic side)",
     colours: Colours::Diverging,
     compute: Compute::Cells {
         mixture: Some(|s| vorticity(s.grid(), s.periodic(), &s.velocity)),
