@@ -28,23 +28,10 @@
 //! `EULERIAN_DIFFUSION=cn,explicit`, `EULERIAN_STEPS=` (steps timed per configuration;
 //! default 10 below 100³ cells, else 5), `EULERIAN_BANDWIDTH=0` skips the bandwidth.
 
+use multifield::core::timing::{median, process_cpu_ns};
 use rayon::prelude::*;
 use std::path::Path;
 use std::time::Instant;
-
-/// CPU time of this process, all threads (ns), from /proc (0 where unavailable).
-fn process_cpu_ns() -> u64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
-    tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
 
 fn list<T: std::str::FromStr>(var: &str, default: &str) -> Vec<T> {
     let s = std::env::var(var).unwrap_or_else(|_| default.to_string());

@@ -26,6 +26,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Samplin
 use multifield::core::case::Case;
 use multifield::core::plugin::FrameContext;
 use multifield::core::simulation::{Simulation, StepDiagnostics};
+use multifield::core::timing::{median, process_cpu_ns};
 use multifield::frames::lagrangian::Lagrangian;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -59,15 +60,6 @@ fn step(sim: &mut Simulation) -> multifield::core::Result<StepDiagnostics> {
     sim.step_with(dt, "fixed".to_string())
 }
 
-/// CPU time of this process, all threads (ns), from /proc (0 where unavailable).
-fn process_cpu_ns() -> u64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
-    tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
-}
-
 /// CPU time all processes of the machine have used so far (s), from /proc/stat (0 where
 /// unavailable): with [`process_cpu_ns`], how many cores the other jobs took meanwhile.
 fn machine_busy_s() -> f64 {
@@ -77,11 +69,6 @@ fn machine_busy_s() -> f64 {
     let ticks: Vec<f64> = cpu.split_whitespace().skip(1).filter_map(|v| v.parse().ok()).collect();
     let busy: f64 = ticks.iter().take(8).enumerate().filter(|(k, _)| *k != 3 && *k != 4).map(|(_, t)| t).sum();
     busy / 100.0 // USER_HZ
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
 }
 
 /// Particles to grid (`to_grid` alone) or grid to particles (`from_grid` alone, with the

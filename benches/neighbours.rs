@@ -23,6 +23,7 @@ use multifield::core::math::{Real, Vector};
 use multifield::core::neighbours::{brute, pairs_within, SearchDomain};
 use multifield::core::plugin::{BodyState, ContactContext};
 use multifield::core::registry::build_contact;
+use multifield::core::timing::median;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -52,11 +53,6 @@ fn packing(n: usize) -> (Vec<BodyState>, Real) {
         })
         .collect();
     (bodies, l)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
 }
 
 /// Median wall time of `f` in ns over calls lasting about `budget` seconds in all.

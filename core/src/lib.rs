@@ -36,6 +36,7 @@ pub mod ron_value;
 pub mod simulation;
 pub mod state;
 pub mod table;
+pub mod timing;
 
 pub use error::{Error, Result};
 #[doc(hidden)]

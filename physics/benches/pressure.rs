@@ -18,6 +18,7 @@ use multifield_core::grid::{FaceArrays, Grid};
 use multifield_core::math::{Real, Vector};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::PoissonProblem;
+use multifield_core::timing::{median, process_cpu_ns};
 use multifield_physics::pressure::cholesky::Cholesky;
 use multifield_physics::pressure::multigrid::Multigrid;
 use multifield_physics::pressure::pcg::{Pcg, PreconditionerKind};
@@ -59,20 +60,6 @@ pub fn dkt(n: usize, rho_disk: Real) -> PoissonProblem {
 }
 
 type Make = fn() -> Box<dyn PressureSolver>;
-
-/// CPU time of this process, all threads (ns), from /proc (0 where unavailable).
-fn process_cpu_ns() -> u64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
-    tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
 
 fn solvers() -> Vec<(&'static str, Make, usize)> {
     vec![

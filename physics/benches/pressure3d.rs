@@ -19,6 +19,7 @@ use multifield_core3d::grid::{FaceArrays, Grid, Lattice};
 use multifield_core3d::math::{vector, Real, Vector};
 use multifield_core3d::plugin::PressureSolver;
 use multifield_core3d::poisson::PoissonProblem;
+use multifield_core3d::timing::{median, process_cpu_ns};
 use multifield_physics3d::pressure::cholesky::Cholesky;
 use multifield_physics3d::pressure::pcg::{Pcg, PreconditionerKind};
 
@@ -59,20 +60,6 @@ fn sphere(n: usize) -> PoissonProblem {
         })
         .collect();
     PoissonProblem::new(&g, &Boundaries::default(), c, rhs)
-}
-
-/// CPU time of this process, all threads (ns), from /proc (0 where unavailable).
-fn process_cpu_ns() -> u64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
-    tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
 }
 
 fn list(var: &str, default: &[usize]) -> Vec<usize> {
