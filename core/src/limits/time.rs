@@ -147,14 +147,19 @@ pub fn calibrate(case: &Case, steps: usize, budget: f64) -> Result<Calibration> 
     if let Some(inner) = sim.pressure_solver.take() {
         sim.pressure_solver = Some(Box::new(Timed { inner, nanos: nanos.clone() }));
     }
-    sim.step().map_err(fail)?;
+    // a model that panics fails the calibration, as it fails a run (`Driver::run`)
+    let step = |sim: &mut Simulation| match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sim.step())) {
+        Ok(stepped) => stepped.map_err(fail),
+        Err(p) => Err(fail(Error::Model(format!("a model panicked: {}", crate::driver::panic_message(p))))),
+    };
+    step(&mut sim)?;
     let start = Instant::now();
     // each step's wall time and its pressure solves'
     let (mut times, mut iterations) = (Vec::new(), 0usize);
     while times.len() < steps.max(1) && (times.is_empty() || start.elapsed().as_secs_f64() < budget) {
         nanos.store(0, Ordering::Relaxed);
         let clock = Instant::now();
-        let d = sim.step().map_err(fail)?;
+        let d = step(&mut sim)?;
         times.push((clock.elapsed().as_secs_f64(), nanos.load(Ordering::Relaxed) as f64 * 1e-9));
         iterations += d.pressure_iterations;
     }
