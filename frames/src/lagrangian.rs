@@ -513,11 +513,11 @@ impl Lagrangian {
         let sums = (0..n)
             .into_par_iter()
             .with_min_len(4096)
-            .fold(ExactSums::new, |mut sums, p| {
+            .fold(ExactSums::boxed, |mut sums, p| {
                 sums.add(term(p));
                 sums
             })
-            .reduce(ExactSums::new, ExactSums::merge);
+            .reduce(ExactSums::boxed, ExactSums::merge_boxed);
         reduce(&sums)
     }
 

@@ -240,7 +240,7 @@ impl LatticeOperator {
                 .par_chunks_mut(row)
                 .enumerate()
                 .with_min_len((CHUNK / row).max(1))
-                .fold(Sums::new, |mut sums, (j, out)| {
+                .fold(Sums::boxed, |mut sums, (j, out)| {
                     let o = j * row;
                     for (i, y) in out.iter_mut().enumerate() {
                         let k = o + i;
@@ -252,7 +252,7 @@ impl LatticeOperator {
                     }
                     sums
                 })
-                .reduce(Sums::new, Sums::merge);
+                .reduce(Sums::boxed, Sums::merge_boxed);
             let alpha = rz / reduce(&pq)[0];
             if !alpha.is_finite() {
                 break;
@@ -265,7 +265,7 @@ impl LatticeOperator {
                 .zip(r.par_chunks_mut(row).zip(z.par_chunks_mut(row)))
                 .enumerate()
                 .with_min_len((CHUNK / row).max(1))
-                .fold(Sums::new, |mut sums, (j, (x, (r, z)))| {
+                .fold(Sums::boxed, |mut sums, (j, (x, (r, z)))| {
                     let o = j * row;
                     for i in 0..x.len() {
                         if act[o + i] {
@@ -279,7 +279,7 @@ impl LatticeOperator {
                     }
                     sums
                 })
-                .reduce(Sums::new, Sums::merge);
+                .reduce(Sums::boxed, Sums::merge_boxed);
             let [rz_new, rr_new] = reduce(&sums);
             rr = rr_new;
             let beta = rz_new / rz;

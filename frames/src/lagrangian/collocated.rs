@@ -427,19 +427,18 @@ impl Collocated {
                 sums.total()
             })
             .collect();
+        // kinetic energy, mass and momentum: the lanes' sums of blocks of points added in
+        // order (the same bits for any number of threads), not yet the reduction rule of
+        // docs/design/mpi.md §3 (issue 19, P2b): a group of one point, added exactly
+        // (`Lagrangian::point_sums`), cost mpm88 30 % of its CPU time (docs/performance.md)
         let mut total = FrameFigures::default();
         for s in sums {
+            total.kinetic_energy += s.kinetic_energy;
+            total.mass += s.mass;
+            total.momentum += s.momentum;
             total.max_speed = total.max_speed.max(s.max_speed);
         }
         total.max_speed = total.max_speed.sqrt();
-        // kinetic energy, mass and momentum by the reduction rule (a group of one point,
-        // see `Lagrangian::point_sums`): the lanes' sums depend on the blocks of points
-        let v = &pts.v;
-        let [ke, mass, px, py] = super::Lagrangian::point_sums(m.len(), |p| {
-            let (m, v) = (m[p], v[p]);
-            [0.5 * m * v.norm_squared(), m, m * v.x, m * v.y]
-        });
-        (total.kinetic_energy, total.mass, total.momentum) = (ke, mass, Vector::new(px, py));
         total
     }
 

@@ -166,7 +166,7 @@ fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real, nx: usize) -> 
         .zip(r32.par_chunks_mut(nx))
         .zip(q.par_chunks(nx))
         .with_min_len((CHUNK / nx).max(1))
-        .fold(Sums::new, |mut sums, ((r, r32), q)| {
+        .fold(Sums::boxed, |mut sums, ((r, r32), q)| {
             r.iter_mut().zip(q).zip(r32.iter_mut()).for_each(|((r, q), r32)| {
                 *r -= alpha * q;
                 *r32 = *r as F;
@@ -177,7 +177,7 @@ fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real, nx: usize) -> 
             }
             sums
         })
-        .reduce(Sums::new, Sums::merge);
+        .reduce(Sums::boxed, Sums::merge_boxed);
     reduce(&sums)[0]
 }
 

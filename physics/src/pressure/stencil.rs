@@ -442,7 +442,7 @@ impl Stencil {
     pub fn apply_dot(&self, x: &[Real], y: &mut [Real]) -> Real {
         let nx = self.nx;
         let no_extra = self.dirichlet.iter().all(|&d| !d);
-        let body = |mut sums: Sums<1>, (j, row): (usize, &mut [Real])| {
+        let body = |sums: &mut Sums<1>, (j, row): (usize, &mut [Real])| {
             self.offdiag_row(j, x, row);
             let k = j * nx;
             let x = &x[k..k + nx];
@@ -476,12 +476,21 @@ impl Stencil {
             for g in row_groups(nx, nx, GROUP) {
                 sums.add([lanes_dot(&row[g.clone()], &x[g])]);
             }
-            sums
         };
         let sums = if self.len() >= PARALLEL_CELLS {
-            y.par_chunks_mut(nx).enumerate().fold(Sums::new, body).reduce(Sums::new, Sums::merge)
+            *y.par_chunks_mut(nx)
+                .enumerate()
+                .fold(Sums::boxed, |mut sums, item| {
+                    body(&mut sums, item);
+                    sums
+                })
+                .reduce(Sums::boxed, Sums::merge_boxed)
         } else {
-            y.chunks_mut(nx).enumerate().fold(Sums::new(), body)
+            let mut sums = Sums::new();
+            for item in y.chunks_mut(nx).enumerate() {
+                body(&mut sums, item);
+            }
+            sums
         };
         reduce(&sums)[0]
     }
