@@ -77,15 +77,14 @@ impl ExactSum {
         self.pending += 1;
         let (c, shift) = ((p / 32) as usize, p % 32);
         let v = (m as u128) << shift;
+        // the sign without a branch (terms of random signs would mispredict it): a
+        // piece p becomes (p ^ −1) + 1 = −p for a negative term, p otherwise
+        let negative = (bits >> 63) as i64;
         let pieces = [(v as i64) & LOW, ((v >> 32) as i64) & LOW, (v >> 64) as i64];
-        if bits >> 63 == 0 {
-            for (k, piece) in pieces.into_iter().enumerate() {
-                self.words[c + k] += piece;
-            }
-        } else {
-            for (k, piece) in pieces.into_iter().enumerate() {
-                self.words[c + k] -= piece;
-            }
+        // c ≤ 63 for a finite term: one bounds check for the three words
+        let words = &mut self.words[c..c + 3];
+        for (w, piece) in words.iter_mut().zip(pieces) {
+            *w += (piece ^ -negative) + negative;
         }
     }
 
@@ -228,6 +227,154 @@ pub fn exact_sum(terms: impl IntoIterator<Item = f64>) -> f64 {
     terms.into_iter().collect::<ExactSum>().round()
 }
 
+/// Nodes in a row group of the reduction rule (docs/design/mpi.md §3): W consecutive nodes
+/// of one lattice row along x, starting at a multiple of W; cuts between ranks along x
+/// fall on multiples of W, so a group never straddles them.
+pub const GROUP: usize = 32;
+
+/// The row groups of a lattice row of `len` nodes on a level of `nx` cells along x, as
+/// ranges of the row, `width` nodes wide ([`GROUP`] on the fine grid, `GROUP / 2^l` on
+/// multigrid level l): `0..width`, `width..2 width`, … up to `nx`, then the high face `nx`
+/// alone when the row has `nx + 1` nodes (x-faces).
+pub fn row_groups(len: usize, nx: usize, width: usize) -> impl Iterator<Item = std::ops::Range<usize>> + Clone {
+    let body = len.min(nx);
+    let width = width.max(1);
+    (0..body.div_ceil(width))
+        .map(move |g| g * width..((g + 1) * width).min(body))
+        .chain((body < len).then_some(body..len))
+}
+
+/// Σ a b over a group in a fixed order: eight partial sums (vectorisable), added pairwise,
+/// then the tail.
+#[inline]
+pub fn lanes_dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f64 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    for (x, y) in ca.zip(cb) {
+        for l in 0..8 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+}
+
+/// `K` exact sums made together (e.g. r·z and r·r of one pass), merged together and
+/// reduced together by [`reduce`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Sums<const K: usize>(pub [ExactSum; K]);
+
+impl<const K: usize> Default for Sums<K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const K: usize> Sums<K> {
+    /// `K` empty sums.
+    pub fn new() -> Self {
+        Self(std::array::from_fn(|_| ExactSum::new()))
+    }
+
+    /// Adds one group's values, `values[k]` to sum k.
+    #[inline]
+    pub fn add(&mut self, values: [f64; K]) {
+        for (s, v) in self.0.iter_mut().zip(values) {
+            s.add(v);
+        }
+    }
+
+    /// The sums of both (for rayon's `reduce`: the order of merging does not matter).
+    pub fn merge(mut self, other: Self) -> Self {
+        for (s, o) in self.0.iter_mut().zip(&other.0) {
+            s.merge(o);
+        }
+        self
+    }
+
+    /// `K` empty sums on the heap: the accumulator of a rayon `fold`, which passes its
+    /// accumulator by value at every item (a box moves 8 bytes, the sums 560 `K`).
+    pub fn boxed() -> Box<Self> {
+        Box::new(Self::new())
+    }
+
+    /// [`Sums::merge`] of boxed sums (the `reduce` after a `fold` from [`Sums::boxed`]).
+    // rayon's `reduce` hands both operands as the fold's type
+    #[allow(clippy::boxed_local)]
+    pub fn merge_boxed(mut a: Box<Self>, b: Box<Self>) -> Box<Self> {
+        for (s, o) in a.0.iter_mut().zip(&b.0) {
+            s.merge(o);
+        }
+        a
+    }
+}
+
+/// Stage 3 of the reduction rule: the accumulated sums rounded to `f64`. This is the one
+/// place every exact reduction of a step ends; under MPI (docs/design/mpi.md §3, phase
+/// P0b) the words of every rank's accumulators are summed here by `Comm::sum_words`
+/// (one call for the `K` sums) before rounding. Serially: rounding.
+pub fn reduce<const K: usize>(sums: &Sums<K>) -> [f64; K] {
+    sums.0.each_ref().map(ExactSum::round)
+}
+
+/// Lattices at least this large are reduced in parallel (the result is the same).
+const PARALLEL_NODES: usize = 16_384;
+
+/// The reduction rule over a lattice stored row by row (rows of `len` nodes along x, `nx`
+/// cells along x, `total` nodes): `group(range)` gives the `K` values of the row group at
+/// the flat indices `range`, summed in its own fixed order; the group values are added
+/// exactly (rows in parallel for big lattices: any split gives the same sums).
+pub fn row_sums<const K: usize>(
+    total: usize,
+    len: usize,
+    nx: usize,
+    width: usize,
+    group: impl Fn(std::ops::Range<usize>) -> [f64; K] + Sync + Send,
+) -> Sums<K> {
+    use rayon::prelude::*;
+    if len == 0 {
+        return Sums::new();
+    }
+    debug_assert_eq!(total % len, 0, "{total} nodes are not rows of {len}");
+    let rows = total / len;
+    let row = |s: &mut Sums<K>, r: usize| {
+        let o = r * len;
+        for g in row_groups(len, nx, width) {
+            s.add(group(o + g.start..o + g.end));
+        }
+    };
+    if total >= PARALLEL_NODES {
+        let min_rows = (4096 / len).max(1);
+        *(0..rows)
+            .into_par_iter()
+            .with_min_len(min_rows)
+            .fold(Sums::boxed, |mut s, r| {
+                row(&mut s, r);
+                s
+            })
+            .reduce(Sums::boxed, Sums::merge_boxed)
+    } else {
+        let mut s = Sums::new();
+        for r in 0..rows {
+            row(&mut s, r);
+        }
+        s
+    }
+}
+
+/// Σ a b over a lattice of rows of `len` nodes (`nx` cells along x) by the reduction rule
+/// (row groups of [`GROUP`] in [`lanes_dot`] order, added exactly), rounded once.
+pub fn dot(a: &[f64], b: &[f64], len: usize, nx: usize) -> f64 {
+    debug_assert_eq!(a.len(), b.len());
+    reduce(&row_sums(a.len(), len, nx, GROUP, |g| [lanes_dot(&a[g.clone()], &b[g])]))[0]
+}
+
+/// Σ a over a lattice of rows of `len` nodes (`nx` cells along x) by the reduction rule
+/// (row groups of [`GROUP`] summed in order, added exactly), rounded once.
+pub fn sum(a: &[f64], len: usize, nx: usize) -> f64 {
+    reduce(&row_sums(a.len(), len, nx, GROUP, |g| [a[g].iter().sum()]))[0]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -333,5 +480,72 @@ mod tests {
         assert_eq!(negative.round(), -(exact as f64));
         negative.merge(&s);
         assert_eq!(negative.round().to_bits(), 0.0f64.to_bits());
+    }
+
+    #[test]
+    fn row_groups_follow_the_rule() {
+        let g: Vec<_> = row_groups(65, 64, GROUP).collect();
+        assert_eq!(g, [0..32, 32..64, 64..65]);
+        let g: Vec<_> = row_groups(41, 40, GROUP).collect();
+        assert_eq!(g, [0..32, 32..40, 40..41]);
+        let g: Vec<_> = row_groups(40, 40, GROUP).collect();
+        assert_eq!(g, [0..32, 32..40]);
+        // multigrid level 6: one cell a group
+        assert_eq!(row_groups(3, 3, GROUP >> 6).count(), 3);
+    }
+
+    #[test]
+    fn reductions_are_exact_and_independent_of_chunking_and_threads() {
+        // naively (1e16 + 1) rounds to 1e16 (a tie, to even): the sum in order is 1, the
+        // exact sum 2; as four groups of one term (width 1) the rule gives 2
+        let t = [1e16, 1.0, -1e16, 1.0];
+        assert_eq!(t.iter().sum::<f64>(), 1.0);
+        assert_eq!(reduce(&row_sums(4, 4, 4, 1, |g| [t[g].iter().sum()]))[0], 2.0);
+        // a row group is summed in its fixed order: one group of the four gives 1
+        assert_eq!(sum(&t, 4, 4), 1.0);
+
+        // x-faces of 64 cells (rows of 65), 400 rows: parallel; values of many magnitudes
+        let (len, nx, rows) = (65, 64, 400);
+        let mut rng = fastrand::Rng::with_seed(5);
+        let a: Vec<f64> = (0..len * rows).map(|_| (rng.f64() - 0.5) * 2f64.powi(rng.i32(-30..=30))).collect();
+        let b: Vec<f64> = (0..len * rows).map(|_| rng.f64() - 0.25).collect();
+        // the rule by hand: the groups in row order, their values summed exactly
+        let groups: Vec<f64> = (0..rows)
+            .flat_map(|r| row_groups(len, nx, GROUP).map(move |g| r * len + g.start..r * len + g.end))
+            .map(|g| lanes_dot(&a[g.clone()], &b[g]))
+            .collect();
+        assert_eq!(groups.len(), rows * 3);
+        let expected = exact_sum(groups.iter().copied());
+        // a naive sum of the same group values differs (so the check below can fail)
+        assert_ne!(groups.iter().sum::<f64>().to_bits(), expected.to_bits());
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let d = pool.install(|| dot(&a, &b, len, nx));
+            assert_eq!(d.to_bits(), expected.to_bits(), "{threads} threads");
+        }
+        // the groups accumulated in chunks of rows of several sizes, merged backwards
+        for chunk in [1, 7, 64, 399] {
+            let parts: Vec<Sums<1>> = (0..rows)
+                .collect::<Vec<_>>()
+                .chunks(chunk)
+                .map(|rs| {
+                    let mut s = Sums::new();
+                    for &r in rs {
+                        for g in row_groups(len, nx, GROUP) {
+                            let g = r * len + g.start..r * len + g.end;
+                            s.add([lanes_dot(&a[g.clone()], &b[g])]);
+                        }
+                    }
+                    s
+                })
+                .collect();
+            let merged = parts.into_iter().rev().fold(Sums::new(), Sums::merge);
+            assert_eq!(reduce(&merged)[0].to_bits(), expected.to_bits(), "chunks of {chunk} rows");
+        }
+        // two sums of one pass: the same bits as each alone
+        let both = reduce(&row_sums(a.len(), len, nx, GROUP, |g| {
+            [lanes_dot(&a[g.clone()], &b[g.clone()]), a[g].iter().sum()]
+        }));
+        assert_eq!(both, [expected, sum(&a, len, nx)]);
     }
 }

@@ -62,6 +62,7 @@
 use crate::case::{BodyShape, Case, QuantityName, Region, Representation};
 use crate::driver::{number, resume_csv};
 use crate::error::{Error, Result};
+use crate::exact::{ExactSum, GROUP};
 use crate::grid::{FaceVelocity, Grid, Lattice};
 use crate::math::{Index, Real, AXES, DIM};
 use crate::quantity::{Place, Quantity, Sample};
@@ -966,13 +967,32 @@ impl Running {
             Monitored::Average { .. } => {
                 let s = self.source.expect("a quantity");
                 let n = s.components();
-                let mut sum = vec![0.0; n];
-                for &at in &self.cells {
-                    for (c, x) in sum.iter_mut().enumerate() {
-                        *x += view.cell(s, c, at);
+                // the reduction rule (docs/design/mpi.md §3): the cells (in storage order) in
+                // row groups of 32 along x, each summed in order, the groups added exactly
+                let mut sums = vec![ExactSum::new(); n];
+                let mut group = vec![0.0; n];
+                let key = |at: &Index| {
+                    let mut k = *at;
+                    k[0] /= GROUP;
+                    k
+                };
+                for (i, at) in self.cells.iter().enumerate() {
+                    if i > 0 && key(at) != key(&self.cells[i - 1]) {
+                        for (s, g) in sums.iter_mut().zip(&mut group) {
+                            s.add(std::mem::take(g));
+                        }
+                    }
+                    for (c, x) in group.iter_mut().enumerate() {
+                        *x += view.cell(s, c, *at);
                     }
                 }
-                sum.iter().map(|x| x / self.cells.len() as Real).collect()
+                if !self.cells.is_empty() {
+                    for (s, g) in sums.iter_mut().zip(&group) {
+                        s.add(*g);
+                    }
+                }
+                let sums = reduce_all(&sums);
+                sums.iter().map(|x| x / self.cells.len() as Real).collect()
             }
             _ => {
                 let s = self.source.expect("a quantity");
@@ -1004,6 +1024,12 @@ fn cell(x: Real) -> String {
     } else {
         number(x)
     }
+}
+
+/// Stage 3 of the reduction rule for a number of sums known at run time (as
+/// [`crate::exact::reduce`], through which it goes).
+fn reduce_all(sums: &[ExactSum]) -> Vec<Real> {
+    sums.iter().map(|s| crate::exact::reduce(&crate::exact::Sums([s.clone()]))[0]).collect()
 }
 
 /// The running time average of a `TimeAverage` monitor. The [`Simulation`] carries it
@@ -1098,13 +1124,23 @@ impl TimeAverage {
 
     /// The monitor's row: the window, the samples, and the average's mean over the cells
     /// (per component, at most DIM); NaN before the first sample.
-    fn row(&self) -> Vec<Real> {
+    /// The cells are those of the grid in storage order, rows of `nx` cells: summed by the
+    /// reduction rule (docs/design/mpi.md §3).
+    fn row(&self, nx: usize) -> Vec<Real> {
         let n = self.components.min(DIM);
         let mean = self.mean();
         let cells = mean.len() / self.components.max(1);
         let mut row = vec![self.window(), self.samples as Real];
-        for c in 0..n {
-            let sum: Real = (0..cells).map(|k| mean[k * self.components + c]).sum();
+        let per = self.components;
+        let sums = crate::exact::row_sums(cells, nx, nx, GROUP, |g| {
+            let mut v = [0.0; DIM];
+            for (c, v) in v.iter_mut().enumerate().take(n) {
+                *v = g.clone().map(|k| mean[k * per + c]).sum();
+            }
+            v
+        });
+        let sums = crate::exact::reduce(&sums);
+        for sum in &sums[..n] {
             row.push(if cells > 0 { sum / cells as Real } else { Real::NAN });
         }
         row
@@ -1429,7 +1465,7 @@ impl Monitors {
             sim.averages[a].add(t, q);
         }
         for (&k, values) in which.iter().zip(rows) {
-            let values = self.running[k].average.map_or(values, |a| sim.averages[a].row());
+            let values = self.running[k].average.map_or(values, |a| sim.averages[a].row(sim.grid.nx));
             let mut row = Vec::with_capacity(values.len() + 2);
             row.push(sim.steps as Real);
             row.push(sim.time);

@@ -42,23 +42,16 @@ pub struct SolveStats {
     pub incompatibility: Real,
 }
 
-/// Rows per parallel task in reductions: fixed, so sums do not depend on the thread count.
-const CHUNK: usize = 2048;
-
-/// Deterministic dot product (the same bits for any number of threads).
-pub fn dot(a: &[Real], b: &[Real]) -> Real {
-    let partial: Vec<Real> = a
-        .par_chunks(CHUNK)
-        .zip(b.par_chunks(CHUNK))
-        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| p * q).sum::<Real>())
-        .collect();
-    partial.iter().sum()
+/// Σ a b over cell arrays of rows of `nx` cells, by the reduction rule of
+/// docs/design/mpi.md §3 ([`crate::exact::dot`]): row groups of 32 cells, their values
+/// added exactly, one rounding. The same bits for any number of threads (and of ranks).
+pub fn dot(a: &[Real], b: &[Real], nx: usize) -> Real {
+    crate::exact::dot(a, b, nx, nx)
 }
 
-/// Deterministic sum.
-pub fn sum(a: &[Real]) -> Real {
-    let partial: Vec<Real> = a.par_chunks(CHUNK).map(|x| x.iter().sum::<Real>()).collect();
-    partial.iter().sum()
+/// Σ a over a cell array of rows of `nx` cells, by the reduction rule (as [`dot`]).
+pub fn sum(a: &[Real], nx: usize) -> Real {
+    crate::exact::sum(a, nx, nx)
 }
 
 impl PoissonProblem {
@@ -99,8 +92,15 @@ impl PoissonProblem {
             return;
         }
         let n = self.rhs.len() as Real;
-        let mean = sum(&self.rhs) / n;
-        let rms = (dot(&self.rhs, &self.rhs) / n).sqrt();
+        let nx = self.grid.nx;
+        let rhs = &self.rhs;
+        let [total, squares] =
+            crate::exact::reduce(&crate::exact::row_sums(rhs.len(), nx, nx, crate::exact::GROUP, |g| {
+                let b = &rhs[g];
+                [b.iter().sum(), crate::exact::lanes_dot(b, b)]
+            }));
+        let mean = total / n;
+        let rms = (squares / n).sqrt();
         self.incompatibility = if rms > 0.0 { mean.abs() / rms } else { 0.0 };
         self.rhs.par_iter_mut().for_each(|b| *b -= mean);
     }
@@ -179,8 +179,12 @@ impl PoissonProblem {
         let mut r = vec![0.0; x.len()];
         self.apply(x, &mut r);
         r.par_iter_mut().zip(self.rhs.par_iter()).for_each(|(r, b)| *r = b - *r);
-        let nb = dot(&self.rhs, &self.rhs).sqrt();
-        let nr = dot(&r, &r).sqrt();
+        let nx = self.grid.nx;
+        let [bb, rr] = crate::exact::reduce(&crate::exact::row_sums(r.len(), nx, nx, crate::exact::GROUP, |g| {
+            let (b, r) = (&self.rhs[g.clone()], &r[g]);
+            [crate::exact::lanes_dot(b, b), crate::exact::lanes_dot(r, r)]
+        }));
+        let (nb, nr) = (bb.sqrt(), rr.sqrt());
         if nb > 0.0 {
             nr / nb
         } else {
@@ -191,7 +195,7 @@ impl PoissonProblem {
     /// Shifts a solution of a singular problem to zero mean.
     pub fn fix_constant(&self, p: &mut [Real]) {
         if self.is_singular() {
-            let mean = sum(p) / p.len() as Real;
+            let mean = sum(p, self.grid.nx) / p.len() as Real;
             p.par_iter_mut().for_each(|x| *x -= mean);
         }
     }

@@ -64,6 +64,8 @@ pub mod viscous;
 
 use multifield_core::boundary::{Boundaries, Side, MIDDLE};
 use multifield_core::case::Region;
+#[cfg(feature = "dim2")]
+use multifield_core::exact::{reduce, row_sums, Sums, GROUP};
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
 use multifield_core::math::{Real, Vector, AXES};
 use multifield_core::plugin::{apply_grid_stresses, Frame, FrameContext, InitContext, StressModel};
@@ -590,23 +592,29 @@ impl Work {
     }
 
     /// Σ over faces of f(face mass, velocity component) for x and y.
-    fn face_sums(&self, f: impl Fn(Real, Real) -> Real) -> (Real, Real) {
+    fn face_sums(&self, f: impl Fn(Real, Real) -> Real + Sync + Send) -> (Real, Real) {
         let (nx, ny) = (self.nx, self.ny);
         let m0 = self.density * self.h * self.h;
-        let mut sx = 0.0;
-        for j in 0..ny {
-            for i in 0..=nx {
-                let (t, w) = self.xface_weight(i, j);
-                sx += f(w * t * m0, self.velocity.u[i + j * (nx + 1)]);
-            }
-        }
-        let mut sy = 0.0;
-        for j in 0..=ny {
-            for i in 0..nx {
-                let (t, w) = self.yface_weight(i, j);
-                sy += f(w * t * m0, self.velocity.v[i + j * nx]);
-            }
-        }
+        // the reduction rule (docs/design/mpi.md §3): row groups of 32 faces along x (the
+        // high face nx alone), each summed in order, the groups' values added exactly
+        let (lx, ly) = (nx + 1, nx);
+        let Sums([sx]) = row_sums(lx * ny, lx, nx, GROUP, |g| {
+            let j = g.start / lx;
+            [g.map(|k| {
+                let (t, w) = self.xface_weight(k - j * lx, j);
+                f(w * t * m0, self.velocity.u[k])
+            })
+            .sum()]
+        });
+        let Sums([sy]) = row_sums(ly * (ny + 1), ly, nx, GROUP, |g| {
+            let j = g.start / ly;
+            [g.map(|k| {
+                let (t, w) = self.yface_weight(k - j * ly, j);
+                f(w * t * m0, self.velocity.v[k])
+            })
+            .sum()]
+        });
+        let [sx, sy] = reduce(&Sums([sx, sy]));
         (sx, sy)
     }
 }
@@ -943,7 +951,7 @@ impl Frame for Eulerian {
     #[cfg(feature = "dim2")]
     fn mass(&self) -> Real {
         let w = &self.work;
-        w.theta.iter().sum::<Real>() * w.density * w.h * w.h
+        multifield_core::exact::sum(&w.theta, w.nx, w.nx) * w.density * w.h * w.h
     }
 
     #[cfg(feature = "dim3")]
@@ -960,7 +968,7 @@ impl Frame for Eulerian {
     #[cfg(feature = "dim3")]
     fn mass(&self) -> Real {
         let w = &self.work;
-        w.theta.iter().sum::<Real>() * w.density * w.h * w.h * w.h
+        multifield_core::exact::sum(&w.theta, w.n[0], w.n[0]) * w.density * w.h * w.h * w.h
     }
 
     fn as_any(&self) -> &dyn Any {

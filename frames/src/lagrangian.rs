@@ -19,6 +19,7 @@ pub mod shape;
 use collocated::{Collocated, Simd};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
+use multifield_core::exact::{reduce, Sums as ExactSums};
 use multifield_core::grid::{FaceVelocity, Grid};
 use multifield_core::math::{cross, Matrix, Real, Vector};
 use multifield_core::plugin::{
@@ -504,6 +505,22 @@ impl Lagrangian {
         Ok(())
     }
 
+    /// Σ over the points of `term(p)` (`K` sums in one pass) by the reduction rule of
+    /// docs/design/mpi.md §3 with a group of one point: every point's terms added exactly,
+    /// so the sums depend on the set of points only (not on their order, the thread count
+    /// or, later, the rank that holds them).
+    pub(crate) fn point_sums<const K: usize>(n: usize, term: impl Fn(usize) -> [Real; K] + Sync + Send) -> [Real; K] {
+        let sums = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .fold(ExactSums::boxed, |mut sums, p| {
+                sums.add(term(p));
+                sums
+            })
+            .reduce(ExactSums::boxed, ExactSums::merge_boxed);
+        reduce(&sums)
+    }
+
     /// Stored elastic energy Σ_p V⁰_p ψ(F_p) of the models that define a strain-energy
     /// density ψ (`StressModel::strain_energy_density`); 0 for models that store none.
     pub fn strain_energy(&self, models: &[Box<dyn StressModel>]) -> Real {
@@ -512,15 +529,8 @@ impl Lagrangian {
             .iter()
             .filter(|model| model.strain_energy_density(&Matrix::identity()).is_some())
             .map(|model| {
-                let e: Vec<Real> = pts
-                    .f
-                    .par_chunks(4096)
-                    .zip(pts.vol0.par_chunks(4096))
-                    .map(|(f, v0)| {
-                        f.iter().zip(v0).map(|(f, v0)| v0 * model.strain_energy_density(f).unwrap_or(0.0)).sum()
-                    })
-                    .collect();
-                e.iter().sum::<Real>()
+                Self::point_sums(pts.f.len(), |p| [pts.vol0[p] * model.strain_energy_density(&pts.f[p]).unwrap_or(0.0)])
+                    [0]
             })
             .sum()
     }
@@ -1167,27 +1177,16 @@ impl Frame for Lagrangian {
         Lagrangian::strain_energy(self, stress)
     }
     fn kinetic_energy(&self) -> Real {
-        let e: Vec<Real> = self
-            .points
-            .m
-            .par_chunks(4096)
-            .zip(self.points.v.par_chunks(4096))
-            .map(|(m, v)| m.iter().zip(v).map(|(m, v)| 0.5 * m * v.norm_squared()).sum())
-            .collect();
-        e.iter().sum()
+        let (m, v) = (&self.points.m, &self.points.v);
+        Lagrangian::point_sums(m.len(), |p| [0.5 * m[p] * v[p].norm_squared()])[0]
     }
     fn momentum(&self) -> Vector {
-        let e: Vec<Vector> = self
-            .points
-            .m
-            .par_chunks(4096)
-            .zip(self.points.v.par_chunks(4096))
-            .map(|(m, v)| m.iter().zip(v).fold(Vector::zeros(), |a, (m, v)| a + *m * v))
-            .collect();
-        e.iter().fold(Vector::zeros(), |a, b| a + b)
+        let (m, v) = (&self.points.m, &self.points.v);
+        Vector::from(Lagrangian::point_sums(m.len(), |p| (m[p] * v[p]).into()))
     }
     fn mass(&self) -> Real {
-        self.points.m.iter().sum()
+        let m = &self.points.m;
+        Lagrangian::point_sums(m.len(), |p| [m[p]])[0]
     }
     fn as_any(&self) -> &dyn Any {
         self

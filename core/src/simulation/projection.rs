@@ -105,7 +105,8 @@ impl Simulation {
             .iter()
             .any(|s| matches!(self.boundaries.side(*s), crate::boundary::Boundary::Outflow { .. }));
         if closed && !c.is_empty() {
-            let mean = c.iter().sum::<Real>() / c.len() as Real;
+            // by the reduction rule (docs/design/mpi.md §3), as the solvers' sums
+            let mean = crate::poisson::sum(&c, self.grid.nx) / c.len() as Real;
             c.iter_mut().for_each(|x| *x -= mean);
         }
         c.iter().fold(0.0, |m, x| m.max(x.abs()))

@@ -340,15 +340,18 @@ impl Work {
     /// periodic), w the share of its control volume inside the domain (½ on a non-periodic
     /// side; 0 on the periodic copy of face 0, counted once), as the 2D `xface_weight`.
     pub(super) fn face_sums(&self, f: impl Fn(Real, Real) -> Real) -> [Real; 3] {
+        use multifield_core::exact::{reduce, row_groups, ExactSum, Sums, GROUP};
         let m0 = self.density * self.h * self.h * self.h;
         let n = self.n;
         let theta = &self.theta;
-        std::array::from_fn(|a| {
+        let sums: [ExactSum; 3] = std::array::from_fn(|a| {
             let mut shape = n;
             shape[a] += 1;
             let (na, periodic, vel) = (n[a], self.periodic[a], &self.velocity[a]);
-            let mut sum = 0.0;
-            // the terms of a row along x, then added in storage order
+            let mut sum = ExactSum::new();
+            // the terms of a row along x, then by the reduction rule (docs/design/mpi.md
+            // §3): row groups of 32 faces (the high face n[0] alone) summed in order, the
+            // groups' values added exactly
             let mut terms = vec![0.0; shape[0]];
             for z in 0..shape[2] {
                 for y in 0..shape[1] {
@@ -392,12 +395,13 @@ impl Work {
                             }
                         }
                     }
-                    for term in &terms {
-                        sum += term;
+                    for g in row_groups(shape[0], n[0], GROUP) {
+                        sum.add(terms[g].iter().sum());
                     }
                 }
             }
             sum
-        })
+        });
+        reduce(&Sums(sums))
     }
 }

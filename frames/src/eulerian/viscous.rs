@@ -15,10 +15,12 @@
 //! and the periodic copies are not unknowns. The operator on the unknowns is symmetric and
 //! strictly diagonally dominant (diagonal 1 + c (2·DIM − Σα) ≥ 1 + c · #faces), so a
 //! Jacobi-preconditioned conjugate gradient converges in a few iterations for the usual
-//! c ≲ 1. Every loop writes disjoint faces and every dot product sums fixed chunks in order:
-//! the same bits on any number of threads.
+//! c ≲ 1. Every loop writes disjoint faces and every dot product follows the reduction rule
+//! of docs/design/mpi.md §3 (row groups of 32 faces along x, the high face n alone, added
+//! exactly): the same bits on any number of threads.
 
 use multifield_core::boundary::{Along, Boundaries, FaceNeighbour, Side};
+use multifield_core::exact::{lanes_dot, reduce, row_groups, row_sums, Sums, GROUP};
 use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Index, Real, DIM, SIDES};
 use rayon::prelude::*;
@@ -45,6 +47,10 @@ struct LatticeOperator {
     plain: Vec<bool>,
     /// The step in storage of one face along each axis.
     strides: [usize; DIM],
+    /// Faces in a row along x (the lattice's first extent) and cells along x: the row
+    /// groups of the reductions.
+    row: usize,
+    nx: usize,
     /// The neighbours of each face, in the order of [`Side::ALL`] (unused for inactive faces).
     neighbours: Vec<[Neighbour; SIDES]>,
     /// Periodic copies: (copy, master) pairs, set after each solve.
@@ -122,7 +128,7 @@ impl LatticeOperator {
                     })
             })
             .collect();
-        LatticeOperator { active, plain, strides, neighbours, copies, ..Default::default() }
+        LatticeOperator { active, plain, strides, row: shape[0], nx: grid.nx, neighbours, copies, ..Default::default() }
     }
 
     /// The stencil's view of the operator.
@@ -196,7 +202,8 @@ impl LatticeOperator {
                 };
             }
         });
-        let norm_b = dot(&b, &b).sqrt();
+        let (row, nx) = (self.row, self.nx);
+        let norm_b = dot(&b, &b, row, nx).sqrt();
         let mut q = std::mem::take(&mut self.q);
         self.apply(c, x, &mut q);
         let (r, z, p) = (&mut self.r, &mut self.z, &mut self.p);
@@ -210,8 +217,12 @@ impl LatticeOperator {
                 }
             },
         );
-        let mut rz = dot(r, z);
-        let mut rr = dot(r, r);
+        let [mut rz, mut rr] = {
+            let (r, z): (&[Real], &[Real]) = (r, z);
+            reduce(&row_sums(n, row, nx, GROUP, |g| {
+                [lanes_dot(&r[g.clone()], &z[g.clone()]), lanes_dot(&r[g.clone()], &r[g])]
+            }))
+        };
         let mut iterations = 0;
         let target = tolerance * norm_b;
         while rr.sqrt() > target {
@@ -224,32 +235,38 @@ impl LatticeOperator {
                 ));
             }
             let p_ref: &[Real] = p;
-            // q = A p, with the chunks' partial sums of p·q (as `dot`)
-            let parts: Vec<Real> = q
-                .par_chunks_mut(CHUNK)
+            // q = A p, with p·q by the reduction rule (rows along x, as `dot`)
+            let pq = q
+                .par_chunks_mut(row)
                 .enumerate()
-                .map(|(ch, out)| {
-                    for (o, y) in out.iter_mut().enumerate() {
-                        let k = ch * CHUNK + o;
+                .with_min_len((CHUNK / row).max(1))
+                .fold(Sums::boxed, |mut sums, (j, out)| {
+                    let o = j * row;
+                    for (i, y) in out.iter_mut().enumerate() {
+                        let k = o + i;
                         *y = if act[k] { p_ref[k] - c * (st.sum(k, p_ref, false) - CENTRE * p_ref[k]) } else { 0.0 };
                     }
-                    let p = &p_ref[ch * CHUNK..ch * CHUNK + out.len()];
-                    p.iter().zip(out.iter()).map(|(x, y)| x * y).sum::<Real>()
+                    let p = &p_ref[o..o + row];
+                    for g in row_groups(row, nx, GROUP) {
+                        sums.add([lanes_dot(&p[g.clone()], &out[g])]);
+                    }
+                    sums
                 })
-                .collect();
-            let alpha = rz / parts.iter().sum::<Real>();
+                .reduce(Sums::boxed, Sums::merge_boxed);
+            let alpha = rz / reduce(&pq)[0];
             if !alpha.is_finite() {
                 break;
             }
-            // x += α p (unknowns), r −= α q, z = D⁻¹ r, with the chunks' partial sums of r·z
-            // and r·r (as `dot`)
+            // x += α p (unknowns), r −= α q, z = D⁻¹ r, with r·z and r·r by the reduction
+            // rule (as `dot`)
             let q_ref: &[Real] = &q;
-            let parts: Vec<(Real, Real)> = x
-                .par_chunks_mut(CHUNK)
-                .zip(r.par_chunks_mut(CHUNK).zip(z.par_chunks_mut(CHUNK)))
+            let sums = x
+                .par_chunks_mut(row)
+                .zip(r.par_chunks_mut(row).zip(z.par_chunks_mut(row)))
                 .enumerate()
-                .map(|(ch, (x, (r, z)))| {
-                    let o = ch * CHUNK;
+                .with_min_len((CHUNK / row).max(1))
+                .fold(Sums::boxed, |mut sums, (j, (x, (r, z)))| {
+                    let o = j * row;
                     for i in 0..x.len() {
                         if act[o + i] {
                             x[i] += alpha * p_ref[o + i];
@@ -257,14 +274,14 @@ impl LatticeOperator {
                         r[i] -= alpha * q_ref[o + i];
                         z[i] = diag[o + i] * r[i];
                     }
-                    (
-                        r.iter().zip(z.iter()).map(|(x, y)| x * y).sum::<Real>(),
-                        r.iter().zip(r.iter()).map(|(x, y)| x * y).sum::<Real>(),
-                    )
+                    for g in row_groups(row, nx, GROUP) {
+                        sums.add([lanes_dot(&r[g.clone()], &z[g.clone()]), lanes_dot(&r[g.clone()], &r[g])]);
+                    }
+                    sums
                 })
-                .collect();
-            let rz_new: Real = parts.iter().map(|v| v.0).sum();
-            rr = parts.iter().map(|v| v.1).sum();
+                .reduce(Sums::boxed, Sums::merge_boxed);
+            let [rz_new, rr_new] = reduce(&sums);
+            rr = rr_new;
             let beta = rz_new / rz;
             rz = rz_new;
             p.par_iter_mut().zip(z.par_iter()).with_min_len(CHUNK).for_each(|(p, z)| *p = z + beta * *p);
@@ -340,11 +357,10 @@ fn constants(nb: &[Neighbour; SIDES], u: &[Real]) -> Real {
         .sum()
 }
 
-/// Σ a b, summed in fixed chunks in order (the same bits on any number of threads).
-fn dot(a: &[Real], b: &[Real]) -> Real {
-    let parts: Vec<Real> =
-        a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)).map(|(a, b)| a.iter().zip(b).map(|(x, y)| x * y).sum()).collect();
-    parts.iter().sum()
+/// Σ a b over a face lattice of rows of `row` faces (`nx` cells along x), by the reduction
+/// rule ([`multifield_core::exact::dot`]).
+fn dot(a: &[Real], b: &[Real], row: usize, nx: usize) -> Real {
+    multifield_core::exact::dot(a, b, row, nx)
 }
 
 /// The Laplacians and solves of every face lattice of a grid.

@@ -427,6 +427,10 @@ impl Collocated {
                 sums.total()
             })
             .collect();
+        // kinetic energy, mass and momentum: the lanes' sums of blocks of points added in
+        // order (the same bits for any number of threads), not yet the reduction rule of
+        // docs/design/mpi.md §3 (issue 19, P2b): a group of one point, added exactly
+        // (`Lagrangian::point_sums`), cost mpm88 30 % of its CPU time (docs/performance.md)
         let mut total = FrameFigures::default();
         for s in sums {
             total.kinetic_energy += s.kinetic_energy;

@@ -28,9 +28,10 @@ use multifield_core::grid::{Grid, Lattice};
 use multifield_core::limits::{bytes_text, MemoryLimit};
 use multifield_core::math::{Index, Real, Vector, AXES, DIM};
 use multifield_core::plugin::PressureSolver;
-use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
+use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::{Error, Result};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 const NONE: usize = usize::MAX;
@@ -272,6 +273,15 @@ impl SparseLlt {
     }
 }
 
+/// Σ a in fixed chunks of 2048, the chunks' sums added in order: the same bits for any
+/// number of threads. The factored system is solved whole on one process (the coarsest
+/// multigrid level is replicated on every rank, docs/design/mpi.md §4), so this sum needs
+/// no reduction rule.
+fn sum(a: &[Real]) -> Real {
+    let partial: Vec<Real> = a.par_chunks(2048).map(|x| x.iter().sum::<Real>()).collect();
+    partial.iter().sum()
+}
+
 /// The grid of `n` cells (its spacing and origin unused): its lattices' storage order is
 /// the operator's.
 fn grid(n: Index) -> Grid {
@@ -387,7 +397,8 @@ impl PressureSolver for Cholesky {
         let stats =
             |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
         let b = &problem.rhs;
-        let bnorm = dot(b, b).sqrt();
+        let nx = problem.grid.nx;
+        let bnorm = dot(b, b, nx).sqrt();
         if bnorm == 0.0 {
             x.fill(0.0);
             return Ok(stats(0, 0.0));
@@ -398,7 +409,7 @@ impl PressureSolver for Cholesky {
         let mut history = vec![];
         for it in 0..=self.max_iterations {
             self.stencil.residual(x, b, &mut r);
-            let rel = dot(&r, &r).sqrt() / bnorm;
+            let rel = dot(&r, &r, nx).sqrt() / bnorm;
             history.push(rel);
             if rel <= self.tolerance {
                 problem.fix_constant(x);

@@ -26,8 +26,9 @@
 //!   row without being stored, and each transfer keeps one weight per axis and cell.
 //!
 //! Every update is a per-cell map (a sweep gives each cell the same neighbour values in any
-//! blocking of the rows) and every reduction has a fixed order (fixed chunks or rows): the
-//! result is the same to the bit for any number of threads.
+//! blocking of the rows) and every reduction follows the rule of docs/design/mpi.md §3 (row groups added exactly; on
+//! level l the groups are 32/2^l cells wide, the images of the fine ones): the result is
+//! the same to the bit for any number of threads.
 //!
 //! The level kernels (f32 operator, sweep, transfers) are per dimension: `plane.rs` (2D:
 //! the two colours fused in one pass over the rows, the residual restricted row by row) and
@@ -36,6 +37,7 @@
 
 use super::cholesky::SparseLlt;
 use super::stencil::{Stencil, PARALLEL_CELLS};
+use multifield_core::exact::{reduce, row_sums, GROUP};
 use multifield_core::math::{Index, Real, DIM, SIDES};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
@@ -121,10 +123,10 @@ pub(crate) type F = f32;
 /// Values per chunk of the deterministic f32 sums (as [`sum`]).
 pub(crate) const CHUNK: usize = 2048;
 
-/// Deterministic sum of f32 values in f64 (fixed chunks: the same bits for any thread count).
-fn sum32(a: &[F]) -> Real {
-    let partial: Vec<Real> = a.par_chunks(CHUNK).map(|x| x.iter().map(|&v| Real::from(v)).sum::<Real>()).collect();
-    partial.iter().sum()
+/// Σ a of f32 values in f64 over a level of rows of `nx` cells, by the reduction rule with
+/// row groups `width` cells wide (the same bits for any thread count).
+fn sum32(a: &[F], nx: usize, width: usize) -> Real {
+    reduce(&row_sums(a.len(), nx, nx, width, |g| [a[g].iter().map(|&v| Real::from(v)).sum::<Real>()]))[0]
 }
 
 /// dst = src rounded to f32, in parallel for big arrays.
@@ -289,6 +291,7 @@ impl Cycle {
             &mut self.coarse_x,
             ops[0].is_singular(),
             self.sweeps,
+            GROUP,
             b,
             x,
         );
@@ -304,6 +307,7 @@ fn cycle(
     coarse_x: &mut Vec<Real>,
     singular: bool,
     sweeps: usize,
+    width: usize,
     b: &[F],
     x: &mut [F],
 ) {
@@ -321,10 +325,12 @@ fn cycle(
     }
     level.restrict_residual(op, x, b);
     if singular {
-        let mean = (sum32(&level.bc) / level.bc.len() as Real) as F;
+        // the coarse level (nx/2 cells along x: levels halve every axis): row groups half
+        // as wide as this level's
+        let mean = (sum32(&level.bc, op.nx() / 2, width / 2) / level.bc.len() as Real) as F;
         level.bc.iter_mut().for_each(|v| *v -= mean);
     }
-    cycle(&ops[1..], rest, coarse, coarse_x, singular, sweeps, &level.bc, &mut level.xc);
+    cycle(&ops[1..], rest, coarse, coarse_x, singular, sweeps, width / 2, &level.bc, &mut level.xc);
     level.prolong_add(x);
     for _ in 0..sweeps {
         sweep(op, b, x, 1, false);
@@ -414,7 +420,8 @@ impl PressureSolver for Multigrid {
         let stats =
             |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
         let b = &problem.rhs;
-        let bnorm = dot(b, b).sqrt();
+        let nx = problem.grid.nx;
+        let bnorm = dot(b, b, nx).sqrt();
         if bnorm == 0.0 {
             x.fill(0.0);
             return Ok(stats(0, 0.0));
@@ -427,10 +434,10 @@ impl PressureSolver for Multigrid {
         for it in 0..=self.max_iterations {
             self.hierarchy.operator().residual(x, b, &mut r);
             if problem.is_singular() {
-                let mean = sum(&r) / n as Real;
+                let mean = sum(&r, nx) / n as Real;
                 r.par_iter_mut().for_each(|v| *v -= mean);
             }
-            let rel = dot(&r, &r).sqrt() / bnorm;
+            let rel = dot(&r, &r, nx).sqrt() / bnorm;
             history.push(rel);
             if rel <= self.tolerance {
                 return Ok(stats(it, rel));

@@ -1,11 +1,13 @@
 //! Preconditioned conjugate gradients on the matrix-free 5-point pressure operator.
 //!
-//! Warm-started from the previous pressure. Reductions use fixed chunks, so the result
-//! is bit-identical for any number of threads. Not converging is an error that carries
+//! Warm-started from the previous pressure. Reductions follow the rule of
+//! docs/design/mpi.md §3 (row groups of 32 cells added exactly), so the result is
+//! bit-identical for any number of threads. Not converging is an error that carries
 //! the residual history.
 
 use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
-use super::stencil::{dot_lanes, Stencil};
+use super::stencil::Stencil;
+use multifield_core::exact::{lanes_dot, reduce, row_groups, row_sums, Sums, GROUP};
 use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
@@ -62,8 +64,8 @@ struct Scratch {
 
 /// Runs PCG with one f32 multigrid V-cycle as preconditioner (see [`pcg`]), with the vector
 /// passes fused: A p with p · q; the update of r with r · r and the f32 copy of r; x += α p
-/// with the next p = z + β p (z read in f32). Reductions go by fixed chunks or rows: the result is
-/// the same to the bit for any number of threads.
+/// with the next p = z + β p (z read in f32). Reductions go by the reduction rule (row groups added
+/// exactly): the result is the same to the bit for any number of threads.
 fn pcg_multigrid(
     problem: &PoissonProblem,
     x: &mut [Real],
@@ -73,8 +75,9 @@ fn pcg_multigrid(
     s: &mut Scratch,
 ) -> Result<SolveStats> {
     let n = x.len();
+    let nx = problem.grid.nx;
     let b = &problem.rhs;
-    let bnorm = dot(b, b).sqrt();
+    let bnorm = dot(b, b, nx).sqrt();
     let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
     if bnorm == 0.0 {
         x.fill(0.0);
@@ -89,17 +92,17 @@ fn pcg_multigrid(
     op.residual(x, b, r);
     if problem.is_singular() {
         // keep the residual in the range of A (round-off drift of the constant)
-        let mean = multifield_core::poisson::sum(r) / n as Real;
+        let mean = multifield_core::poisson::sum(r, nx) / n as Real;
         r.par_iter_mut().for_each(|v| *v -= mean);
     }
-    let mut rnorm = dot(r, r).sqrt();
+    let mut rnorm = dot(r, r, nx).sqrt();
     let mut history = vec![rnorm / bnorm];
     if rnorm / bnorm <= tolerance {
         return Ok(stats(0, rnorm / bnorm));
     }
     to_f32(r, r32);
     precondition(r32, z32);
-    let mut rz = dot_mixed(r, z32);
+    let mut rz = dot_mixed(r, z32, nx);
     p.par_chunks_mut(CHUNK).zip(z32.par_chunks(CHUNK)).for_each(|(p, z)| {
         p.iter_mut().zip(z).for_each(|(p, &z)| *p = Real::from(z));
     });
@@ -109,7 +112,7 @@ fn pcg_multigrid(
             break;
         }
         let alpha = rz / pq;
-        let rr = update(r, r32, q, alpha);
+        let rr = update(r, r32, q, alpha, nx);
         rnorm = rr.sqrt();
         history.push(rnorm / bnorm);
         if rnorm / bnorm <= tolerance {
@@ -119,7 +122,7 @@ fn pcg_multigrid(
             return Ok(stats(it, rnorm / bnorm));
         }
         precondition(r32, z32);
-        let rz_new = dot_mixed(r, z32);
+        let rz_new = dot_mixed(r, z32, nx);
         let beta = rz_new / rz;
         rz = rz_new;
         // x += α p with the p of this iteration, then the next p = z + β p
@@ -139,41 +142,43 @@ fn pcg_multigrid(
     })
 }
 
-/// r · z with z in f32, by fixed chunks.
-fn dot_mixed(r: &[Real], z: &[F]) -> Real {
-    let partial: Vec<Real> = r
-        .par_chunks(CHUNK)
-        .zip(z.par_chunks(CHUNK))
-        .map(|(r, z)| {
-            let mut acc = [0.0; 8];
-            let (cr, cz) = (r.chunks_exact(8), z.chunks_exact(8));
-            let tail: Real = cr.remainder().iter().zip(cz.remainder()).map(|(r, &z)| r * Real::from(z)).sum();
-            for (r, z) in cr.zip(cz) {
-                for l in 0..8 {
-                    acc[l] += r[l] * Real::from(z[l]);
-                }
+/// r · z with z in f32, by the reduction rule (row groups of 32 cells in eight lanes).
+fn dot_mixed(r: &[Real], z: &[F], nx: usize) -> Real {
+    let sums = row_sums(r.len(), nx, nx, GROUP, |g| {
+        let (r, z) = (&r[g.clone()], &z[g]);
+        let mut acc = [0.0; 8];
+        let (cr, cz) = (r.chunks_exact(8), z.chunks_exact(8));
+        let tail: Real = cr.remainder().iter().zip(cz.remainder()).map(|(r, &z)| r * Real::from(z)).sum();
+        for (r, z) in cr.zip(cz) {
+            for l in 0..8 {
+                acc[l] += r[l] * Real::from(z[l]);
             }
-            ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
-        })
-        .collect();
-    partial.iter().sum()
+        }
+        [((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail]
+    });
+    reduce(&sums)[0]
 }
 
-/// r −= α q, r32 = r in f32; returns r · r (by fixed chunks).
-fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
-    let partial: Vec<Real> = r
-        .par_chunks_mut(CHUNK)
-        .zip(r32.par_chunks_mut(CHUNK))
-        .zip(q.par_chunks(CHUNK))
-        .map(|((r, r32), q)| {
+/// r −= α q, r32 = r in f32; returns r · r (by the reduction rule, rows of `nx` cells).
+fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real, nx: usize) -> Real {
+    let sums = r
+        .par_chunks_mut(nx)
+        .zip(r32.par_chunks_mut(nx))
+        .zip(q.par_chunks(nx))
+        .with_min_len((CHUNK / nx).max(1))
+        .fold(Sums::boxed, |mut sums, ((r, r32), q)| {
             r.iter_mut().zip(q).zip(r32.iter_mut()).for_each(|((r, q), r32)| {
                 *r -= alpha * q;
                 *r32 = *r as F;
             });
-            dot_lanes(r, r)
+            for g in row_groups(nx, nx, GROUP) {
+                let r = &r[g];
+                sums.add([lanes_dot(r, r)]);
+            }
+            sums
         })
-        .collect();
-    partial.iter().sum()
+        .reduce(Sums::boxed, Sums::merge_boxed);
+    reduce(&sums)[0]
 }
 
 /// Multigrid: a V-cycle costs a few Jacobi iterations and takes the iteration count from
@@ -253,8 +258,9 @@ pub fn pcg(
     mut precondition: impl FnMut(&[Real], &mut [Real]),
 ) -> Result<SolveStats> {
     let n = x.len();
+    let nx = problem.grid.nx;
     let b = &problem.rhs;
-    let bnorm = dot(b, b).sqrt();
+    let bnorm = dot(b, b, nx).sqrt();
     let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
     if bnorm == 0.0 {
         x.fill(0.0);
@@ -265,10 +271,10 @@ pub fn pcg(
     r.par_iter_mut().zip(b.par_iter()).for_each(|(r, b)| *r = b - *r);
     if problem.is_singular() {
         // keep the residual in the range of A (round-off drift of the constant)
-        let mean = multifield_core::poisson::sum(&r) / n as Real;
+        let mean = multifield_core::poisson::sum(&r, nx) / n as Real;
         r.par_iter_mut().for_each(|v| *v -= mean);
     }
-    let mut rnorm = dot(&r, &r).sqrt();
+    let mut rnorm = dot(&r, &r, nx).sqrt();
     let mut history = vec![rnorm / bnorm];
     if rnorm / bnorm <= tolerance {
         return Ok(stats(0, rnorm / bnorm));
@@ -277,23 +283,23 @@ pub fn pcg(
     precondition(&r, &mut z);
     let mut p = z.clone();
     let mut q = vec![0.0; n];
-    let mut rz = dot(&r, &z);
+    let mut rz = dot(&r, &z, nx);
     for it in 1..=max_iterations {
         apply(&p, &mut q);
-        let pq = dot(&p, &q);
+        let pq = dot(&p, &q, nx);
         if pq.is_nan() || pq <= 0.0 {
             break;
         }
         let alpha = rz / pq;
         x.par_iter_mut().zip(p.par_iter()).for_each(|(x, p)| *x += alpha * p);
         r.par_iter_mut().zip(q.par_iter()).for_each(|(r, q)| *r -= alpha * q);
-        rnorm = dot(&r, &r).sqrt();
+        rnorm = dot(&r, &r, nx).sqrt();
         history.push(rnorm / bnorm);
         if rnorm / bnorm <= tolerance {
             return Ok(stats(it, rnorm / bnorm));
         }
         precondition(&r, &mut z);
-        let rz_new = dot(&r, &z);
+        let rz_new = dot(&r, &z, nx);
         let beta = rz_new / rz;
         rz = rz_new;
         p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| *p = z + beta * *p);

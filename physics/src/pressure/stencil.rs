@@ -11,26 +11,13 @@
 //! along x (line r = j + ny k). In 3D the z neighbours are added after the 2D terms of a
 //! row, so the 2D compile keeps its expression trees.
 
+use multifield_core::exact::{lanes_dot, reduce, row_groups, Sums, GROUP};
 use multifield_core::math::{Index, Real, DIM, SIDES};
 use multifield_core::poisson::PoissonProblem;
 use rayon::prelude::*;
 
 /// Rows below this many cells are processed on one thread (the result is the same).
 pub(crate) const PARALLEL_CELLS: usize = 16_384;
-
-/// a · b with eight partial sums (vectorisable; a fixed order, so deterministic).
-#[inline]
-pub(crate) fn dot_lanes(a: &[Real], b: &[Real]) -> Real {
-    let mut acc = [0.0; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: Real = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
-    for (x, y) in ca.zip(cb) {
-        for l in 0..8 {
-            acc[l] += x[l] * y[l];
-        }
-    }
-    ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
-}
 
 /// A 5-point (7-point) operator on an `nx × ny (× nz)` cell grid.
 #[derive(Clone, Debug, Default)]
@@ -450,12 +437,12 @@ impl Stencil {
         }
     }
 
-    /// y = A x, and returns x · y (per-row partial sums added in row order: the same bits
-    /// for any number of threads).
+    /// y = A x, and returns x · y by the reduction rule (row groups of 32 cells in
+    /// [`lanes_dot`] order, added exactly: the same bits for any number of threads).
     pub fn apply_dot(&self, x: &[Real], y: &mut [Real]) -> Real {
         let nx = self.nx;
         let no_extra = self.dirichlet.iter().all(|&d| !d);
-        let body = |(j, row): (usize, &mut [Real])| {
+        let body = |sums: &mut Sums<1>, (j, row): (usize, &mut [Real])| {
             self.offdiag_row(j, x, row);
             let k = j * nx;
             let x = &x[k..k + nx];
@@ -486,14 +473,26 @@ impl Stencil {
                     *y = d * x - *y;
                 }
             }
-            dot_lanes(row, x)
+            for g in row_groups(nx, nx, GROUP) {
+                sums.add([lanes_dot(&row[g.clone()], &x[g])]);
+            }
         };
-        let partial: Vec<Real> = if self.len() >= PARALLEL_CELLS {
-            y.par_chunks_mut(nx).enumerate().map(body).collect()
+        let sums = if self.len() >= PARALLEL_CELLS {
+            *y.par_chunks_mut(nx)
+                .enumerate()
+                .fold(Sums::boxed, |mut sums, item| {
+                    body(&mut sums, item);
+                    sums
+                })
+                .reduce(Sums::boxed, Sums::merge_boxed)
         } else {
-            y.chunks_mut(nx).enumerate().map(body).collect()
+            let mut sums = Sums::new();
+            for item in y.chunks_mut(nx).enumerate() {
+                body(&mut sums, item);
+            }
+            sums
         };
-        partial.iter().sum()
+        reduce(&sums)[0]
     }
 
     /// y = A x.

@@ -30,6 +30,10 @@ impl Op32 {
     fn len(&self) -> usize {
         self.nx * self.ny
     }
+    /// Cells along x (the row length of the reductions).
+    pub(super) fn nx(&self) -> usize {
+        self.nx
+    }
     #[inline(always)]
     fn south(&self, j: usize) -> usize {
         crate::pressure::stencil::previous(j, self.ny, self.periodic[1])

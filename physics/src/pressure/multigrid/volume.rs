@@ -54,6 +54,11 @@ impl Op32 {
         self.n.iter().product()
     }
 
+    /// Cells along x (the row length of the reductions).
+    pub(super) fn nx(&self) -> usize {
+        self.n[0]
+    }
+
     fn lines(&self) -> usize {
         self.n[1] * self.n[2]
     }
