@@ -176,6 +176,13 @@ impl RankGrid {
         match Self::best(n, periodic, ranks) {
             Some(g) => Ok(g),
             None => {
+                if n.iter().any(|&k| k < MIN_BLOCK) {
+                    return Err(format!(
+                        "{} cells: a block needs at least {MIN_BLOCK} cells along each axis (its halo is {HALO} \
+                         layers): give at least {MIN_BLOCK} cells along each axis",
+                        dims_text(n)
+                    ));
+                }
                 let most = (1..ranks).rev().find(|&r| Self::best(n, periodic, r).is_some()).unwrap_or(1);
                 Err(format!(
                     "{ranks} ranks do not fit {} cells: every block needs at least {MIN_BLOCK} cells along each axis, \
@@ -443,6 +450,8 @@ mod tests {
         let e = RankGrid::new([64, 64], [false; 2], 3, Some([3, 1])).unwrap_err();
         assert!(e.contains("3 blocks along x") && e.contains("use at most 2 ranks along x"), "{e}");
         assert!(RankGrid::new([64, 64], [false; 2], 0, None).is_err());
+        let e = RankGrid::new([64, 3], [false; 2], 1, None).unwrap_err();
+        assert!(e.contains("64 × 3 cells: a block needs at least 4 cells along each axis"), "{e}");
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 use super::common::{mpirun, scratch, text};
 use std::path::Path;
+use std::process::Command;
 
 fn case() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/taylor_green.ron").display().to_string()
@@ -30,18 +31,26 @@ fn a_run_on_several_ranks_is_refused_before_any_output() {
     assert!(text(&o).1.contains("error: check: runs on one process"), "{}", text(&o).1);
 }
 
+/// On one rank `run` runs, and writes the diagnostics of the same binary started without
+/// mpirun, byte for byte.
 #[test]
-fn a_run_on_one_rank_runs() {
-    let t = "a_run_on_one_rank_runs";
+fn a_run_on_one_rank_runs_as_without_mpirun() {
+    let t = "a_run_on_one_rank_runs_as_without_mpirun";
     let dir = scratch("one_rank");
-    let out_dir = dir.join("out");
     let c = case();
-    let args =
-        ["run", &c, "--out", out_dir.to_str().unwrap(), "--quiet", "--threads", "1", "--set", "time.max_steps=3"];
-    let Some(o) = mpirun(t, 1, &args) else { return };
+    let args = |out: &str| {
+        ["run", &c, "--out", out, "--quiet", "--threads", "1", "--set", "time.max_steps=3"].map(str::to_string).to_vec()
+    };
+    let (under, alone) = (dir.join("mpirun"), dir.join("alone"));
+    let a = args(under.to_str().unwrap());
+    let Some(o) = mpirun(t, 1, &a.iter().map(String::as_str).collect::<Vec<_>>()) else { return };
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}\n{err}");
-    let diagnostics = std::fs::read_to_string(out_dir.join("diagnostics.csv")).expect("diagnostics.csv");
-    // the header and one row a step (step 0 included)
-    assert_eq!(diagnostics.lines().count(), 1 + 4, "{diagnostics}");
+    let o = Command::new(env!("CARGO_BIN_EXE_multifield")).args(args(alone.to_str().unwrap())).output().unwrap();
+    assert!(o.status.success(), "{:?}", text(&o));
+    let read = |d: &Path| std::fs::read(d.join("diagnostics.csv")).expect("diagnostics.csv");
+    let (a, b) = (read(&under), read(&alone));
+    // the header and rows (one every output.interval)
+    assert!(String::from_utf8_lossy(&a).lines().count() >= 3);
+    assert!(a == b, "diagnostics.csv differs between mpirun -np 1 and no mpirun");
 }
