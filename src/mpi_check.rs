@@ -91,7 +91,7 @@ pub fn term(k: usize) -> Real {
     let mantissa = (h >> 11) as Real / (1u64 << 53) as Real + 0.5;
     let exponent = (h % 61) as i32 - 30;
     let sign = if h & (1 << 5) == 0 { 1.0 } else { -1.0 };
-    let big = if k % 7 == 0 { 1e17 * if k % 14 == 0 { 1.0 } else { -1.0 } } else { 0.0 };
+    let big = if k.is_multiple_of(7) { 1e17 * if k.is_multiple_of(14) { 1.0 } else { -1.0 } } else { 0.0 };
     sign * mantissa * (2.0 as Real).powi(exponent) + big
 }
 

@@ -48,7 +48,7 @@ pub struct RankGrid {
 pub fn multigrid_levels(n: Index) -> usize {
     let mut n = n;
     let mut levels = 0;
-    while n.iter().all(|&k| k % 2 == 0 && k >= 4) {
+    while n.iter().all(|&k| k.is_multiple_of(2) && k >= 4) {
         n = n.map(|k| k / 2);
         levels += 1;
     }
@@ -120,7 +120,7 @@ fn factorizations(ranks: usize) -> Vec<Index> {
             out.push(*at);
             return;
         }
-        for d in (1..=left).filter(|d| left % d == 0) {
+        for d in (1..=left).filter(|&d| left.is_multiple_of(d)) {
             at[axis] = d;
             rec(left / d, axis + 1, at, out);
         }
@@ -342,7 +342,7 @@ impl Block {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "dim2"))]
 mod tests {
     use super::*;
 
@@ -389,14 +389,8 @@ mod tests {
                     Ok(g) => {
                         check_cover(&g);
                         let mut least = usize::MAX;
-                        for p0 in (1..=ranks).filter(|d| ranks % d == 0) {
-                            let p = [p0, ranks / p0];
-                            let cuts: Option<[Vec<usize>; 2]> = AXES
-                                .iter()
-                                .map(|&a| split(n[a], p[a], unit(a, 0)))
-                                .collect::<Option<Vec<_>>>()
-                                .map(|v| v.try_into().unwrap());
-                            if let Some((aligned, _)) = cuts.and(cuts_for(n, p)) {
+                        for p0 in (1..=ranks).filter(|&d| ranks.is_multiple_of(d)) {
+                            if let Some((aligned, _)) = cuts_for(n, [p0, ranks / p0]) {
                                 least = least.min(surface(&aligned));
                             }
                         }
@@ -408,7 +402,7 @@ mod tests {
                             e.split("use at most ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
                         assert!(most < ranks && RankGrid::new(n, [false, true], most, None).is_ok(), "{e}");
                         for r in most + 1..=ranks {
-                            for p0 in (1..=r).filter(|d| r % d == 0) {
+                            for p0 in (1..=r).filter(|&d| r.is_multiple_of(d)) {
                                 assert!(cuts_for(n, [p0, r / p0]).is_none(), "{n:?}: {r} ranks fit ({e})");
                             }
                         }

@@ -36,8 +36,8 @@ fn cuts_cover_every_cell_once_with_the_least_surface() {
             }
             assert!(g.cuts[0][1..g.p[0]].iter().all(|c| c % ROW_GROUP == 0));
             let mut least = usize::MAX;
-            for p0 in (1..=ranks).filter(|d| ranks % d == 0) {
-                for p1 in (1..=ranks / p0).filter(|d| (ranks / p0) % d == 0) {
+            for p0 in (1..=ranks).filter(|&d| ranks.is_multiple_of(d)) {
+                for p1 in (1..=ranks / p0).filter(|&d| (ranks / p0).is_multiple_of(d)) {
                     if let Ok(h) = RankGrid::new(n, [true, false, true], ranks, Some([p0, p1, ranks / p0 / p1])) {
                         least = least.min(h.surface());
                     }
