@@ -253,9 +253,9 @@ pub fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     // under MPI (cargo feature `mpi`): initialized once per process, before the 3D dispatch;
-    // finalized when `_mpi` drops at the end of `main`
+    // finalized when `mpi_session` drops at the end of `main`
     #[cfg(all(feature = "mpi", feature = "dim2"))]
-    let _mpi = match crate::mpi::start() {
+    let mpi_session = match crate::mpi::start() {
         Ok(session) => session,
         Err(m) => {
             eprintln!("error: {m}");
@@ -266,11 +266,11 @@ pub fn main() -> ExitCode {
     {
         use crate::core::parallel::Comm;
         if let Some(Command::MpiCheck { cells, ranks, periodic }) = &cli.command {
-            return crate::mpi::check_command(&_mpi.comm, cells, ranks.as_deref(), periodic);
+            return crate::mpi::check_command(&mpi_session.comm, cells, ranks.as_deref(), periodic);
         }
-        if _mpi.comm.size() > 1 {
-            if _mpi.comm.rank() == 0 {
-                eprintln!("{}", refuse_on_ranks(&cli.command, _mpi.comm.size()));
+        if mpi_session.comm.size() > 1 {
+            if mpi_session.comm.rank() == 0 {
+                eprintln!("{}", refuse_on_ranks(&cli.command, mpi_session.comm.size()));
             }
             return ExitCode::from(2);
         }
