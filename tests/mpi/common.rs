@@ -30,7 +30,7 @@ pub fn mpirun(test: &str, np: usize, args: &[&str]) -> Option<Output> {
         .args(args)
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        // no shared-memory segment name clashes between tests running at once
+        // Open MPI's shared-memory single copy (CMA) needs ptrace rights that containers often lack
         .env("OMPI_MCA_btl_vader_single_copy_mechanism", "none")
         .output()
         .unwrap_or_else(|e| panic!("{test}: {} does not start: {e}", mpirun.display()));
