@@ -9,10 +9,11 @@
 //! per global cell, each rank adding its own cells', and checks that the bits equal the
 //! serial sum of all the terms; and it checks the maxima, minima, `any` and `gather_all`.
 
+use crate::core::decomposition::Block;
 use crate::core::decomposition::{dims_text, wrap, RankGrid};
 use crate::core::exact::ExactSum;
 use crate::core::grid::Lattice;
-use crate::core::halo::{exchange, global, owned, storage_shape};
+use crate::core::halo::{exchange, global, owned, storage_shape, Layout};
 use crate::core::math::{axis_name, Index, Real, AXES, DIM};
 use crate::core::parallel::Comm;
 
@@ -148,65 +149,63 @@ pub fn run<C: Comm + ?Sized>(comm: &C, setup: &Setup) -> Result<Report, String> 
         grid.levels
     )];
 
-    // halo: owned nodes hold value(), the rest NaN; after the exchange every node that some
-    // rank owns must hold its value, and the padding beyond a wall its NaN
+    // halo, in both layouts: every node but the halo holds value() (NaN beyond a wall), the
+    // halo NaN; after the exchange every node that some rank owns must hold its value, and
+    // the padding beyond a wall its NaN
     let (mut checked, mut wrong) = (0i64, 0i64);
-    let mut arrays: Vec<(Lattice, Vec<Real>)> = lattices()
-        .into_iter()
-        .enumerate()
-        .map(|(l, lattice)| {
-            let s = storage_shape(&block, lattice);
-            let own = owned(&block, lattice);
-            let shape = global_shape(n, lattice);
-            let data = (0..s.iter().product())
-                .map(|i| {
-                    let at = node(s, i);
-                    if AXES.iter().all(|&a| own[a].contains(&at[a])) {
-                        value(l, global(&block, at).map(|v| v as usize), shape)
-                    } else {
-                        Real::NAN
-                    }
-                })
-                .collect();
-            (lattice, data)
-        })
-        .collect();
-    {
-        let mut views: Vec<(Lattice, &mut [Real])> = arrays.iter_mut().map(|(l, a)| (*l, a.as_mut_slice())).collect();
-        exchange(comm, &block, &mut views);
-    }
-    for (l, (lattice, data)) in arrays.iter().enumerate() {
-        let s = storage_shape(&block, *lattice);
-        let own = owned(&block, *lattice);
-        let shape = global_shape(n, *lattice);
-        for (i, &v) in data.iter().enumerate() {
-            let at = node(s, i);
-            if AXES.iter().all(|&a| own[a].contains(&at[a])) {
-                continue;
-            }
-            let g = global(&block, at);
-            let wrapped: Option<Vec<usize>> =
+    for layout in [Layout::Padded, Layout::Local] {
+        let wrapped = |lattice: Lattice, at: Index| -> Option<Index> {
+            let g = global(&block, layout, at);
+            let w: Option<Vec<usize>> =
                 AXES.iter().map(|&a| wrap(g[a], n[a], setup.periodic[a], lattice.axis() == Some(a))).collect();
-            match wrapped {
-                Some(w) => {
-                    checked += 1;
-                    let expected = value(l, w.try_into().expect("DIM"), shape);
-                    wrong += (v.to_bits() != expected.to_bits()) as i64;
+            w.map(|w| w.try_into().expect("DIM"))
+        };
+        let mut arrays: Vec<(Lattice, Vec<Real>)> = lattices()
+            .into_iter()
+            .enumerate()
+            .map(|(l, lattice)| {
+                let s = storage_shape(&block, layout, lattice);
+                let shape = global_shape(n, lattice);
+                let data = (0..s.iter().product())
+                    .map(|i| match wrapped(lattice, node(s, i)) {
+                        Some(w) if !in_halo(&block, layout, lattice, node(s, i)) => value(l, w, shape),
+                        _ => Real::NAN,
+                    })
+                    .collect();
+                (lattice, data)
+            })
+            .collect();
+        {
+            let mut views: Vec<(Lattice, &mut [Real])> =
+                arrays.iter_mut().map(|(l, a)| (*l, a.as_mut_slice())).collect();
+            exchange(comm, &block, layout, &mut views);
+        }
+        for (l, (lattice, data)) in arrays.iter().enumerate() {
+            let s = storage_shape(&block, layout, *lattice);
+            let shape = global_shape(n, *lattice);
+            for (i, &v) in data.iter().enumerate() {
+                let at = node(s, i);
+                match wrapped(*lattice, at) {
+                    Some(w) => {
+                        let halo = in_halo(&block, layout, *lattice, at);
+                        checked += halo as i64;
+                        wrong += (v.to_bits() != value(l, w, shape).to_bits()) as i64;
+                    }
+                    None => wrong += !v.is_nan() as i64,
                 }
-                None => wrong += !v.is_nan() as i64,
             }
         }
     }
 
     // exact sum: each rank adds the terms of its own cells
     let mut mine = ExactSum::new();
-    let own = owned(&block, Lattice::Cell);
-    let s = storage_shape(&block, Lattice::Cell);
+    let own = owned(&block, Layout::Local, Lattice::Cell);
+    let s = storage_shape(&block, Layout::Local, Lattice::Cell);
     let mut owned_cells = 0i64;
     for i in 0..s.iter().product() {
         let at = node(s, i);
         if AXES.iter().all(|&a| own[a].contains(&at[a])) {
-            let g = global(&block, at).map(|v| v as usize);
+            let g = global(&block, Layout::Local, at).map(|v| v as usize);
             mine.add(term(linear(g, n)));
             owned_cells += 1;
         }
@@ -239,7 +238,7 @@ pub fn run<C: Comm + ?Sized>(comm: &C, setup: &Setup) -> Result<Report, String> 
     comm.barrier();
 
     lines.push(format!(
-        "halo: {checked} halo nodes of {} lattices checked, {wrong_halo} wrong{}",
+        "halo: {checked} halo nodes of {} lattices in the two layouts checked, {wrong_halo} wrong{}",
         lattices().len(),
         if wrong_halo == 0 { "" } else { " (a node off its owner's value, or padding beyond a wall written)" }
     ));
@@ -253,6 +252,15 @@ pub fn run<C: Comm + ?Sized>(comm: &C, setup: &Setup) -> Result<Report, String> 
     ));
     lines.push(format!("max, min, any, gather_all: {}", if collectives_ok { "ok" } else { "WRONG" }));
     Ok(Report { lines, pass: !fail })
+}
+
+/// Whether storage node `at` lies in the padding of an exchanged side.
+fn in_halo(block: &Block, layout: Layout, lattice: Lattice, at: Index) -> bool {
+    let own = owned(block, layout, lattice);
+    AXES.iter().any(|&a| {
+        (layout.exchanged(block, a, false) && at[a] < own[a].start)
+            || (layout.exchanged(block, a, true) && at[a] >= own[a].end)
+    })
 }
 
 fn node(s: Index, mut i: usize) -> Index {

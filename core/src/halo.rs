@@ -1,14 +1,18 @@
 //! The halo exchange: every rank's copy of the [`HALO`] layers of nodes its neighbours own
 //! next to its block (docs/design/mpi.md §2).
 //!
-//! A lattice on a block is stored as the block's lattice padded by H = 2 nodes on every
-//! side, x fastest (the layout of the Eulerian frame's padded arrays): storage node `l`
-//! along axis a is global node `cells[a].start − H + l`. The owned nodes are
-//! [`Block::owned_global`]; the halo is the padding on the sides that have a neighbour: H
-//! nodes on the low side, and on the high side H (cells) or H + 1 (faces along their own
-//! axis, which reach the far face of the last halo cell). Padding beyond a side of the
-//! domain that is not periodic belongs to nobody and is left as it is (the boundary rules
-//! fill it).
+//! A lattice on a block is stored as the block's lattice padded along each axis, x fastest,
+//! in one of two [`Layout`]s: `Padded`, H = 2 nodes on every side (the layout of the
+//! Eulerian frame's padded arrays), or `Local`, H nodes only on the sides that face another
+//! rank (the local `Grid` of §2: a side of the domain, and a periodic axis with one block,
+//! whose wrap stays within the rank as serially, have none). Storage node `l` along axis a
+//! is global node `cells[a].start − pad + l` (pad: the low side's). The owned nodes are
+//! [`Block::owned_global`]; the halo is the padding on the sides that are exchanged (those
+//! with a neighbour, in `Padded` also the rank itself across a periodic axis it spans
+//! alone): H nodes on the low side, and on the high side H (cells) or H + 1 (faces along
+//! their own axis, which reach the far face of the last halo cell). Padding beyond a side
+//! of the domain that is not periodic belongs to nobody and is left as it is (the boundary
+//! rules fill it).
 //!
 //! [`exchange`] works axis by axis: along x the owned rows; along y the rows with their x
 //! halo; along z with both, so edges and corners arrive through two or three messages. One
@@ -22,21 +26,55 @@ use crate::math::{Index, Real, AXES, DIM};
 use crate::parallel::{Comm, Tag};
 use std::ops::Range;
 
-/// The storage shape of a lattice on a block: its owned lattice padded by [`HALO`] nodes
-/// on every side.
-pub fn storage_shape(block: &Block, lattice: Lattice) -> Index {
-    std::array::from_fn(|a| block.cells[a].len() + 2 * HALO + (lattice.axis() == Some(a)) as usize)
+/// Which sides of a block's storage are padded (see the module's documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// [`HALO`] nodes on every side, as the Eulerian frame's padded arrays.
+    Padded,
+    /// [`HALO`] nodes on the sides that face another rank only (§2's local grid).
+    Local,
+}
+
+impl Layout {
+    /// Whether the side (`axis`, `high`) of `block` is exchanged.
+    pub fn exchanged(self, block: &Block, axis: usize, high: bool) -> bool {
+        match block.neighbours[2 * axis + high as usize] {
+            None => false,
+            // a rank is its own neighbour only across a periodic axis it spans alone
+            Some(r) => self == Layout::Padded || r != block.rank,
+        }
+    }
+
+    /// The padding of the low and the high side along `axis` (cells; a face lattice along
+    /// `axis` has one node more, at the high end).
+    pub fn pads(self, block: &Block, axis: usize) -> [usize; 2] {
+        match self {
+            Layout::Padded => [HALO; 2],
+            Layout::Local => [false, true].map(|high| if self.exchanged(block, axis, high) { HALO } else { 0 }),
+        }
+    }
+}
+
+/// The storage shape of a lattice on a block: its block's lattice and the padding.
+pub fn storage_shape(block: &Block, layout: Layout, lattice: Lattice) -> Index {
+    std::array::from_fn(|a| {
+        let [lo, hi] = layout.pads(block, a);
+        block.cells[a].len() + lo + hi + (lattice.axis() == Some(a)) as usize
+    })
 }
 
 /// The owned nodes of a lattice on a block, as storage index ranges.
-pub fn owned(block: &Block, lattice: Lattice) -> [Range<usize>; DIM] {
-    std::array::from_fn(|a| HALO..HALO + block.owned_global(lattice, a).len())
+pub fn owned(block: &Block, layout: Layout, lattice: Lattice) -> [Range<usize>; DIM] {
+    std::array::from_fn(|a| {
+        let lo = layout.pads(block, a)[0];
+        lo..lo + block.owned_global(lattice, a).len()
+    })
 }
 
 /// The global node of storage node `at` (before any periodic wrap; see
 /// [`crate::decomposition::wrap`]).
-pub fn global(block: &Block, at: Index) -> [isize; DIM] {
-    std::array::from_fn(|a| (block.cells[a].start + at[a]) as isize - HALO as isize)
+pub fn global(block: &Block, layout: Layout, at: Index) -> [isize; DIM] {
+    std::array::from_fn(|a| (block.cells[a].start + at[a]) as isize - layout.pads(block, a)[0] as isize)
 }
 
 /// Position in storage of node `at` of a storage of shape `s` (x fastest).
@@ -80,34 +118,36 @@ fn high_width(lattice: Lattice, axis: usize) -> usize {
     HALO + (lattice.axis() == Some(axis)) as usize
 }
 
-/// The box of storage exchanged along `axis` with its range along `axis` replaced by `along`:
-/// along earlier axes the owned range with the halo on the sides that have a neighbour
-/// (exchanged already), along later axes the owned range.
-fn slab(block: &Block, lattice: Lattice, axis: usize, along: Range<usize>) -> [Range<usize>; DIM] {
-    let own = owned(block, lattice);
+/// The box of storage exchanged along `axis` with its range along `axis` replaced by
+/// `along`. Along the other axes: the storage without the padding beyond a side that is
+/// not exchanged, and, along later axes, without the halo still to come.
+fn slab(block: &Block, layout: Layout, lattice: Lattice, axis: usize, along: Range<usize>) -> [Range<usize>; DIM] {
+    let own = owned(block, layout, lattice);
+    let s = storage_shape(block, layout, lattice);
     std::array::from_fn(|b| {
+        let [pad_lo, pad_hi] = layout.pads(block, b);
+        let (low, high) = (layout.exchanged(block, b, false), layout.exchanged(block, b, true));
         if b == axis {
             along.clone()
         } else if b < axis {
-            let lo = if block.neighbours[2 * b].is_some() { 0 } else { HALO };
-            let hi = own[b].end + if block.neighbours[2 * b + 1].is_some() { high_width(lattice, b) } else { 0 };
-            lo..hi
+            (if low { 0 } else { pad_lo })..(if high { s[b] } else { s[b] - pad_hi })
         } else {
-            own[b].clone()
+            pad_lo..(if high { own[b].end } else { s[b] - pad_hi })
         }
     })
 }
 
-/// Fills the halo of every array (each a lattice's storage on `block`, see the module's
-/// documentation) with its owners' values. Every rank of `comm` calls it with the same
-/// lattices in the same order.
-pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, arrays: &mut [(Lattice, &mut [Real])]) {
+/// Fills the halo of every array (each a lattice's storage on `block` in `layout`, see the
+/// module's documentation) with its owners' values. Every rank of `comm` calls it with the
+/// same layout and lattices in the same order.
+pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, layout: Layout, arrays: &mut [(Lattice, &mut [Real])]) {
     for &(lattice, ref a) in arrays.iter() {
-        let s = storage_shape(block, lattice);
+        let s = storage_shape(block, layout, lattice);
         assert_eq!(a.len(), s.iter().product::<usize>(), "an array of {lattice:?} on block {block:?}");
     }
     for axis in AXES {
-        let (low, high) = (block.neighbours[2 * axis], block.neighbours[2 * axis + 1]);
+        let low = layout.exchanged(block, axis, false).then(|| block.neighbours[2 * axis]).flatten();
+        let high = layout.exchanged(block, axis, true).then(|| block.neighbours[2 * axis + 1]).flatten();
         if low.is_none() && high.is_none() {
             continue;
         }
@@ -116,10 +156,13 @@ pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, arrays: &mut [(Lattic
         let pack = |up: bool| -> Vec<u8> {
             let mut bytes = Vec::new();
             for (lattice, a) in arrays.iter() {
-                let m = owned(block, *lattice)[axis].end;
-                let along = if up { m - HALO..m } else { HALO..HALO + high_width(*lattice, axis) };
-                let s = storage_shape(block, *lattice);
-                for_each(s, &slab(block, *lattice, axis, along), |i| bytes.extend_from_slice(&a[i].to_le_bytes()));
+                let own = owned(block, layout, *lattice)[axis].clone();
+                let along =
+                    if up { own.end - HALO..own.end } else { own.start..own.start + high_width(*lattice, axis) };
+                let s = storage_shape(block, layout, *lattice);
+                for_each(s, &slab(block, layout, *lattice, axis, along), |i| {
+                    bytes.extend_from_slice(&a[i].to_le_bytes())
+                });
             }
             bytes
         };
@@ -144,10 +187,10 @@ pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, arrays: &mut [(Lattic
             let bytes = got.next().expect("one message a neighbour");
             let mut values = bytes.chunks_exact(8).map(|c| Real::from_le_bytes(c.try_into().expect("8 bytes")));
             for (lattice, a) in arrays.iter_mut() {
-                let m = owned(block, *lattice)[axis].end;
-                let along = if from_low { 0..HALO } else { m..m + high_width(*lattice, axis) };
-                let s = storage_shape(block, *lattice);
-                for_each(s, &slab(block, *lattice, axis, along), |i| {
+                let own = owned(block, layout, *lattice)[axis].clone();
+                let along = if from_low { 0..own.start } else { own.end..own.end + high_width(*lattice, axis) };
+                let s = storage_shape(block, layout, *lattice);
+                for_each(s, &slab(block, layout, *lattice, axis, along), |i| {
                     a[i] = values.next().expect("a message as long as the halo");
                 });
             }
@@ -169,92 +212,108 @@ mod tests {
         (1 + l + 10 * g[0] + 10_000 * g[1]) as Real
     }
 
+    /// Whether storage node `at` lies in the halo: in the padding of an exchanged side.
+    fn in_halo(block: &Block, layout: Layout, lattice: Lattice, at: Index) -> bool {
+        let own = owned(block, layout, lattice);
+        AXES.iter().any(|&a| {
+            (layout.exchanged(block, a, false) && at[a] < own[a].start)
+                || (layout.exchanged(block, a, true) && at[a] >= own[a].end)
+        })
+    }
+
     /// On 1 × 1, 2 × 2, 1 × 3, 3 × 1 (and 2 × 3) rank grids, periodic or not along each
-    /// axis, three lattices exchanged in one call: after the exchange every storage node
-    /// that some rank owns holds the owner's value, every owned node is unchanged, and the
-    /// padding beyond a side that is not periodic keeps its NaN. The halo starts as NaN, so
-    /// a halo node that the exchange missed would fail the comparison.
+    /// axis, in both layouts, three lattices exchanged in one call: after the exchange every
+    /// storage node that some rank owns holds the owner's value, and the padding beyond a
+    /// side that is not periodic keeps its NaN. The halo starts as NaN (everything else as
+    /// the serial code would have it: the owned nodes, and in `Local` the copy of face 0 at
+    /// face n of a periodic axis the rank spans alone), so a halo node that the exchange
+    /// missed would fail the comparison.
     #[test]
     fn every_halo_node_gets_its_owners_value() {
         let n = [96, 24];
-        for p in [[1, 1], [2, 2], [1, 3], [3, 1], [2, 3]] {
-            for periodic in [[false, false], [true, false], [false, true], [true, true]] {
-                let ranks = p[0] * p[1];
-                let g = RankGrid::new(n, periodic, ranks, Some(p)).unwrap();
-                let (mut filled, mut beyond) = (0, 0);
-                let counts = fake::run(ranks, |comm| {
-                    let block = g.block(comm.rank());
-                    let mut arrays: Vec<Vec<Real>> = LATTICES
-                        .iter()
-                        .enumerate()
-                        .map(|(l, &lattice)| {
-                            let s = storage_shape(&block, lattice);
-                            let own = owned(&block, lattice);
-                            let mut a = vec![Real::NAN; s.iter().product()];
-                            for_each(s, &own, |i| {
+        for layout in [Layout::Padded, Layout::Local] {
+            for p in [[1, 1], [2, 2], [1, 3], [3, 1], [2, 3]] {
+                for periodic in [[false, false], [true, false], [false, true], [true, true]] {
+                    let ranks = p[0] * p[1];
+                    let g = RankGrid::new(n, periodic, ranks, Some(p)).unwrap();
+                    let counts = fake::run(ranks, |comm| {
+                        let block = g.block(comm.rank());
+                        let wrapped = |lattice: Lattice, at: Index| -> Option<Index> {
+                            let gl = global(&block, layout, at);
+                            let w: Option<Vec<usize>> = AXES
+                                .iter()
+                                .map(|&a| wrap(gl[a], n[a], periodic[a], lattice.axis() == Some(a)))
+                                .collect();
+                            w.map(|w| [w[0], w[1]])
+                        };
+                        let mut arrays: Vec<Vec<Real>> = LATTICES
+                            .iter()
+                            .enumerate()
+                            .map(|(l, &lattice)| {
+                                let s = storage_shape(&block, layout, lattice);
+                                (0..s[0] * s[1])
+                                    .map(|i| {
+                                        let at = [i % s[0], i / s[0]];
+                                        match wrapped(lattice, at) {
+                                            Some(w) if !in_halo(&block, layout, lattice, at) => value(l, w),
+                                            _ => Real::NAN,
+                                        }
+                                    })
+                                    .collect()
+                            })
+                            .collect();
+                        let mut views: Vec<(Lattice, &mut [Real])> =
+                            LATTICES.iter().zip(arrays.iter_mut()).map(|(&l, a)| (l, a.as_mut_slice())).collect();
+                        exchange(comm, &block, layout, &mut views);
+                        let (mut halo, mut padding) = (0, 0);
+                        for (l, &lattice) in LATTICES.iter().enumerate() {
+                            let s = storage_shape(&block, layout, lattice);
+                            padding += s[0] * s[1] - block.owned_count(lattice);
+                            for (i, &v) in arrays[l].iter().enumerate() {
                                 let at = [i % s[0], i / s[0]];
-                                let gl = global(&block, at);
-                                a[i] = value(l, [gl[0] as usize, gl[1] as usize]);
-                            });
-                            a
-                        })
-                        .collect();
-                    let mut views: Vec<(Lattice, &mut [Real])> =
-                        LATTICES.iter().zip(arrays.iter_mut()).map(|(&l, a)| (l, a.as_mut_slice())).collect();
-                    exchange(comm, &block, &mut views);
-                    let (mut filled, mut beyond) = (0, 0);
-                    for (l, &lattice) in LATTICES.iter().enumerate() {
-                        let s = storage_shape(&block, lattice);
-                        let own = owned(&block, lattice);
-                        for (i, &v) in arrays[l].iter().enumerate() {
-                            let at = [i % s[0], i / s[0]];
-                            let gl = global(&block, at);
-                            let face = |a: usize| lattice.axis() == Some(a);
-                            let wrapped: Option<Vec<usize>> =
-                                AXES.iter().map(|&a| wrap(gl[a], n[a], periodic[a], face(a))).collect();
-                            match wrapped {
-                                Some(w) => {
-                                    let owner = g.owner(lattice, gl).unwrap();
-                                    assert_eq!(
-                                        v,
-                                        value(l, [w[0], w[1]]),
-                                        "{p:?} {periodic:?} rank {} {lattice:?} at {gl:?} (owner {owner})",
-                                        comm.rank()
-                                    );
-                                    if !AXES.iter().all(|&a| own[a].contains(&at[a])) {
-                                        filled += 1;
+                                let gl = global(&block, layout, at);
+                                match wrapped(lattice, at) {
+                                    Some(w) => {
+                                        assert_eq!(
+                                            v,
+                                            value(l, w),
+                                            "{layout:?} {p:?} {periodic:?} rank {} {lattice:?} at {gl:?}",
+                                            comm.rank()
+                                        );
+                                        halo += in_halo(&block, layout, lattice, at) as usize;
                                     }
-                                }
-                                None => {
-                                    assert!(v.is_nan(), "{lattice:?} at {gl:?} beyond a wall was written");
-                                    beyond += 1;
+                                    None => assert!(v.is_nan(), "{lattice:?} at {gl:?} beyond a wall was written"),
                                 }
                             }
                         }
+                        (halo, padding)
+                    });
+                    let (halo, padding) = counts.iter().fold((0, 0), |(h, p), c| (h + c.0, p + c.1));
+                    // in Padded with every axis periodic the whole padding is halo
+                    if layout == Layout::Padded && periodic == [true, true] {
+                        assert_eq!(halo, padding);
                     }
-                    (filled, beyond)
-                });
-                for (f, b) in counts {
-                    filled += f;
-                    beyond += b;
+                    // a halo exists unless no rank has a side to exchange
+                    let sides = layout == Layout::Padded && periodic != [false, false] || ranks > 1;
+                    assert_eq!(halo > 0, sides, "{layout:?} {p:?} {periodic:?}");
                 }
-                // every halo node: the padding less what lies beyond walls
-                let padding: usize = (0..ranks)
-                    .map(|r| {
-                        let b = g.block(r);
-                        LATTICES
-                            .iter()
-                            .map(|&l| storage_shape(&b, l).iter().product::<usize>() - b.owned_count(l))
-                            .sum::<usize>()
-                    })
-                    .sum();
-                assert_eq!(filled + beyond, padding);
-                if periodic == [true, true] {
-                    assert_eq!(beyond, 0);
-                }
-                // a halo exists unless one rank has only walls
-                assert_eq!(filled > 0, ranks > 1 || periodic != [false, false]);
             }
         }
+    }
+
+    /// `Local` pads only the sides that face another rank: one rank has no padding, and a
+    /// periodic axis it spans alone stays unpadded; `Padded` pads every side.
+    #[test]
+    fn local_layout_pads_only_the_sides_facing_other_ranks() {
+        let g = RankGrid::new([96, 24], [true, false], 3, Some([1, 3])).unwrap();
+        let middle = g.block(1);
+        assert_eq!(storage_shape(&middle, Layout::Local, Lattice::XFace), [97, 8 + 4]);
+        assert_eq!(storage_shape(&middle, Layout::Padded, Lattice::XFace), [97 + 4, 8 + 4]);
+        let bottom = g.block(0);
+        assert_eq!(storage_shape(&bottom, Layout::Local, Lattice::YFace), [96, 8 + 1 + 2]);
+        assert_eq!(global(&bottom, Layout::Local, [0, 0]), [0, 0]);
+        assert_eq!(global(&middle, Layout::Local, [0, 0]), [0, 6]);
+        let one = RankGrid::new([96, 24], [true, true], 1, None).unwrap().block(0);
+        assert_eq!(storage_shape(&one, Layout::Local, Lattice::Cell), [96, 24]);
     }
 }
