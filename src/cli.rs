@@ -158,6 +158,56 @@ enum Command {
         #[command(flatten)]
         cluster: crate::slurm::ClusterArgs,
     },
+    /// Check the MPI setup for decomposed runs: run it under `mpirun -np N`. Cuts a grid
+    /// into N blocks, exchanges and checks their halos, checks that an exact sum split
+    /// across the ranks has the serial sum's bits; prints the rank grid and pass or fail
+    /// (exit status 1 on fail).
+    #[cfg(feature = "mpi")]
+    MpiCheck {
+        /// Cells of the grid: `64x64`, or `64x32x32` in 3D.
+        #[arg(long, default_value = "64x64")]
+        cells: String,
+        /// The rank grid, e.g. `2x2` [default: the one of least halo surface].
+        #[arg(long)]
+        ranks: Option<String>,
+        /// The periodic axes, comma-separated (`x,y`), or `none`.
+        #[arg(long, default_value = "x")]
+        periodic: String,
+    },
+}
+
+/// The command's name on the command line.
+#[cfg(all(feature = "mpi", feature = "dim2"))]
+fn command_name(command: &Option<Command>) -> &'static str {
+    match command {
+        None => "multifield (the built-in case)",
+        Some(Command::Run { .. }) => "run",
+        Some(Command::Check { .. }) => "check",
+        Some(Command::Plugins) => "plugins",
+        Some(Command::Quantities) => "quantities",
+        Some(Command::Compare { .. }) => "compare",
+        Some(Command::Dkt { .. }) => "dkt",
+        Some(Command::Study { .. }) => "study",
+        Some(Command::MpiCheck { .. }) => "mpi-check",
+    }
+}
+
+/// Under `mpirun -np N` with N > 1 every command but `mpi-check` is refused before it
+/// reads anything (docs/design/mpi.md §7): rank 0 says why, every rank exits with 2.
+#[cfg(all(feature = "mpi", feature = "dim2"))]
+fn refuse_on_ranks(command: &Option<Command>, ranks: usize) -> String {
+    match command {
+        Some(Command::Run { .. }) => format!(
+            "error: run: a run on {ranks} ranks is not decomposed yet (issue 19: this build has the rank grid, the \
+             halo exchange and `multifield mpi-check`; the decomposed step comes in its next phases); run this case \
+             on one process (`multifield run`, or `mpirun -np 1`)"
+        ),
+        c => format!(
+            "error: {}: runs on one process; under mpirun with {ranks} ranks every rank would run it whole: run it \
+             without mpirun (or with `mpirun -np 1`); `multifield mpi-check` is the command to run on many ranks",
+            command_name(c)
+        ),
+    }
 }
 
 /// A count of threads (or of runs at a time) from the command line: at most
@@ -202,6 +252,29 @@ pub fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    // under MPI (cargo feature `mpi`): initialized once per process, before the 3D dispatch;
+    // finalized when `mpi_session` drops at the end of `main`
+    #[cfg(all(feature = "mpi", feature = "dim2"))]
+    let mpi_session = match crate::mpi::start() {
+        Ok(session) => session,
+        Err(m) => {
+            eprintln!("error: {m}");
+            return ExitCode::from(1);
+        }
+    };
+    #[cfg(all(feature = "mpi", feature = "dim2"))]
+    {
+        use crate::core::parallel::Comm;
+        if let Some(Command::MpiCheck { cells, ranks, periodic }) = &cli.command {
+            return crate::mpi::check_command(&mpi_session.comm, cells, ranks.as_deref(), periodic);
+        }
+        if mpi_session.comm.size() > 1 {
+            if mpi_session.comm.rank() == 0 {
+                eprintln!("{}", refuse_on_ranks(&cli.command, mpi_session.comm.size()));
+            }
+            return ExitCode::from(2);
+        }
+    }
     // a 3D case runs in the 3D compile of this library, which parses the same command line
     #[cfg(feature = "dim2")]
     if dimension_of(&cli) == Some(3) {
@@ -267,6 +340,9 @@ pub fn main() -> ExitCode {
                 run_study(&study, out, &only, &options, &limits, &cluster, &max_memory)
             })
         }
+        // handled with MPI's start in the 2D program, which dispatches a 3D grid itself
+        #[cfg(feature = "mpi")]
+        Some(Command::MpiCheck { .. }) => Err(Failure::Run("mpi-check is run by the 2D program's start-up".into())),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -28,6 +28,9 @@ pub mod cli;
 pub mod compare;
 pub mod dkt;
 pub mod fuzzing;
+#[cfg(feature = "mpi")]
+pub mod mpi;
+pub mod mpi_check;
 pub mod output;
 pub mod picture;
 pub mod plot;

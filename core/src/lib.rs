@@ -10,6 +10,7 @@
 
 pub mod boundary;
 pub mod case;
+pub mod decomposition;
 pub mod driver;
 pub mod error;
 pub mod exact;
@@ -20,6 +21,7 @@ pub mod generate;
 #[cfg(feature = "dim2")]
 pub mod geometry;
 pub mod grid;
+pub mod halo;
 #[cfg(feature = "dim2")]
 pub mod immersed;
 pub mod input;
@@ -28,6 +30,7 @@ pub mod mapping;
 pub mod math;
 pub mod monitor;
 pub mod neighbours;
+pub mod parallel;
 pub mod plugin;
 pub mod poisson;
 pub mod quantity;

@@ -7,6 +7,7 @@
 mod case;
 mod cavity;
 mod check;
+mod decomposition;
 mod eulerian;
 mod exchange;
 mod grid;

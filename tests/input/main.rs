@@ -6,6 +6,7 @@
 //! it to the registries the tests here list.
 
 mod bad_input;
+mod default_build;
 mod fuzzing;
 mod generators;
 mod registry;
