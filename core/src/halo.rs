@@ -71,6 +71,16 @@ pub fn owned(block: &Block, layout: Layout, lattice: Lattice) -> [Range<usize>; 
     })
 }
 
+/// Whether storage node `at` of a lattice lies in the halo: in the padding of a side that
+/// is exchanged (values there come from a neighbour, never from this rank's kernels).
+pub fn in_halo(block: &Block, layout: Layout, lattice: Lattice, at: Index) -> bool {
+    let own = owned(block, layout, lattice);
+    AXES.iter().any(|&a| {
+        (layout.exchanged(block, a, false) && at[a] < own[a].start)
+            || (layout.exchanged(block, a, true) && at[a] >= own[a].end)
+    })
+}
+
 /// The global node of storage node `at` (before any periodic wrap; see
 /// [`crate::decomposition::wrap`]).
 pub fn global(block: &Block, layout: Layout, at: Index) -> [isize; DIM] {
@@ -210,15 +220,6 @@ mod tests {
     /// The value every rank writes at global node g of a lattice (exact in f64).
     fn value(l: usize, g: Index) -> Real {
         (1 + l + 10 * g[0] + 10_000 * g[1]) as Real
-    }
-
-    /// Whether storage node `at` lies in the halo: in the padding of an exchanged side.
-    fn in_halo(block: &Block, layout: Layout, lattice: Lattice, at: Index) -> bool {
-        let own = owned(block, layout, lattice);
-        AXES.iter().any(|&a| {
-            (layout.exchanged(block, a, false) && at[a] < own[a].start)
-                || (layout.exchanged(block, a, true) && at[a] >= own[a].end)
-        })
     }
 
     /// On 1 × 1, 2 × 2, 1 × 3, 3 × 1 (and 2 × 3) rank grids, periodic or not along each

@@ -1,9 +1,9 @@
 //! The rank grid and the halo exchange in 3D (docs/design/mpi.md §2; the 2D unit tests are
 //! in core/src/decomposition.rs and core/src/halo.rs), on in-process fake ranks.
 
-use multifield_core3d::decomposition::{wrap, Block, RankGrid, HALO, MIN_BLOCK, ROW_GROUP};
+use multifield_core3d::decomposition::{wrap, RankGrid, HALO, MIN_BLOCK, ROW_GROUP};
 use multifield_core3d::grid::Lattice;
-use multifield_core3d::halo::{exchange, global, owned, storage_shape, Layout};
+use multifield_core3d::halo::{exchange, global, in_halo, storage_shape, Layout};
 use multifield_core3d::math::{Index, Real, AXES};
 use multifield_core3d::parallel::{fake, Comm};
 
@@ -53,15 +53,6 @@ fn cuts_cover_every_cell_once_with_the_least_surface() {
 
 fn value(l: usize, g: Index) -> Real {
     (1 + l + 10 * g[0] + 1000 * g[1] + 100_000 * g[2]) as Real
-}
-
-/// Whether storage node `at` lies in the padding of an exchanged side.
-fn in_halo(block: &Block, layout: Layout, lattice: Lattice, at: Index) -> bool {
-    let own = owned(block, layout, lattice);
-    AXES.iter().any(|&a| {
-        (layout.exchanged(block, a, false) && at[a] < own[a].start)
-            || (layout.exchanged(block, a, true) && at[a] >= own[a].end)
-    })
 }
 
 /// 2 × 2 × 2, 1 × 1 × 2 and 1 × 2 × 2 (and one rank, its own neighbour) ranks, periodic or
