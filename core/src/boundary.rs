@@ -303,7 +303,9 @@ impl Boundaries {
     pub fn enforce(&self, grid: &Grid, vel: &mut FaceVelocity) {
         let (nx, ny) = (grid.nx, grid.ny);
         for j in 0..ny {
-            let s = (j as Real + 0.5) / ny as Real;
+            // the fraction along the side in the domain's numbering (a block's cells are not
+            // the domain's: docs/design/mpi.md §2)
+            let s = (grid.global(1, j) + 0.5) / grid.domain[1] as Real;
             if self.periodic(0) {
                 vel.u[grid.xface(nx, j)] = vel.u[grid.xface(0, j)];
             } else {
@@ -316,7 +318,7 @@ impl Boundaries {
             }
         }
         for i in 0..nx {
-            let s = (i as Real + 0.5) / nx as Real;
+            let s = (grid.global(0, i) + 0.5) / grid.domain[0] as Real;
             if self.periodic(1) {
                 vel.v[grid.yface(i, ny)] = vel.v[grid.yface(i, 0)];
             } else {
@@ -341,7 +343,10 @@ impl Boundaries {
             let [t0, t1] = tangential_axes(a);
             for q in 0..n[t1] {
                 for p in 0..n[t0] {
-                    let s = [(p as Real + 0.5) / n[t0] as Real, (q as Real + 0.5) / n[t1] as Real];
+                    let s = [
+                        (grid.global(t0, p) + 0.5) / grid.domain[t0] as Real,
+                        (grid.global(t1, q) + 0.5) / grid.domain[t1] as Real,
+                    ];
                     let at = |i: usize| {
                         let mut at = [0; DIM];
                         (at[a], at[t0], at[t1]) = (i, p, q);

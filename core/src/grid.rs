@@ -62,20 +62,41 @@ pub struct Grid {
     pub h: Real,
     /// Lower-left corner of the domain.
     pub origin: Vector,
+    /// Global index of local cell 0 along each axis: 0 for the whole domain; a rank's
+    /// block of a decomposed run (docs/design/mpi.md §2) starts where its storage starts in
+    /// the domain's numbering (its halo included, so −2 at a periodic side's wrap).
+    pub start: [isize; DIM],
+    /// Cells of the whole domain along each axis (`n()` for the whole domain).
+    pub domain: Index,
 }
 
 impl Grid {
     /// A grid of `nx × ny` square cells of side `h` starting at `origin`.
     #[cfg(feature = "dim2")]
     pub fn new(nx: usize, ny: usize, h: Real, origin: Vector) -> Self {
-        Self { nx, ny, h, origin }
+        Self::from_cells([nx, ny], h, origin)
     }
     /// A grid of `n[0] × n[1] (× n[2])` cells of side `h` starting at `origin`.
     pub fn from_cells(n: Index, h: Real, origin: Vector) -> Self {
+        let (start, domain) = ([0; DIM], n);
         #[cfg(feature = "dim2")]
-        return Self { nx: n[0], ny: n[1], h, origin };
+        return Self { nx: n[0], ny: n[1], h, origin, start, domain };
         #[cfg(feature = "dim3")]
-        return Self { nx: n[0], ny: n[1], nz: n[2], h, origin };
+        return Self { nx: n[0], ny: n[1], nz: n[2], h, origin, start, domain };
+    }
+    /// The storage of a block of this domain: `n` cells from global cell `start` (which may
+    /// lie outside the domain by a halo's width at a periodic wrap). Its nodes' positions
+    /// are the domain's at the same global index, bit for bit; its `size` and `contains`
+    /// stay the domain's.
+    pub fn block(&self, start: [isize; DIM], n: Index) -> Self {
+        let mut g = Self::from_cells(n, self.h, self.origin);
+        (g.start, g.domain) = (start, self.domain);
+        g
+    }
+    /// The global index of local index `i` along `axis`.
+    #[inline]
+    pub fn global(&self, axis: usize, i: usize) -> Real {
+        (i as isize + self.start[axis]) as Real
     }
     /// Cells along each axis.
     pub fn n(&self) -> Index {
@@ -180,7 +201,7 @@ impl Grid {
         self.origin
             + Vector::from_fn(|a, _| {
                 let offset = if lattice.axis() == Some(a) { 0.0 } else { 0.5 };
-                (at[a] as Real + offset) * self.h
+                (self.global(a, at[a]) + offset) * self.h
             })
     }
     /// Index of cell `(i, j)`.
@@ -203,7 +224,7 @@ impl Grid {
     }
     /// Size of the domain.
     pub fn size(&self) -> Vector {
-        let n = self.n();
+        let n = self.domain;
         Vector::from_fn(|a, _| n[a] as Real * self.h)
     }
     /// Shape `(columns, rows)` of a lattice.
@@ -228,7 +249,7 @@ impl Grid {
     #[cfg(feature = "dim2")]
     pub fn node_position(&self, lattice: Lattice, i: usize, j: usize) -> Vector {
         let (ox, oy) = self.lattice_offset(lattice);
-        self.origin + Vector::new((i as Real + ox) * self.h, (j as Real + oy) * self.h)
+        self.origin + Vector::new((self.global(0, i) + ox) * self.h, (self.global(1, j) + oy) * self.h)
     }
     /// Centre of cell `(i, j)`.
     #[cfg(feature = "dim2")]
@@ -330,6 +351,30 @@ mod tests {
             }
         }
         assert_eq!((g.n_faces(0), g.n_faces(1), g.cell_volume()), (18, 20, 0.25));
+        // a block of a domain, its storage starting two cells before the domain (a halo
+        // across a periodic wrap): every node where the domain's node of the same global
+        // index is, bit for bit, and the domain's extent
+        let domain = Grid::new(40, 24, 0.37, Vector::new(-1.3, 2.1));
+        let block = domain.block([-2, 9], [13, 7]);
+        assert_eq!((block.n(), block.size(), block.contains(Vector::new(10.0, 9.0))), ([13, 7], domain.size(), true));
+        for lattice in [Lattice::Cell, Lattice::XFace, Lattice::YFace] {
+            for (_, at) in block.nodes(lattice) {
+                let (gi, gj) = (at[0] as isize - 2, at[1] + 9);
+                let global = if gi >= 0 {
+                    domain.position(lattice, [gi as usize, gj])
+                } else {
+                    // beyond the low side: one period below the domain's node gi + 40
+                    domain.position(lattice, [(gi + 40) as usize, gj]) - Vector::new(40.0 * 0.37, 0.0)
+                };
+                assert_eq!(block.position(lattice, at).y, global.y);
+                if gi >= 0 {
+                    assert_eq!(block.position(lattice, at), global);
+                    assert_eq!(block.node_position(lattice, at[0], at[1]), global);
+                } else {
+                    assert!((block.position(lattice, at).x - global.x).abs() < 1e-13);
+                }
+            }
+        }
         assert_eq!(g.position(Lattice::Cell, [1, 2]), g.cell_center(1, 2));
         for lattice in [Lattice::Cell, Lattice::XFace, Lattice::YFace] {
             for (axis, i) in [(0, 0), (0, 4), (1, 2)] {
