@@ -37,19 +37,38 @@ fn circle_triangle(a: [Real; 2], b: [Real; 2], r: Real) -> Real {
     sector(a, p) + 0.5 * cross(p, q) + sector(q, b)
 }
 
-/// Area of the disk (centre `c`, radius `r`) inside the rectangle `[x0, x1] × [y0, y1]`.
-pub fn disk_rectangle_area(c: [Real; 2], r: Real, x0: Real, x1: Real, y0: Real, y1: Real) -> Real {
+/// How a disk meets a rectangle, decided without any area: missed, covered, or cut.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Overlap {
+    Missed,
+    Covered,
+    Cut,
+}
+
+/// [`Overlap`] of the disk (centre `c`, radius `r`) and the rectangle `[x0, x1] × [y0, y1]`.
+#[inline]
+fn overlap(c: [Real; 2], r: Real, x0: Real, x1: Real, y0: Real, y1: Real) -> Overlap {
     // nearest point of the rectangle to the centre: beyond r, no overlap
     let nx = c[0].clamp(x0, x1) - c[0];
     let ny = c[1].clamp(y0, y1) - c[1];
     if nx * nx + ny * ny >= r * r {
-        return 0.0;
+        return Overlap::Missed;
     }
     // farthest corner within r: the whole rectangle is inside
     let fx = (x0 - c[0]).abs().max((x1 - c[0]).abs());
     let fy = (y0 - c[1]).abs().max((y1 - c[1]).abs());
     if fx * fx + fy * fy <= r * r {
-        return (x1 - x0) * (y1 - y0);
+        return Overlap::Covered;
+    }
+    Overlap::Cut
+}
+
+/// Area of the disk (centre `c`, radius `r`) inside the rectangle `[x0, x1] × [y0, y1]`.
+pub fn disk_rectangle_area(c: [Real; 2], r: Real, x0: Real, x1: Real, y0: Real, y1: Real) -> Real {
+    match overlap(c, r, x0, x1, y0, y1) {
+        Overlap::Missed => return 0.0,
+        Overlap::Covered => return (x1 - x0) * (y1 - y0),
+        Overlap::Cut => {}
     }
     // the disk wholly inside the rectangle
     if c[0] - r >= x0 && c[0] + r <= x1 && c[1] - r >= y0 && c[1] + r <= y1 {
@@ -119,6 +138,26 @@ impl Line {
     }
 }
 
+/// The cells `(i0..=i1, j0..=j1)` a disk's bounding box touches, in the grid's numbering
+/// (beyond the grid where the disk is).
+fn footprint(grid: &Grid, center: [Real; 2], r: Real) -> [i64; 4] {
+    let (h, ox, oy) = (grid.h, grid.origin.x, grid.origin.y);
+    [
+        ((center[0] - r - ox) / h).floor() as i64,
+        ((center[0] + r - ox) / h).floor() as i64,
+        ((center[1] - r - oy) / h).floor() as i64,
+        ((center[1] + r - oy) / h).floor() as i64,
+    ]
+}
+
+/// The cell index along an axis of `n` cells that `i` stands for: wrapped on a periodic
+/// axis, `None` beyond a side that is not.
+#[inline]
+fn wrapped(i: i64, n: usize, periodic: bool) -> Option<usize> {
+    let i = if periodic { i.rem_euclid(n as i64) } else { i };
+    (0..n as i64).contains(&i).then_some(i as usize)
+}
+
 /// Lattice lines a footprint's quadrant areas are kept for on the stack; wider disks (more
 /// than 62 cells across, far beyond the mass-point model's d ≲ h) take the per-cell path.
 const MAX_LINES: usize = 64;
@@ -143,11 +182,7 @@ pub fn disk_cell_fractions(
     let h = grid.h;
     let r = radius;
     let (ox, oy) = (grid.origin.x, grid.origin.y);
-    let i0 = ((center[0] - r - ox) / h).floor() as i64;
-    let i1 = ((center[0] + r - ox) / h).floor() as i64;
-    let j0 = ((center[1] - r - oy) / h).floor() as i64;
-    let j1 = ((center[1] + r - oy) / h).floor() as i64;
-    let (nx, ny) = (grid.nx as i64, grid.ny as i64);
+    let [i0, i1, j0, j1] = footprint(grid, center, r);
     let area = grid.cell_volume();
     let lines = (i1 - i0 + 2) as usize;
     if lines > MAX_LINES {
@@ -170,33 +205,18 @@ pub fn disk_cell_fractions(
     let inside_one_cell = i0 == i1 && j0 == j1;
     for j in j0..=j1 {
         quadrants(j + 1, &mut above);
-        let jj = if periodic[1] { j.rem_euclid(ny) } else { j };
-        if (0..ny).contains(&jj) {
+        if let Some(jj) = wrapped(j, grid.ny, periodic[1]) {
             for (k, i) in (i0..=i1).enumerate() {
-                let ii = if periodic[0] { i.rem_euclid(nx) } else { i };
-                if !(0..nx).contains(&ii) {
-                    continue;
-                }
+                let Some(ii) = wrapped(i, grid.nx, periodic[0]) else { continue };
                 let (x0, y0) = (ox + i as Real * h, oy + j as Real * h);
-                let (x1, y1) = (x0 + h, y0 + h);
-                // the nearest point of the cell beyond r: no overlap
-                let nxd = center[0].clamp(x0, x1) - center[0];
-                let nyd = center[1].clamp(y0, y1) - center[1];
-                if nxd * nxd + nyd * nyd >= r * r {
-                    continue;
-                }
-                // the farthest corner within r: covered
-                let fx = (x0 - center[0]).abs().max((x1 - center[0]).abs());
-                let fy = (y0 - center[1]).abs().max((y1 - center[1]).abs());
-                let a = if fx * fx + fy * fy <= r * r {
-                    area
-                } else if inside_one_cell {
-                    std::f64::consts::PI * r * r
-                } else {
-                    above[k + 1] - above[k] - below[k + 1] + below[k]
+                let a = match overlap(center, r, x0, x0 + h, y0, y0 + h) {
+                    Overlap::Missed => continue,
+                    Overlap::Covered => area,
+                    Overlap::Cut if inside_one_cell => std::f64::consts::PI * r * r,
+                    Overlap::Cut => above[k + 1] - above[k] - below[k + 1] + below[k],
                 };
                 if a > 0.0 {
-                    out.push((grid.cell(ii as usize, jj as usize), (a / area).min(1.0)));
+                    out.push((grid.cell(ii, jj), (a / area).min(1.0)));
                 }
             }
         }
@@ -214,27 +234,17 @@ fn disk_cell_fractions_by_cell(
 ) {
     let h = grid.h;
     let (ox, oy) = (grid.origin.x, grid.origin.y);
-    let i0 = ((center[0] - radius - ox) / h).floor() as i64;
-    let i1 = ((center[0] + radius - ox) / h).floor() as i64;
-    let j0 = ((center[1] - radius - oy) / h).floor() as i64;
-    let j1 = ((center[1] + radius - oy) / h).floor() as i64;
-    let (nx, ny) = (grid.nx as i64, grid.ny as i64);
+    let [i0, i1, j0, j1] = footprint(grid, center, radius);
     let area = grid.cell_volume();
     for j in j0..=j1 {
-        let jj = if periodic[1] { j.rem_euclid(ny) } else { j };
-        if !(0..ny).contains(&jj) {
-            continue;
-        }
+        let Some(jj) = wrapped(j, grid.ny, periodic[1]) else { continue };
         for i in i0..=i1 {
-            let ii = if periodic[0] { i.rem_euclid(nx) } else { i };
-            if !(0..nx).contains(&ii) {
-                continue;
-            }
+            let Some(ii) = wrapped(i, grid.nx, periodic[0]) else { continue };
             let (x0, y0) = (ox + i as Real * h, oy + j as Real * h);
             let a = disk_rectangle_area(center, radius, x0, x0 + h, y0, y0 + h);
             if a > 0.0 {
                 // a covered cell is exactly 1 (x0 + h − x0 is h only to round-off)
-                out.push((grid.cell(ii as usize, jj as usize), (a / area).min(1.0)));
+                out.push((grid.cell(ii, jj), (a / area).min(1.0)));
             }
         }
     }
