@@ -286,10 +286,15 @@ impl<const K: usize> Sums<K> {
 
     /// The sums of both (for rayon's `reduce`: the order of merging does not matter).
     pub fn merge(mut self, other: Self) -> Self {
+        self.merge_from(&other);
+        self
+    }
+
+    /// Adds `other`'s sums into these.
+    fn merge_from(&mut self, other: &Self) {
         for (s, o) in self.0.iter_mut().zip(&other.0) {
             s.merge(o);
         }
-        self
     }
 
     /// `K` empty sums on the heap: the accumulator of a rayon `fold`, which passes its
@@ -302,9 +307,7 @@ impl<const K: usize> Sums<K> {
     // rayon's `reduce` hands both operands as the fold's type
     #[allow(clippy::boxed_local)]
     pub fn merge_boxed(mut a: Box<Self>, b: Box<Self>) -> Box<Self> {
-        for (s, o) in a.0.iter_mut().zip(&b.0) {
-            s.merge(o);
-        }
+        a.merge_from(&b);
         a
     }
 }
