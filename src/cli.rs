@@ -192,15 +192,16 @@ fn command_name(command: &Option<Command>) -> &'static str {
     }
 }
 
-/// Under `mpirun -np N` with N > 1 every command but `mpi-check` is refused before it
-/// reads anything (docs/design/mpi.md §7): rank 0 says why, every rank exits with 2.
+/// Under `mpirun -np N` with N > 1 every command but `mpi-check` and `run` of a 2D case is
+/// refused before it reads anything (docs/design/mpi.md §7): rank 0 says why, every rank
+/// exits with 2. (A 2D case that is not decomposed is refused by `Simulation::with_comm`.)
 #[cfg(all(feature = "mpi", feature = "dim2"))]
-fn refuse_on_ranks(command: &Option<Command>, ranks: usize) -> String {
+fn refuse_on_ranks(cli: &Cli, ranks: usize) -> String {
+    let command = &cli.command;
     match command {
         Some(Command::Run { .. }) => format!(
-            "error: run: a run on {ranks} ranks is not decomposed yet (issue 19: this build has the rank grid, the \
-             halo exchange and `multifield mpi-check`; the decomposed step comes in its next phases); run this case \
-             on one process (`multifield run`, or `mpirun -np 1`)"
+            "error: run: a 3D case on {ranks} ranks is not decomposed yet (issue 19: 2D cases with Eulerian fields \
+             run on several ranks so far); run this case on one process (`multifield run`, or `mpirun -np 1`)"
         ),
         c => format!(
             "error: {}: runs on one process; under mpirun with {ranks} ranks every rank would run it whole: run it \
@@ -268,13 +269,24 @@ pub fn main() -> ExitCode {
         if let Some(Command::MpiCheck { cells, ranks, periodic }) = &cli.command {
             return crate::mpi::check_command(&mpi_session.comm, cells, ranks.as_deref(), periodic);
         }
-        if mpi_session.comm.size() > 1 {
+        let size = mpi_session.comm.size();
+        let decomposed = matches!(cli.command, Some(Command::Run { .. })) && dimension_of(&cli) != Some(3);
+        if size > 1 && !decomposed {
             if mpi_session.comm.rank() == 0 {
-                eprintln!("{}", refuse_on_ranks(&cli.command, mpi_session.comm.size()));
+                eprintln!("{}", refuse_on_ranks(&cli, size));
             }
             return ExitCode::from(2);
         }
     }
+    // the ranks of a decomposed `run` (rank 0 writes the output and the messages)
+    #[cfg(all(feature = "mpi", feature = "dim2"))]
+    let ranks = {
+        use crate::core::parallel::Comm;
+        (mpi_session.comm.size() > 1).then(|| run::Ranks(mpi_session.comm.clone()))
+    };
+    #[cfg(not(all(feature = "mpi", feature = "dim2")))]
+    let ranks: Option<run::Ranks> = None;
+    let quiet_rank = ranks.as_ref().is_some_and(|r| r.0.rank() != 0);
     // a 3D case runs in the 3D compile of this library, which parses the same command line
     #[cfg(feature = "dim2")]
     if dimension_of(&cli) == Some(3) {
@@ -312,7 +324,8 @@ pub fn main() -> ExitCode {
         Some(Command::Run { case, out, threads, overrides, quiet, restart, max_memory }) => load(&case, &overrides)
             .and_then(|(c, _)| {
                 resources(&c, &case, &max_memory)?;
-                run_case(&c, &case, out, &RunOptions { threads, quiet, restart, case_file: Some(case.clone()) })
+                let ranks = ranks.clone();
+                run_case(&c, &case, out, &RunOptions { threads, quiet, restart, case_file: Some(case.clone()), ranks })
             }),
         Some(Command::Check { case, overrides, threads, max_memory }) => {
             load(&case, &overrides).and_then(|(c, generated)| check(&c, &generated, &case, threads, &max_memory))
@@ -329,7 +342,8 @@ pub fn main() -> ExitCode {
         Some(Command::Compare { case, overrides, point_overrides, out, threads, reference, max_memory }) => {
             load(&case, &overrides).and_then(|(c, _)| {
                 resources(&c, &case, &max_memory)?;
-                let options = RunOptions { threads, quiet: true, restart: None, case_file: Some(case.clone()) };
+                let options =
+                    RunOptions { threads, quiet: true, restart: None, case_file: Some(case.clone()), ranks: None };
                 compare(&c, &case, &point_overrides, out, &options, reference)
             })
         }
@@ -346,6 +360,10 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // every rank of a decomposed run ends alike; rank 0 says why
+        Err(Failure::Input(_)) if quiet_rank => ExitCode::from(2),
+        Err(Failure::Run(_)) if quiet_rank => ExitCode::from(1),
+        Err(Failure::Interrupted(_)) if quiet_rank => ExitCode::from(130),
         Err(Failure::Input(e)) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
@@ -422,6 +440,11 @@ fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions
         e => Failure::Input(e.in_file(file)),
     })?;
     let s = &outcome.summary;
+    let report = options.ranks.as_ref().is_none_or(|r| r.0.rank() == 0);
+    if !report {
+        // (the other ranks of a decomposed run: rank 0 reports, and their outcome is its)
+        return status_result(outcome.status);
+    }
     println!(
         "{}: {} steps to t = {} in {:.2} s on {} thread{} (final kinetic energy {:.6e}, max divergence {:.2e})",
         s.status,
@@ -454,7 +477,12 @@ fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions
     ];
     let written: Vec<&str> = files.into_iter().chain(["charts/"]).filter(|f| dir.join(f).exists()).collect();
     println!("output: {}/ ({})", dir.display(), written.join(", "));
-    match outcome.status {
+    status_result(outcome.status)
+}
+
+/// A run's status as the command's result.
+fn status_result(status: Status) -> Result<(), Failure> {
+    match status {
         Status::Completed => Ok(()),
         Status::Unstable(r) => Err(Failure::Run(format!("the run became unstable: {r}"))),
         Status::Failed(r) => Err(Failure::Run(format!("the run failed: {r}"))),

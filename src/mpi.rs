@@ -102,7 +102,7 @@ impl Comm for MpiComm {
 pub struct Session {
     _universe: Universe,
     /// The world's ranks.
-    pub comm: MpiComm,
+    pub comm: std::sync::Arc<MpiComm>,
 }
 
 /// Initializes MPI with `MPI_THREAD_SERIALIZED`; an error if the library offers less.
@@ -115,7 +115,16 @@ pub fn start() -> Result<Session, String> {
              Open MPI or MPICH with thread support)"
         ));
     }
-    let comm = MpiComm::new(universe.world());
+    let comm = std::sync::Arc::new(MpiComm::new(universe.world()));
+    if comm.size() > 1 {
+        // a panic on one rank leaves the others waiting in their next exchange or sum:
+        // after its message, end the whole job (MPI_Abort) instead of a hang
+        let report = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            report(info);
+            SimpleCommunicator::world().abort(101);
+        }));
+    }
     Ok(Session { _universe: universe, comm })
 }
 

@@ -83,12 +83,25 @@ pub struct RunOptions {
     pub restart: Option<PathBuf>,
     /// The case file, named in the messages of a case that cannot start (else `<case>`).
     pub case_file: Option<PathBuf>,
+    /// The ranks of a decomposed run (`mpirun`; docs/design/mpi.md), `None` for one
+    /// process. Rank 0 writes the output; the others write nothing.
+    pub ranks: Option<Ranks>,
+}
+
+/// The communicator of a decomposed run's ranks.
+#[derive(Clone)]
+pub struct Ranks(pub Arc<dyn crate::core::parallel::Comm>);
+
+impl std::fmt::Debug for Ranks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "rank {} of {}", self.0.rank(), self.0.size())
+    }
 }
 
 impl RunOptions {
     /// Default threads, no progress bar (for tests and scripts).
     pub fn quiet() -> Self {
-        Self { threads: 0, quiet: true, restart: None, case_file: None }
+        Self { threads: 0, quiet: true, restart: None, case_file: None, ranks: None }
     }
 }
 
@@ -266,19 +279,24 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             let (sim, checkpoint) = crate::checkpoint::restore(case, path)?;
             (sim, Some(checkpoint))
         }
-        None => match Simulation::new(case) {
+        None => match match &options.ranks {
+            Some(r) => Simulation::with_comm(case, r.0.clone()),
+            None => Simulation::new(case),
+        } {
             Ok(sim) => (sim, None),
             Err(e) => {
                 let e = match &options.case_file {
                     Some(file) => e.in_file(file),
                     None => e,
                 };
-                write_file(&dir.join("case.ron"), &case.to_ron())?;
-                let status = Status::Failed(e.to_string());
-                summary.status = status.label().into();
-                summary.reason = status.reason().into();
-                summary.min_dt = 0.0;
-                write_summary(dir, &summary)?;
+                if writes_output(options) {
+                    write_file(&dir.join("case.ron"), &case.to_ron())?;
+                    let status = Status::Failed(e.to_string());
+                    summary.status = status.label().into();
+                    summary.reason = status.reason().into();
+                    summary.min_dt = 0.0;
+                    write_summary(dir, &summary)?;
+                }
                 return Err(e);
             }
         },
@@ -293,10 +311,53 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
             if !summary.min_dt.is_finite() {
                 summary.min_dt = 0.0;
             }
-            let _ = write_summary(dir, &summary);
+            if writes_output(options) {
+                let _ = write_summary(dir, &summary);
+            }
         }
     }
     result
+}
+
+/// Whether this process writes the run's output: one process, or rank 0 of several.
+fn writes_output(options: &RunOptions) -> bool {
+    options.ranks.as_ref().is_none_or(|r| r.0.rank() == 0)
+}
+
+/// The refusal, before step 0, of what a run on several ranks does not do yet (issue 19's
+/// later phases): the output beyond `diagnostics.csv` and `summary.json`, checkpoints,
+/// restarts and monitors. Every rank decides alike (from the case).
+fn refuse_on_ranks(sim: &Simulation, options: &RunOptions) -> Result<(), Error> {
+    let Some(r) = options.ranks.as_ref().filter(|r| r.0.size() > 1) else {
+        return Ok(());
+    };
+    let ranks = r.0.size();
+    let o = &sim.case.output;
+    let refuse = |key: &str, what: &str, fix: &str| {
+        Err(Error::invalid(
+            key,
+            format!(
+                "{what}: not yet on several ranks, and this run has {ranks}; {fix} (a decomposed run writes \
+                 diagnostics.csv, summary.json and the charts so far), or run on one rank"
+            ),
+        ))
+    };
+    if options.restart.is_some() {
+        return refuse("--restart", "a restart from a checkpoint", "start from t = 0");
+    }
+    if o.checkpoints.is_some() {
+        return refuse("output.checkpoints", "checkpoints", "set `checkpoints: None`");
+    }
+    if !sim.case.monitors.is_empty() || !sim.case.stop.is_empty() {
+        return refuse("monitors", "monitors and stop conditions", "remove `monitors` and `stop`");
+    }
+    if o.snapshots.is_some() {
+        return refuse("output.snapshots", "snapshots", "set `snapshots: None`");
+    }
+    if o.pictures.is_some() {
+        return refuse("output.pictures", "pictures", "set `pictures: None`");
+    }
+    Ok(())
 }
 
 /// The run of `sim` once it is built (or restored): the writers, the time loop and the
@@ -308,6 +369,7 @@ fn run_simulation(
     options: &RunOptions,
     summary: &mut Summary,
 ) -> Result<Outcome, Error> {
+    refuse_on_ranks(&sim, options)?;
     let interval = sim.case.output.interval;
     if let Some(c) = &resumed {
         crate::checkpoint::discard_after(dir, c.step)?;
@@ -324,12 +386,15 @@ fn run_simulation(
         let last = resumed.as_ref().map(|c| c.step);
         checkpoints = Some(crate::checkpoint::Checkpoints::create(dir, schedule, next, last)?);
     }
-    write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
+    let writes = writes_output(options);
+    if writes {
+        write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
+    }
     let has_bodies = !sim.bodies().is_empty();
     let (state, csv, bodies, monitors) = match &resumed {
         None => {
             let monitors = Monitors::create(&mut sim, dir)?;
-            let csv = DiagnosticsCsv::create(dir.join("diagnostics.csv"))?;
+            let csv = if writes { Some(DiagnosticsCsv::create(dir.join("diagnostics.csv"))?) } else { None };
             let bodies = if has_bodies { Some(BodiesCsv::create(dir.join("bodies.csv"))?) } else { None };
             (RunState::new(&sim), csv, bodies, monitors)
         }
@@ -354,7 +419,8 @@ fn run_simulation(
                 .filter(|p| p.file_name().is_some_and(|n| n == crate::checkpoint::FOLDER))
                 .and_then(Path::parent);
             let source = |name: &str| source_dir.map(|d| d.join(name));
-            let csv = DiagnosticsCsv::resume(dir.join("diagnostics.csv"), source("diagnostics.csv").as_deref(), keep)?;
+            let csv =
+                Some(DiagnosticsCsv::resume(dir.join("diagnostics.csv"), source("diagnostics.csv").as_deref(), keep)?);
             let bodies = if has_bodies {
                 Some(BodiesCsv::resume(dir.join("bodies.csv"), source("bodies.csv").as_deref(), keep)?)
             } else {
@@ -369,7 +435,10 @@ fn run_simulation(
     summary.kinetic_energy_bound = ENERGY_GROWTH * reference_energy(&sim);
     let end = sim.case.time.end;
     let mut driver = Driver::resume(sim, state);
-    driver.add_writer(csv);
+    // (the other ranks of a decomposed run: no file; the diagnostics are the same on each)
+    if let Some(csv) = csv {
+        driver.add_writer(csv);
+    }
     if let Some(b) = bodies {
         driver.add_writer(b);
     }
@@ -382,7 +451,7 @@ fn run_simulation(
     if let Some(m) = monitors {
         driver.set_monitors(m);
     }
-    let show_bar = !options.quiet && std::io::stdout().is_terminal();
+    let show_bar = writes && !options.quiet && std::io::stdout().is_terminal();
     let bar = progress_bar(show_bar, end);
     {
         let bar = bar.clone();
@@ -428,6 +497,9 @@ fn run_simulation(
     summary.status = status.label().into();
     summary.reason = if status == Status::Completed { outcome.reason } else { status.reason().into() };
     summary.warnings = sim.warnings();
+    if !writes {
+        return Ok(Outcome { status, summary: summary.clone(), output_dir: dir.to_path_buf() });
+    }
     if !options.quiet {
         for w in &summary.warnings {
             eprintln!("warning: {w}");

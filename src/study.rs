@@ -1059,7 +1059,7 @@ pub fn run_one(c: &Combination, case_text: &str, threads: usize, task: Option<&[
         }
     }
     crate::output::write_atomically(&c.dir.join(STUDY_CASE), case_text.as_bytes())?;
-    let options = RunOptions { threads, quiet: true, restart, case_file: None };
+    let options = RunOptions { threads, quiet: true, restart, case_file: None, ranks: None };
     run::run(&c.case, &c.dir, &options)
 }
 

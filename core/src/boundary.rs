@@ -149,6 +149,13 @@ pub enum Boundary {
         #[serde(default)]
         pressure: Real,
     },
+    /// Not a side of the domain: a rank's block of a decomposed run (docs/design/mpi.md
+    /// §2) ends here and its halo holds the neighbouring rank's values. Nothing is imposed
+    /// (the normal velocity is free and ghost rules copy the nearest value); what the
+    /// kernels compute at the halo nodes is never read before the next exchange. Never in
+    /// a case file (`Boundaries::local` makes it).
+    #[serde(skip)]
+    Halo,
 }
 
 /// The conditions on all sides.
@@ -198,6 +205,31 @@ impl Boundaries {
             Side::Back => self.back,
             #[cfg(feature = "dim3")]
             Side::Front => self.front,
+        }
+    }
+    /// The sides of rank's block (`part` of a decomposed domain): [`Boundary::Halo`] where
+    /// the storage has a halo (a side facing another rank), the domain's elsewhere (a side
+    /// of the domain, and a periodic axis the rank spans alone, which wraps within it).
+    pub fn local(&self, part: &crate::part::Part) -> Self {
+        let mut b = *self;
+        for side in Side::ALL {
+            if part.pads(side.axis())[side.high() as usize] > 0 {
+                *b.side_mut(side) = Boundary::Halo;
+            }
+        }
+        b
+    }
+    /// The condition on `side`, to change.
+    fn side_mut(&mut self, side: Side) -> &mut Boundary {
+        match side {
+            Side::Left => &mut self.left,
+            Side::Right => &mut self.right,
+            Side::Bottom => &mut self.bottom,
+            Side::Top => &mut self.top,
+            #[cfg(feature = "dim3")]
+            Side::Back => &mut self.back,
+            #[cfg(feature = "dim3")]
+            Side::Front => &mut self.front,
         }
     }
     /// Periodic along `axis`.
@@ -281,7 +313,7 @@ impl Boundaries {
     pub fn ghost(&self, side: Side, component: usize, inside: Real, s: Along) -> Real {
         match self.side(side) {
             Boundary::NoSlip => -inside,
-            Boundary::FreeSlip | Boundary::Outflow { .. } | Boundary::Periodic => inside,
+            Boundary::FreeSlip | Boundary::Outflow { .. } | Boundary::Periodic | Boundary::Halo => inside,
             Boundary::Velocity { .. } => 2.0 * self.wall_velocity(side, s)[component] - inside,
         }
     }
@@ -293,7 +325,7 @@ impl Boundaries {
         match self.side(side) {
             Boundary::NoSlip | Boundary::FreeSlip => Some(0.0),
             Boundary::Velocity { .. } => Some(self.wall_velocity(side, s)[side.axis()]),
-            Boundary::Periodic | Boundary::Outflow { .. } => None,
+            Boundary::Periodic | Boundary::Outflow { .. } | Boundary::Halo => None,
         }
     }
 

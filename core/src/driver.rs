@@ -581,7 +581,9 @@ impl Driver {
     /// an [`Outcome`] that says so.
     pub fn run(&mut self) -> Result<Outcome> {
         let Self { sim, state, writers, checks, progress, interrupt, monitors } = self;
-        let interrupted = || interrupt.as_ref().is_some_and(|f| f.load(Ordering::SeqCst));
+        // a signal reaches the ranks of a decomposed run at different times: they agree
+        let part = sim.grid.part.clone();
+        let interrupted = || part.any(interrupt.as_ref().is_some_and(|f| f.load(Ordering::SeqCst)));
         let stop = |sim: &Simulation| {
             Status::Interrupted(format!("interrupted by a signal after step {}, t = {}", sim.steps, sim.time))
         };

@@ -321,7 +321,7 @@ pub fn reduce<const K: usize>(sums: &Sums<K>) -> [f64; K] {
 }
 
 /// Lattices at least this large are reduced in parallel (the result is the same).
-const PARALLEL_NODES: usize = 16_384;
+pub(crate) const PARALLEL_NODES: usize = 16_384;
 
 /// The reduction rule over a lattice stored row by row (rows of `len` nodes along x, `nx`
 /// cells along x, `total` nodes): `group(range)` gives the `K` values of the row group at

@@ -9,6 +9,7 @@
 //! one with `k = 0`.
 
 use crate::math::{Index, Real, Vector, AXES, DIM};
+use crate::part::{Part, RowGroups};
 use serde::{Deserialize, Serialize};
 
 /// Which of the three staggered lattices a quantity lives on.
@@ -68,6 +69,16 @@ pub struct Grid {
     pub start: [isize; DIM],
     /// Cells of the whole domain along each axis (`n()` for the whole domain).
     pub domain: Index,
+    /// The rank's part of a decomposed domain: its halo exchange, owned nodes and
+    /// reductions ([`Part::whole`] on one rank).
+    pub part: Part,
+}
+
+impl Default for Grid {
+    /// No cells (a placeholder until a plugin is given its grid).
+    fn default() -> Self {
+        Self::from_cells([0; DIM], 0.0, Vector::zeros())
+    }
 }
 
 impl Grid {
@@ -78,11 +89,11 @@ impl Grid {
     }
     /// A grid of `n[0] × n[1] (× n[2])` cells of side `h` starting at `origin`.
     pub fn from_cells(n: Index, h: Real, origin: Vector) -> Self {
-        let (start, domain) = ([0; DIM], n);
+        let (start, domain, part) = ([0; DIM], n, Part::whole());
         #[cfg(feature = "dim2")]
-        return Self { nx: n[0], ny: n[1], h, origin, start, domain };
+        return Self { nx: n[0], ny: n[1], h, origin, start, domain, part };
         #[cfg(feature = "dim3")]
-        return Self { nx: n[0], ny: n[1], nz: n[2], h, origin, start, domain };
+        return Self { nx: n[0], ny: n[1], nz: n[2], h, origin, start, domain, part };
     }
     /// The storage of a block of this domain: `n` cells from global cell `start` (which may
     /// lie outside the domain by a halo's width at a periodic wrap). Its nodes' positions
@@ -97,6 +108,54 @@ impl Grid {
     #[inline]
     pub fn global(&self, axis: usize, i: usize) -> Real {
         (i as isize + self.start[axis]) as Real
+    }
+    /// The storage of this rank's block of the domain `self` in a decomposed run: its
+    /// owned cells with the halo on the sides that face another rank, and `part`.
+    pub fn of_part(&self, part: Part) -> Self {
+        let Some((_, block)) = part.block() else {
+            return Self { part, ..self.clone() };
+        };
+        let pads: [[usize; 2]; DIM] = std::array::from_fn(|a| part.pads(a));
+        let start = std::array::from_fn(|a| block.cells[a].start as isize - pads[a][0] as isize);
+        let n = std::array::from_fn(|a| block.cells[a].len() + pads[a][0] + pads[a][1]);
+        let mut g = self.block(start, n);
+        g.part = part;
+        g
+    }
+    /// The row groups of the reduction rule over the owned nodes of a lattice.
+    pub fn groups(&self, lattice: Lattice) -> RowGroups {
+        self.part.groups(lattice, self.shape(lattice), crate::exact::GROUP)
+    }
+    /// Σ a b over the owned nodes of a lattice (every rank's), by the reduction rule.
+    pub fn dot(&self, lattice: Lattice, a: &[Real], b: &[Real]) -> Real {
+        self.part.dot(lattice, self.shape(lattice), a, b)
+    }
+    /// Σ a over the owned nodes of a lattice (every rank's), by the reduction rule.
+    pub fn sum(&self, lattice: Lattice, a: &[Real]) -> Real {
+        self.part.sum(lattice, self.shape(lattice), a)
+    }
+    /// The domain's cells (every rank's).
+    pub fn domain_cells(&self) -> usize {
+        self.domain.iter().product()
+    }
+    /// Fills the halo of lattice arrays on this grid with their owners' values (nothing to
+    /// do on one rank). Every rank calls it with the same lattices in the same order.
+    pub fn exchange(&self, arrays: &mut [(Lattice, &mut [Real])]) {
+        self.part.exchange(arrays)
+    }
+    /// [`Grid::exchange`] of face arrays (every component).
+    pub fn exchange_faces(&self, faces: &mut FaceArrays) {
+        if self.part.is_whole() {
+            return;
+        }
+        #[cfg(feature = "dim2")]
+        self.exchange(&mut [(Lattice::XFace, &mut faces.u), (Lattice::YFace, &mut faces.v)]);
+        #[cfg(feature = "dim3")]
+        self.exchange(&mut [
+            (Lattice::XFace, &mut faces.u),
+            (Lattice::YFace, &mut faces.v),
+            (Lattice::ZFace, &mut faces.w),
+        ]);
     }
     /// Cells along each axis.
     pub fn n(&self) -> Index {

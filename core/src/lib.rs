@@ -31,6 +31,7 @@ pub mod math;
 pub mod monitor;
 pub mod neighbours;
 pub mod parallel;
+pub mod part;
 pub mod plugin;
 pub mod poisson;
 pub mod quantity;

@@ -205,6 +205,13 @@ pub trait Frame: Send + Sync {
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in (written to `case.ron`).
     fn params(&self) -> serde_json::Value;
+    /// Whether it runs on a rank's block of a decomposed domain (docs/design/mpi.md): every
+    /// neighbour it reads through the grid's halo exchange (`Grid::exchange`), every sum over
+    /// the domain through `Grid::dot`/`Grid::sum` or `Part::reduce`. A run on several ranks
+    /// refuses, before step 0, a plugin that does not (the default).
+    fn decomposed(&self) -> bool {
+        false
+    }
     /// Whether the state lives on material points.
     fn is_lagrangian(&self) -> bool;
     /// How this frame represents a field of bodies: [`Representation::Resolved`] (the
@@ -445,6 +452,13 @@ pub trait StressModel: Send + Sync {
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in.
     fn params(&self) -> serde_json::Value;
+    /// Whether it runs on a rank's block of a decomposed domain (docs/design/mpi.md): every
+    /// neighbour it reads through the grid's halo exchange (`Grid::exchange`), every sum over
+    /// the domain through `Grid::dot`/`Grid::sum` or `Part::reduce`. A run on several ranks
+    /// refuses, before step 0, a plugin that does not (the default).
+    fn decomposed(&self) -> bool {
+        false
+    }
     /// Updates grid velocities with this stress (e.g. viscous diffusion). Default: nothing.
     fn apply_on_grid(&self, _ctx: &mut GridStressContext) -> Result<(), String> {
         Ok(())
@@ -494,6 +508,13 @@ pub trait ExchangeModel: Send + Sync {
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in.
     fn params(&self) -> serde_json::Value;
+    /// Whether it runs on a rank's block of a decomposed domain (docs/design/mpi.md): every
+    /// neighbour it reads through the grid's halo exchange (`Grid::exchange`), every sum over
+    /// the domain through `Grid::dot`/`Grid::sum` or `Part::reduce`. A run on several ranks
+    /// refuses, before step 0, a plugin that does not (the default).
+    fn decomposed(&self) -> bool {
+        false
+    }
     /// A drag law on particles (diameter, viscosity, valid Re, added mass, rotation), or
     /// `None` for other couplings.
     fn drag_law(&self) -> Option<DragLaw> {
@@ -561,6 +582,13 @@ pub trait ContactModel: Send + Sync {
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in.
     fn params(&self) -> serde_json::Value;
+    /// Whether it runs on a rank's block of a decomposed domain (docs/design/mpi.md): every
+    /// neighbour it reads through the grid's halo exchange (`Grid::exchange`), every sum over
+    /// the domain through `Grid::dot`/`Grid::sum` or `Part::reduce`. A run on several ranks
+    /// refuses, before step 0, a plugin that does not (the default).
+    fn decomposed(&self) -> bool {
+        false
+    }
     /// Force and torque on each body (same order as `ctx.bodies`) at the given states. `dt` is
     /// the (sub-)step these forces will act over: a model with history (tangential springs)
     /// advances it by `dt`.
@@ -613,6 +641,13 @@ pub trait PressureSolver: Send + Sync {
     fn model(&self) -> &'static str;
     /// Parameters with defaults filled in.
     fn params(&self) -> serde_json::Value;
+    /// Whether it runs on a rank's block of a decomposed domain (docs/design/mpi.md): every
+    /// neighbour it reads through the grid's halo exchange (`Grid::exchange`), every sum over
+    /// the domain through `Grid::dot`/`Grid::sum` or `Part::reduce`. A run on several ranks
+    /// refuses, before step 0, a plugin that does not (the default).
+    fn decomposed(&self) -> bool {
+        false
+    }
     /// Solves `problem` for `pressure` (which holds the initial guess).
     fn solve(&mut self, problem: &PoissonProblem, pressure: &mut [Real]) -> crate::Result<SolveStats>;
 }

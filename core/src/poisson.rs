@@ -29,6 +29,9 @@ pub struct PoissonProblem {
     pub dirichlet: [bool; SIDES],
     /// |mean(b)| / rms(b) removed from a singular system (0 if nonsingular).
     pub incompatibility: Real,
+    /// Whether no side of the domain fixes p (decided for the whole domain: on a rank of a
+    /// decomposed run `dirichlet` has only its own block's sides).
+    singular: bool,
 }
 
 /// What a solve did.
@@ -75,15 +78,24 @@ impl PoissonProblem {
                 }
             }
         }
-        let mut p =
-            Self { grid: grid.clone(), c, rhs, periodic: boundaries.periodic_axes(), dirichlet, incompatibility: 0.0 };
+        // every rank agrees: one whose block touches no outflow side must not think p free
+        let singular = !grid.part.any(dirichlet.iter().any(|&d| d));
+        let mut p = Self {
+            grid: grid.clone(),
+            c,
+            rhs,
+            periodic: boundaries.periodic_axes(),
+            dirichlet,
+            incompatibility: 0.0,
+            singular,
+        };
         p.make_compatible();
         p
     }
 
     /// Whether the operator has the constant null space.
     pub fn is_singular(&self) -> bool {
-        !self.dirichlet.iter().any(|&d| d)
+        self.singular
     }
 
     /// Projects the right-hand side onto the range of a singular operator.
@@ -91,14 +103,14 @@ impl PoissonProblem {
         if !self.is_singular() {
             return;
         }
-        let n = self.rhs.len() as Real;
-        let nx = self.grid.nx;
+        // the domain's cells, over every rank
+        let n = self.grid.domain_cells() as Real;
         let rhs = &self.rhs;
-        let [total, squares] =
-            crate::exact::reduce(&crate::exact::row_sums(rhs.len(), nx, nx, crate::exact::GROUP, |g| {
-                let b = &rhs[g];
-                [b.iter().sum(), crate::exact::lanes_dot(b, b)]
-            }));
+        let g = &self.grid;
+        let [total, squares] = g.part.reduce(g.groups(Lattice::Cell).sums(|g| {
+            let b = &rhs[g];
+            [b.iter().sum(), crate::exact::lanes_dot(b, b)]
+        }));
         let mean = total / n;
         let rms = (squares / n).sqrt();
         self.incompatibility = if rms > 0.0 { mean.abs() / rms } else { 0.0 };
@@ -179,8 +191,8 @@ impl PoissonProblem {
         let mut r = vec![0.0; x.len()];
         self.apply(x, &mut r);
         r.par_iter_mut().zip(self.rhs.par_iter()).for_each(|(r, b)| *r = b - *r);
-        let nx = self.grid.nx;
-        let [bb, rr] = crate::exact::reduce(&crate::exact::row_sums(r.len(), nx, nx, crate::exact::GROUP, |g| {
+        let grid = &self.grid;
+        let [bb, rr] = grid.part.reduce(grid.groups(Lattice::Cell).sums(|g| {
             let (b, r) = (&self.rhs[g.clone()], &r[g]);
             [crate::exact::lanes_dot(b, b), crate::exact::lanes_dot(r, r)]
         }));
@@ -195,7 +207,7 @@ impl PoissonProblem {
     /// Shifts a solution of a singular problem to zero mean.
     pub fn fix_constant(&self, p: &mut [Real]) {
         if self.is_singular() {
-            let mean = sum(p, self.grid.nx) / p.len() as Real;
+            let mean = self.grid.sum(Lattice::Cell, p) / self.grid.domain_cells() as Real;
             p.par_iter_mut().for_each(|x| *x -= mean);
         }
     }

@@ -65,7 +65,7 @@ pub mod viscous;
 use multifield_core::boundary::{Boundaries, Side, MIDDLE};
 use multifield_core::case::Region;
 #[cfg(feature = "dim2")]
-use multifield_core::exact::{reduce, row_sums, Sums, GROUP};
+use multifield_core::exact::Sums;
 use multifield_core::grid::{FaceVelocity, Grid, Lattice};
 use multifield_core::math::{Real, Vector, AXES};
 use multifield_core::plugin::{apply_grid_stresses, Frame, FrameContext, InitContext, StressModel};
@@ -348,6 +348,8 @@ fn tangential_rule(side: Side, period: usize, periodic: bool) -> Rule {
 /// Scratch and state that depend on the grid (built by `initialize`).
 #[derive(Clone, Debug, Default)]
 struct Work {
+    /// The grid (a rank's block of a decomposed domain: its halo exchange and reductions).
+    grid: Grid,
     #[cfg(feature = "dim2")]
     nx: usize,
     #[cfg(feature = "dim2")]
@@ -413,6 +415,7 @@ impl Work {
     fn new(grid: &Grid, bc: &Boundaries, density: Real, fills_rest: bool) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
         Work {
+            grid: grid.clone(),
             nx,
             ny,
             h: grid.h,
@@ -593,12 +596,14 @@ impl Work {
 
     /// Σ over faces of f(face mass, velocity component) for x and y.
     fn face_sums(&self, f: impl Fn(Real, Real) -> Real + Sync + Send) -> (Real, Real) {
-        let (nx, ny) = (self.nx, self.ny);
+        let nx = self.nx;
         let m0 = self.density * self.h * self.h;
         // the reduction rule (docs/design/mpi.md §3): row groups of 32 faces along x (the
         // high face nx alone), each summed in order, the groups' values added exactly
+        // (the owned faces of a rank's block, every rank's sums added)
         let (lx, ly) = (nx + 1, nx);
-        let Sums([sx]) = row_sums(lx * ny, lx, nx, GROUP, |g| {
+        let g = &self.grid;
+        let Sums([sx]) = g.groups(Lattice::XFace).sums(|g| {
             let j = g.start / lx;
             [g.map(|k| {
                 let (t, w) = self.xface_weight(k - j * lx, j);
@@ -606,7 +611,7 @@ impl Work {
             })
             .sum()]
         });
-        let Sums([sy]) = row_sums(ly * (ny + 1), ly, nx, GROUP, |g| {
+        let Sums([sy]) = g.groups(Lattice::YFace).sums(|g| {
             let j = g.start / ly;
             [g.map(|k| {
                 let (t, w) = self.yface_weight(k - j * ly, j);
@@ -614,7 +619,7 @@ impl Work {
             })
             .sum()]
         });
-        let [sx, sy] = reduce(&Sums([sx, sy]));
+        let [sx, sy] = g.part.reduce(Sums([sx, sy]));
         (sx, sy)
     }
 }
@@ -795,6 +800,10 @@ impl Frame for Eulerian {
     fn is_lagrangian(&self) -> bool {
         false
     }
+    fn decomposed(&self) -> bool {
+        // (3D: not yet; its padded arrays and sums are the next phase)
+        cfg!(feature = "dim2")
+    }
     fn implicit_diffusion_number(&self, stress: &[Box<dyn StressModel>]) -> Option<Real> {
         self.implicit_viscosity(stress).map(|_| self.max_diffusion_number)
     }
@@ -829,7 +838,10 @@ impl Frame for Eulerian {
             }
         }
         ctx.boundaries.enforce(g, &mut w.velocity);
-        if !w.velocity.max_abs().is_finite() {
+        // a rank's halo as its neighbours' (not the values at the unwrapped positions)
+        g.exchange(&mut [(Lattice::Cell, &mut w.theta)]);
+        g.exchange_faces(&mut w.velocity);
+        if g.part.any(!w.velocity.max_abs().is_finite()) {
             return Err("the initial velocity is not finite".into());
         }
         self.work = w;
@@ -867,10 +879,15 @@ impl Frame for Eulerian {
         let lagged = self.work.steps > 0;
         let s = &*ctx.state;
         self.half_step(bc, grid, 0.5 * dt, (&s.pressure_acceleration, &s.body_force), ctx.gravity, lagged);
+        // (a decomposed run: the halo of u½ as the neighbours', read by the solve and −A(u½))
+        grid.exchange_faces(&mut self.work.half);
         if let Some(nu) = nu {
             self.implicit_half(grid, bc, 0.5 * dt * nu / (grid.h * grid.h))?;
         }
         bc.enforce(grid, &mut self.work.half);
+        if nu.is_some() {
+            grid.exchange_faces(&mut self.work.half);
+        }
         // −A(u½)
         let half = std::mem::take(&mut self.work.half);
         self.work.advect_rate(&half, bc, lim);
@@ -881,6 +898,7 @@ impl Frame for Eulerian {
             None => {
                 self.full_step(bc, grid, dt, s);
                 bc.enforce(grid, s);
+                grid.exchange_faces(s);
                 apply_grid_stresses(ctx, dt)?;
             }
             Some(nu) => {
@@ -920,7 +938,8 @@ impl Frame for Eulerian {
         w.theta1.par_iter_mut().zip(theta.par_iter().zip(w.theta_rate.par_iter())).for_each(|(t1, (t, r))| {
             *t1 = t + dt * r;
         });
-        let theta1 = std::mem::take(&mut w.theta1);
+        let mut theta1 = std::mem::take(&mut w.theta1);
+        ctx.grid.exchange(&mut [(Lattice::Cell, &mut theta1)]);
         w.theta_rate(&theta1, bc, lim);
         w.theta = theta;
         w.theta1 = theta1;
@@ -928,12 +947,21 @@ impl Frame for Eulerian {
         w.theta.par_iter_mut().zip(t1.par_iter().zip(r.par_iter())).for_each(|(t, (t1, r))| {
             *t = 0.5 * *t + 0.5 * (t1 + dt * r);
         });
+        ctx.grid.exchange(&mut [(Lattice::Cell, &mut w.theta)]);
         ctx.state.theta.copy_from_slice(&w.theta);
         Ok(())
     }
 
     fn max_speed(&self) -> Real {
-        self.work.velocity.max_abs()
+        let w = &self.work;
+        if w.grid.part.is_whole() {
+            return w.velocity.max_abs();
+        }
+        // the owned faces of every rank
+        let g = &w.grid;
+        AXES.iter()
+            .map(|&a| g.part.max_abs(Lattice::face(a), g.shape(Lattice::face(a)), &w.velocity[a]))
+            .fold(0.0, Real::max)
     }
 
     #[cfg(feature = "dim2")]
@@ -951,7 +979,7 @@ impl Frame for Eulerian {
     #[cfg(feature = "dim2")]
     fn mass(&self) -> Real {
         let w = &self.work;
-        multifield_core::exact::sum(&w.theta, w.nx, w.nx) * w.density * w.h * w.h
+        w.grid.sum(Lattice::Cell, &w.theta) * w.density * w.h * w.h
     }
 
     #[cfg(feature = "dim3")]

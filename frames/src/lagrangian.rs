@@ -657,7 +657,7 @@ fn check_open_sides(bc: &Boundaries, region: &Region, contact: Option<(&str, boo
                     continue;
                 }
             }
-            Boundary::NoSlip | Boundary::FreeSlip | Boundary::Periodic => continue,
+            Boundary::NoSlip | Boundary::FreeSlip | Boundary::Periodic | Boundary::Halo => continue,
         };
         if bodies.is_none() {
             return Err(format!(

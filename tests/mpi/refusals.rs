@@ -1,5 +1,7 @@
-//! Under `mpirun -np N` with N > 1, `multifield run` refuses before it reads or writes
-//! anything (docs/design/mpi.md §7): decomposed runs are not built yet. On one rank it runs.
+//! Under `mpirun -np N` with N > 1, what is not decomposed yet is refused before step 0
+//! (docs/design/mpi.md §7), rank 0 saying why: a plugin (named with its key), the output
+//! that is not written from many ranks yet, a 3D case, and every command but `run` and
+//! `mpi-check`. On one rank a run is the run without mpirun.
 
 use super::common::{mpirun, scratch, text};
 use std::path::Path;
@@ -10,22 +12,46 @@ fn case() -> String {
 }
 
 #[test]
-fn a_run_on_several_ranks_is_refused_before_any_output() {
-    let t = "a_run_on_several_ranks_is_refused_before_any_output";
+fn what_is_not_decomposed_is_refused_before_step_0() {
+    let t = "what_is_not_decomposed_is_refused_before_step_0";
     let dir = scratch("refused");
-    let out_dir = dir.join("out");
     let c = case();
-    let Some(o) = mpirun(t, 2, &["run", &c, "--out", out_dir.to_str().unwrap(), "--quiet"]) else { return };
-    let (out, err) = text(&o);
-    assert_eq!(o.status.code(), Some(2), "{out}\n{err}");
+    let run = |name: &str, sets: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec!["run".to_string(), c.clone(), "--out".into(), out.display().to_string(), "--quiet".into()];
+        args.extend(["--set".to_string(), "domain.cells=(64, 64)".into()]);
+        for s in sets {
+            args.extend(["--set".to_string(), s.to_string()]);
+        }
+        let o = mpirun(t, 2, &args.iter().map(String::as_str).collect::<Vec<_>>())?;
+        Some((o, out))
+    };
+    // the pressure solver's default multigrid preconditioner is not distributed yet
+    let Some((o, out)) = run("multigrid", &[]) else { return };
+    let (stdout, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{stdout}\n{err}");
     assert!(
-        err.contains("error: run: a run on 2 ranks is not decomposed yet (issue 19")
-            && err.contains("run this case on one process (`multifield run`, or `mpirun -np 1`)"),
+        err.contains(
+            "pressure: the `pcg` pressure solver with its default multigrid preconditioner does not run on \
+                      several ranks yet, and this run has 2"
+        ),
         "{err}"
     );
-    assert_eq!(err.matches("not decomposed yet").count(), 1, "rank 0 alone prints: {err}");
-    assert!(!out_dir.exists(), "a refused run wrote {}", out_dir.display());
-    // the other commands too
+    assert_eq!(err.matches("does not run on several ranks").count(), 1, "rank 0 alone prints: {err}");
+    // as on one process, a case that cannot start leaves its summary
+    let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
+    assert!(summary.contains("\"status\": \"failed\""), "{summary}");
+    assert!(!out.join("diagnostics.csv").exists());
+    // snapshots are not written from many ranks yet
+    let jacobi = "pressure.params.preconditioner=\"jacobi\"";
+    let Some((o, _)) = run("snapshots", &[jacobi, "output.snapshots=Some((interval: 0.1))"]) else { return };
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).1.contains("output.snapshots: snapshots: not yet on several ranks"), "{}", text(&o).1);
+    // 6 × 6 cells: cuts along x on multiples of 32 cells, blocks of at least 4 cells
+    let Some((o, _)) = run("cells", &[jacobi, "domain.cells=(6, 6)"]) else { return };
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).1.contains("domain.cells: a run on 2 ranks:"), "{}", text(&o).1);
+    // the other commands
     let Some(o) = mpirun(t, 2, &["check", &c]) else { return };
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).1.contains("error: check: runs on one process"), "{}", text(&o).1);

@@ -7,6 +7,7 @@ mod bodies_at_open_sides;
 mod body_densities;
 mod collocated;
 mod contact_substeps;
+mod decomposed;
 mod dem;
 mod drag;
 mod elastic;

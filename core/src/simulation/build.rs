@@ -6,6 +6,15 @@ use super::*;
 impl Simulation {
     /// Builds every model from the registries and seeds the initial state.
     pub fn new(case: &Case) -> Result<Simulation> {
+        Self::with_comm(case, std::sync::Arc::new(crate::parallel::Serial))
+    }
+
+    /// [`Simulation::new`] on rank `comm.rank()` of `comm.size()` (docs/design/mpi.md): on
+    /// more than one rank the domain is cut by the rank grid of least halo surface and this
+    /// rank builds and steps its block; every rank must call it with the same case. A case
+    /// with a plugin that is not decomposed ([`Frame::decomposed`] and the like) is refused,
+    /// naming it, on every rank alike.
+    pub fn with_comm(case: &Case, comm: std::sync::Arc<dyn crate::parallel::Comm>) -> Result<Simulation> {
         // snapshots of `FromSnapshot` velocities are read once, here
         let case = &case.with_snapshots_read()?;
         case.validate()?;
@@ -25,8 +34,17 @@ impl Simulation {
         let d = &case.domain;
         let cells = case.cells();
         let h = d.size[0] / cells[0] as Real;
-        let grid = Grid::from_cells(cells, h, vector(d.origin));
-        let boundaries = case.boundaries;
+        let ranks = comm.size();
+        let part = if ranks > 1 {
+            let periodic = case.boundaries.periodic_axes();
+            let rank_grid = crate::decomposition::RankGrid::new(cells, periodic, ranks, None)
+                .map_err(|m| Error::invalid("domain.cells", format!("a run on {ranks} ranks: {m}")))?;
+            crate::part::Part::of(comm, rank_grid)
+        } else {
+            crate::part::Part::whole()
+        };
+        let grid = Grid::from_cells(cells, h, vector(d.origin)).of_part(part);
+        let boundaries = case.boundaries.local(&grid.part);
         let mut fields = Vec::new();
         for (k, spec) in case.fields.iter_mut().enumerate() {
             let path = format!("fields.{}", spec.name);
@@ -172,6 +190,9 @@ impl Simulation {
             }
             None => None,
         };
+        if ranks > 1 {
+            refuse_undecomposed(&case, &fields, &exchanges, &forcings, &pressure_solver, &contact, ranks)?;
+        }
         let contact_sides = contact.as_ref().map(|c| (c.model(), c.keeps_bodies_off_sides()));
         // seed: fields with their own region first, then the one that fills the rest
         let mut occupied = vec![0.0; grid.n_cells()];
@@ -190,10 +211,19 @@ impl Simulation {
             };
             // bodies under a direct forcing take no volume on the grid: the fluid fills them
             if !forced {
-                for (c, (o, t)) in occupied.iter_mut().zip(&theta).enumerate() {
-                    if *o + t > 1.0 + OVERLAP_TOLERANCE {
-                        return Err(overlap(&grid, c, *o + t, &case, &seeded[..k], &forcings, &f.name));
-                    }
+                // the first overfilled cell a rank owns; every rank learns whether one has
+                let owned = grid.groups(Lattice::Cell);
+                let first = owned.rows().flatten().find(|&c| occupied[c] + theta[c] > 1.0 + OVERLAP_TOLERANCE);
+                if grid.part.any(first.is_some()) {
+                    return Err(match first {
+                        Some(c) => overlap(&grid, c, occupied[c] + theta[c], &case, &seeded[..k], &forcings, &f.name),
+                        None => Error::invalid(
+                            format!("fields.{}.region", f.name),
+                            "overlaps the fields before it in another rank's block (that rank names the cell)",
+                        ),
+                    });
+                }
+                for (o, t) in occupied.iter_mut().zip(&theta) {
                     *o += t;
                 }
             }
@@ -340,4 +370,57 @@ fn overlap(
             x.x, x.y
         ),
     )
+}
+
+/// The refusal of a case that does not run on `ranks` ranks: the first plugin (frame,
+/// stress, exchange, pressure solver, contact model) that is not decomposed, named with its
+/// key in the case.
+fn refuse_undecomposed(
+    case: &Case,
+    fields: &[Field],
+    exchanges: &[Exchange],
+    forcings: &[ForcedPair],
+    pressure: &Option<Box<dyn PressureSolver>>,
+    contact: &Option<Box<dyn ContactModel>>,
+    ranks: usize,
+) -> Result<()> {
+    let refuse = |key: String, what: String| {
+        Err(Error::invalid(
+            key,
+            format!(
+                "{what} does not run on several ranks yet, and this run has {ranks}: run the case on one rank \
+                 (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): Eulerian \
+                 fields in 2D with `newtonian` stress and the `pcg` pressure solver with preconditioner \
+                 \"jacobi\" or \"none\" (docs/design/mpi.md)"
+            ),
+        ))
+    };
+    for f in fields {
+        if !f.frame.decomposed() {
+            return refuse(format!("fields.{}.frame", f.name), format!("the `{}` frame", f.frame.model()));
+        }
+        for (k, s) in f.stress.iter().enumerate() {
+            if !s.decomposed() {
+                return refuse(format!("fields.{}.stress.{k}", f.name), format!("the `{}` stress", s.model()));
+            }
+        }
+    }
+    if let Some(e) = exchanges.iter().find(|e| !e.model.decomposed()) {
+        let k = case.exchange.iter().position(|x| x.model == e.model.model()).unwrap_or(0);
+        return refuse(format!("exchange.{k}"), format!("the `{}` exchange", e.model.model()));
+    }
+    if let Some(p) = forcings.first() {
+        return refuse(
+            format!("fields.{}", case.fields[p.bodies].name),
+            "the direct forcing of bodies (`direct_forcing`)".into(),
+        );
+    }
+    if let Some(p) = pressure.as_ref().filter(|p| !p.decomposed()) {
+        let how = if p.model() == "pcg" { " with its default multigrid preconditioner" } else { "" };
+        return refuse("pressure".into(), format!("the `{}` pressure solver{how}", p.model()));
+    }
+    if let Some(c) = contact.as_ref().filter(|c| !c.decomposed()) {
+        return refuse("contact".into(), format!("the `{}` contact model", c.model()));
+    }
+    Ok(())
 }

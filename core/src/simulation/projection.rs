@@ -15,6 +15,10 @@ impl Simulation {
         let Some(solver) = self.pressure_solver.as_mut() else {
             return Ok((0, 0.0));
         };
+        // the divergence of a rank's last cells reads the faces at its high cut
+        for f in &mut self.fields {
+            self.grid.exchange_faces(&mut f.state.velocity);
+        }
         let g = &self.grid;
         let bc = &self.boundaries;
         let mut c = FaceArrays::zeros(g);
@@ -42,6 +46,8 @@ impl Simulation {
         let problem = PoissonProblem::new(g, bc, c, rhs);
         let stats = solver.solve(&problem, &mut self.pressure)?;
         problem.fix_constant(&mut self.pressure);
+        // the faces at a rank's low cut take the gradient from the cells below it
+        g.exchange(&mut [(Lattice::Cell, &mut self.pressure)]);
         // corrector: u_k = ū_k − Δt w_k ∇p
         let p = &self.pressure;
         let outflow = |side| match bc.side(side) {
@@ -89,6 +95,8 @@ impl Simulation {
                 }
             }
             bc.enforce(g, &mut s.velocity);
+            // the halo as the owners': read by the divergence, the advection and the next step
+            g.exchange_faces(&mut s.velocity);
         }
         Ok((stats.iterations, stats.residual))
     }
@@ -101,15 +109,15 @@ impl Simulation {
         // With no outflow side the pressure equation is pure Neumann: the mean of the
         // constraint (net inflow, and the mean Σθ drift term, which no pressure can change)
         // is projected out before the solve, so it is not the solver's error.
-        let closed = !crate::boundary::Side::ALL
-            .iter()
-            .any(|s| matches!(self.boundaries.side(*s), crate::boundary::Boundary::Outflow { .. }));
+        // (the domain's sides: a rank's block may not touch the outflow)
+        let closed = !self.case.boundaries.has_dirichlet_pressure();
+        let g = &self.grid;
         if closed && !c.is_empty() {
             // by the reduction rule (docs/design/mpi.md §3), as the solvers' sums
-            let mean = crate::poisson::sum(&c, self.grid.nx) / c.len() as Real;
+            let mean = g.sum(Lattice::Cell, &c) / g.domain_cells() as Real;
             c.iter_mut().for_each(|x| *x -= mean);
         }
-        c.iter().fold(0.0, |m, x| m.max(x.abs()))
+        g.part.max_abs(Lattice::Cell, g.n(), &c)
     }
 }
 

@@ -484,13 +484,18 @@ impl Simulation {
                 }
             }
         }
+        // over the owned cells, every rank's
         let (mut err, mut max): (Real, Real) = (0.0, 0.0);
-        for c in 0..n {
-            let s: Real = self.fields.iter().map(|f| f.state.theta[c]).sum();
-            err = err.max((s - 1.0).abs());
-            max = max.max(s);
+        for cells in self.grid.groups(Lattice::Cell).rows() {
+            for c in cells {
+                let s: Real = self.fields.iter().map(|f| f.state.theta[c]).sum();
+                err = err.max((s - 1.0).abs());
+                max = max.max(s);
+            }
         }
-        (err, max)
+        let mut m = [err, max];
+        self.grid.part.max(&mut m);
+        (m[0], m[1])
     }
 
     /// Phase 3: frame predictors (advection and grid stresses, in each frame's own time

@@ -270,6 +270,7 @@ impl Work {
 
     pub(super) fn new(grid: &Grid, bc: &Boundaries, density: Real, fills_rest: bool) -> Self {
         Work {
+            grid: grid.clone(),
             n: grid.n(),
             h: grid.h,
             density,

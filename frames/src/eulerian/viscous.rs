@@ -20,9 +20,10 @@
 //! exactly): the same bits on any number of threads.
 
 use multifield_core::boundary::{Along, Boundaries, FaceNeighbour, Side};
-use multifield_core::exact::{lanes_dot, reduce, row_groups, row_sums, Sums, GROUP};
+use multifield_core::exact::{lanes_dot, Sums};
 use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Index, Real, DIM, SIDES};
+use multifield_core::part::RowGroups;
 use rayon::prelude::*;
 
 /// One of the neighbours of a face in the Laplacian (four in 2D, six in 3D).
@@ -47,10 +48,13 @@ struct LatticeOperator {
     plain: Vec<bool>,
     /// The step in storage of one face along each axis.
     strides: [usize; DIM],
-    /// Faces in a row along x (the lattice's first extent) and cells along x: the row
-    /// groups of the reductions.
+    /// Faces in a row along x (the lattice's first extent).
     row: usize,
-    nx: usize,
+    /// The owned faces' row groups of the reductions (docs/design/mpi.md §3).
+    groups: Option<RowGroups>,
+    /// The grid (its part of a decomposed domain: the halo exchange and the reductions).
+    grid: Option<Grid>,
+    lattice: Option<Lattice>,
     /// The neighbours of each face, in the order of [`Side::ALL`] (unused for inactive faces).
     neighbours: Vec<[Neighbour; SIDES]>,
     /// Periodic copies: (copy, master) pairs, set after each solve.
@@ -128,7 +132,18 @@ impl LatticeOperator {
                     })
             })
             .collect();
-        LatticeOperator { active, plain, strides, row: shape[0], nx: grid.nx, neighbours, copies, ..Default::default() }
+        LatticeOperator {
+            active,
+            plain,
+            strides,
+            row: shape[0],
+            groups: Some(grid.groups(lattice)),
+            grid: Some(grid.clone()),
+            lattice: Some(lattice),
+            neighbours,
+            copies,
+            ..Default::default()
+        }
     }
 
     /// The stencil's view of the operator.
@@ -202,8 +217,10 @@ impl LatticeOperator {
                 };
             }
         });
-        let (row, nx) = (self.row, self.nx);
-        let norm_b = dot(&b, &b, row, nx).sqrt();
+        let row = self.row;
+        let (grid, lattice) = (self.grid.as_ref().expect("built"), self.lattice.expect("built"));
+        let (part, groups) = (&grid.part, self.groups.as_ref().expect("built"));
+        let norm_b = grid.dot(lattice, &b, &b).sqrt();
         let mut q = std::mem::take(&mut self.q);
         self.apply(c, x, &mut q);
         let (r, z, p) = (&mut self.r, &mut self.z, &mut self.p);
@@ -219,9 +236,7 @@ impl LatticeOperator {
         );
         let [mut rz, mut rr] = {
             let (r, z): (&[Real], &[Real]) = (r, z);
-            reduce(&row_sums(n, row, nx, GROUP, |g| {
-                [lanes_dot(&r[g.clone()], &z[g.clone()]), lanes_dot(&r[g.clone()], &r[g])]
-            }))
+            part.reduce(groups.sums(|g| [lanes_dot(&r[g.clone()], &z[g.clone()]), lanes_dot(&r[g.clone()], &r[g])]))
         };
         let mut iterations = 0;
         let target = tolerance * norm_b;
@@ -234,6 +249,8 @@ impl LatticeOperator {
                      of {norm_b:.2e})"
                 ));
             }
+            // a rank's faces next to its cuts read the neighbours' p
+            grid.exchange(&mut [(lattice, &mut p[..])]);
             let p_ref: &[Real] = p;
             // q = A p, with p·q by the reduction rule (rows along x, as `dot`)
             let pq = q
@@ -247,13 +264,13 @@ impl LatticeOperator {
                         *y = if act[k] { p_ref[k] - c * (st.sum(k, p_ref, false) - CENTRE * p_ref[k]) } else { 0.0 };
                     }
                     let p = &p_ref[o..o + row];
-                    for g in row_groups(row, nx, GROUP) {
+                    for g in groups.of_row(j) {
                         sums.add([lanes_dot(&p[g.clone()], &out[g])]);
                     }
                     sums
                 })
                 .reduce(Sums::boxed, Sums::merge_boxed);
-            let alpha = rz / reduce(&pq)[0];
+            let alpha = rz / part.reduce(*pq)[0];
             if !alpha.is_finite() {
                 break;
             }
@@ -274,13 +291,13 @@ impl LatticeOperator {
                         r[i] -= alpha * q_ref[o + i];
                         z[i] = diag[o + i] * r[i];
                     }
-                    for g in row_groups(row, nx, GROUP) {
+                    for g in groups.of_row(j) {
                         sums.add([lanes_dot(&r[g.clone()], &z[g.clone()]), lanes_dot(&r[g.clone()], &r[g])]);
                     }
                     sums
                 })
                 .reduce(Sums::boxed, Sums::merge_boxed);
-            let [rz_new, rr_new] = reduce(&sums);
+            let [rz_new, rr_new] = part.reduce(*sums);
             rr = rr_new;
             let beta = rz_new / rz;
             rz = rz_new;
@@ -355,12 +372,6 @@ fn constants(nb: &[Neighbour; SIDES], u: &[Real]) -> Real {
             Neighbour::Face(_) => 0.0,
         })
         .sum()
-}
-
-/// Σ a b over a face lattice of rows of `row` faces (`nx` cells along x), by the reduction
-/// rule ([`multifield_core::exact::dot`]).
-fn dot(a: &[Real], b: &[Real], row: usize, nx: usize) -> Real {
-    multifield_core::exact::dot(a, b, row, nx)
 }
 
 /// The Laplacians and solves of every face lattice of a grid.

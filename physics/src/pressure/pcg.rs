@@ -8,6 +8,7 @@
 use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
 use super::stencil::Stencil;
 use multifield_core::exact::{lanes_dot, reduce, row_groups, row_sums, Sums, GROUP};
+use multifield_core::grid::Lattice;
 use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
@@ -258,23 +259,27 @@ pub fn pcg(
     mut precondition: impl FnMut(&[Real], &mut [Real]),
 ) -> Result<SolveStats> {
     let n = x.len();
-    let nx = problem.grid.nx;
+    let grid = &problem.grid;
+    let dot = |a: &[Real], b: &[Real]| grid.dot(Lattice::Cell, a, b);
+    // the halo of a decomposed run: a rank's operator reads its neighbours' cells
+    let exchange = |x: &mut [Real]| grid.exchange(&mut [(Lattice::Cell, x)]);
     let b = &problem.rhs;
-    let bnorm = dot(b, b, nx).sqrt();
+    let bnorm = dot(b, b).sqrt();
     let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
     if bnorm == 0.0 {
         x.fill(0.0);
         return Ok(stats(0, 0.0));
     }
     let mut r = vec![0.0; n];
+    exchange(x);
     apply(x, &mut r);
     r.par_iter_mut().zip(b.par_iter()).for_each(|(r, b)| *r = b - *r);
     if problem.is_singular() {
         // keep the residual in the range of A (round-off drift of the constant)
-        let mean = multifield_core::poisson::sum(&r, nx) / n as Real;
+        let mean = grid.sum(Lattice::Cell, &r) / grid.domain_cells() as Real;
         r.par_iter_mut().for_each(|v| *v -= mean);
     }
-    let mut rnorm = dot(&r, &r, nx).sqrt();
+    let mut rnorm = dot(&r, &r).sqrt();
     let mut history = vec![rnorm / bnorm];
     if rnorm / bnorm <= tolerance {
         return Ok(stats(0, rnorm / bnorm));
@@ -283,23 +288,24 @@ pub fn pcg(
     precondition(&r, &mut z);
     let mut p = z.clone();
     let mut q = vec![0.0; n];
-    let mut rz = dot(&r, &z, nx);
+    let mut rz = dot(&r, &z);
     for it in 1..=max_iterations {
+        exchange(&mut p);
         apply(&p, &mut q);
-        let pq = dot(&p, &q, nx);
+        let pq = dot(&p, &q);
         if pq.is_nan() || pq <= 0.0 {
             break;
         }
         let alpha = rz / pq;
         x.par_iter_mut().zip(p.par_iter()).for_each(|(x, p)| *x += alpha * p);
         r.par_iter_mut().zip(q.par_iter()).for_each(|(r, q)| *r -= alpha * q);
-        rnorm = dot(&r, &r, nx).sqrt();
+        rnorm = dot(&r, &r).sqrt();
         history.push(rnorm / bnorm);
         if rnorm / bnorm <= tolerance {
             return Ok(stats(it, rnorm / bnorm));
         }
         precondition(&r, &mut z);
-        let rz_new = dot(&r, &z, nx);
+        let rz_new = dot(&r, &z);
         let beta = rz_new / rz;
         rz = rz_new;
         p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| *p = z + beta * *p);
@@ -317,6 +323,10 @@ pub fn pcg(
 impl PressureSolver for Pcg {
     fn model(&self) -> &'static str {
         "pcg"
+    }
+    fn decomposed(&self) -> bool {
+        // the multigrid hierarchy is not yet distributed (issue 19, P1)
+        self.preconditioner != PreconditionerKind::Multigrid
     }
     fn params(&self) -> serde_json::Value {
         params_value(self)

@@ -401,13 +401,15 @@ impl Stencil {
         for (o, (((a_s, a_n), xs), xn)) in out.iter_mut().zip(a_s.iter().zip(a_n).zip(xs).zip(xn)) {
             *o = a_s * xs + a_n * xn;
         }
+        // every cell adds its west term before its east term (the first cell's west wrap
+        // too): a rank's cell next to a cut along x then adds as the serial one does
+        out[0] += aw[0] * xc[self.west(0)];
         for (o, (a, x)) in out[1..].iter_mut().zip(aw[1..nx].iter().zip(&xc[..nx - 1])) {
             *o += a * x;
         }
         for (o, (a, x)) in out[..nx - 1].iter_mut().zip(aw[1..nx].iter().zip(&xc[1..])) {
             *o += a * x;
         }
-        out[0] += aw[0] * xc[self.west(0)];
         out[nx - 1] += aw[nx] * xc[self.east(nx - 1)];
         #[cfg(feature = "dim3")]
         {

@@ -59,6 +59,10 @@ impl StressModel for Newtonian {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // its stencil reads the faces next to a face, the halo at a rank's cut
+        true
+    }
     fn kind(&self) -> StressKind {
         StressKind::Grid { newtonian_viscosity: Some(self.viscosity) }
     }

@@ -1,0 +1,137 @@
+//! A decomposed run (issue 19, docs/design/mpi.md) gives the serial run's bits: the
+//! Taylor–Green vortex at 64² on 1, 2, 3 and 4 ranks (as threads of this process with the
+//! in-process `fake` communicator; `tests/mpi` runs the same under `mpirun`), 20 steps of
+//! the Eulerian frame with Crank–Nicolson viscosity and the Jacobi-preconditioned PCG.
+//! Every step's diagnostics on every rank, and at the end every owned node of θ, u, v and
+//! p, equal the serial run's to the bit; the ranks' owned nodes cover the domain once.
+
+use multifield_core::case::Case;
+use multifield_core::grid::{Grid, Lattice};
+use multifield_core::math::{Real, AXES, DIM};
+use multifield_core::parallel::{fake, Comm};
+use multifield_core::simulation::{Simulation, StepDiagnostics};
+use std::path::Path;
+use std::sync::Arc;
+
+const STEPS: usize = 20;
+
+fn taylor_green(extra: &str) -> Case {
+    let text = format!(
+        r#"(
+        name: "taylor_green_ranks",
+        domain: (size: (6.283185307179586, 6.283185307179586), cells: (64, 64)),
+        boundaries: (left: Periodic, right: Periodic, bottom: Periodic, top: Periodic),
+        time: (end: 2.0, cfl: 0.4, max_dt: 0.05),
+        fields: [(name: "fluid", density: 1.0, frame: (model: "eulerian"), region: All,
+                  velocity: TaylorGreen(amplitude: 1.0),
+                  stress: [(model: "newtonian", params: (viscosity: 0.01))])],
+        pressure: Some((model: "pcg", params: (preconditioner: "jacobi"))),
+        {extra}
+    )"#
+    );
+    Case::from_ron(&text, Path::new("taylor_green_ranks.ron")).unwrap()
+}
+
+/// Every figure of a step, as bits.
+fn bits(d: &StepDiagnostics) -> Vec<u64> {
+    let mut v = vec![d.step, d.time.to_bits(), d.dt.to_bits(), d.kinetic_energy.to_bits(), d.mass.to_bits()];
+    v.extend(d.momentum.iter().map(|m| m.to_bits()));
+    v.extend(
+        [d.max_speed, d.max_divergence, d.volume_fraction_error, d.max_volume_fraction, d.pressure_residual]
+            .map(Real::to_bits),
+    );
+    v.push(d.pressure_iterations as u64);
+    v
+}
+
+/// The arrays compared at the end: θ, u, v, p.
+fn arrays(sim: &Simulation) -> Vec<(Lattice, Vec<Real>)> {
+    let s = &sim.fields[0].state;
+    let mut out = vec![(Lattice::Cell, s.theta.clone())];
+    out.extend(AXES.map(|a| (Lattice::face(a), s.velocity[a].clone())));
+    out.push((Lattice::Cell, sim.pressure.clone()));
+    out
+}
+
+/// The owned nodes of a lattice on `grid`: (storage index, global index in the domain).
+fn owned(grid: &Grid, lattice: Lattice) -> Vec<(usize, usize)> {
+    let domain = Grid::from_cells(grid.domain, grid.h, grid.origin);
+    grid.groups(lattice)
+        .rows()
+        .flatten()
+        .map(|k| {
+            let at = grid.node(lattice, k);
+            // periodic on both axes: global indices wrap (face n is face 0)
+            let g: [usize; DIM] =
+                std::array::from_fn(|a| (at[a] as isize + grid.start[a]).rem_euclid(grid.domain[a] as isize) as usize);
+            (k, domain.index(lattice, g))
+        })
+        .collect()
+}
+
+struct RankRun {
+    diagnostics: Vec<Vec<u64>>,
+    /// Per array: (global index, value bits) of the owned nodes.
+    owned: Vec<Vec<(usize, u64)>>,
+    rank_grid: Option<Vec<usize>>,
+}
+
+fn run_on(sim: &mut Simulation) -> RankRun {
+    let diagnostics = (0..STEPS).map(|_| bits(&sim.step().unwrap())).collect();
+    let owned = arrays(sim)
+        .iter()
+        .map(|(lattice, a)| owned(&sim.grid, *lattice).into_iter().map(|(k, g)| (g, a[k].to_bits())).collect())
+        .collect();
+    let rank_grid = sim.grid.part.block().map(|(g, _)| g.p.to_vec());
+    RankRun { diagnostics, owned, rank_grid }
+}
+
+#[test]
+fn taylor_green_on_one_to_four_ranks_gives_the_serial_bits() {
+    let case = taylor_green("");
+    let mut serial = Simulation::new(&case).unwrap();
+    let reference = run_on(&mut serial);
+    let domain = serial.grid.clone();
+    // the vortex decays (the run is not trivially at rest)
+    let ke0 = serial.initial_energy;
+    assert!(serial.last.kinetic_energy < 0.999 * ke0 && serial.last.kinetic_energy > 0.9 * ke0);
+    for (ranks, expected) in [(1, None), (2, Some(vec![1, 2])), (3, Some(vec![1, 3])), (4, Some(vec![2, 2]))] {
+        let runs: Vec<RankRun> = std::thread::scope(|s| {
+            let handles: Vec<_> = fake::world(ranks)
+                .into_iter()
+                .map(|c| {
+                    let case = &case;
+                    s.spawn(move || {
+                        let comm: Arc<dyn Comm> = Arc::new(c);
+                        run_on(&mut Simulation::with_comm(case, comm).unwrap())
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        for (r, run) in runs.iter().enumerate() {
+            assert_eq!(run.rank_grid, expected, "{ranks} ranks: the rank grid");
+            for (step, (d, e)) in run.diagnostics.iter().zip(&reference.diagnostics).enumerate() {
+                assert_eq!(d, e, "{ranks} ranks, rank {r}: the diagnostics of step {}", step + 1);
+            }
+        }
+        for (k, serial_owned) in reference.owned.iter().enumerate() {
+            let lattice = arrays(&serial)[k].0;
+            let mut seen = vec![0; domain.shape(lattice).iter().product()];
+            let values: std::collections::HashMap<usize, u64> = serial_owned.iter().copied().collect();
+            for run in &runs {
+                for &(g, v) in &run.owned[k] {
+                    seen[g] += 1;
+                    assert_eq!(v, values[&g], "{ranks} ranks: array {k} at global node {g}");
+                }
+            }
+            // every node of the domain owned, once on several ranks (one rank's storage is
+            // the serial one, with face n of a periodic axis, face 0's copy)
+            let n = domain.n();
+            for (g, at) in domain.nodes(lattice).filter(|(_, at)| AXES.iter().all(|&a| at[a] < n[a])) {
+                assert!(seen[g] >= 1, "{ranks} ranks: array {k}'s node {at:?} owned by nobody");
+                assert!(ranks == 1 || seen[g] == 1, "{ranks} ranks: array {k}'s node {at:?} owned twice");
+            }
+        }
+    }
+}
