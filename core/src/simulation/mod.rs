@@ -225,8 +225,9 @@ pub struct Simulation {
 pub fn region_fraction(region: &Region, grid: &Grid) -> Vec<Real> {
     const S: usize = 8;
     let sample = |i: usize, j: usize, a: usize, b: usize| {
-        let x = grid.origin.x + (i as Real + (a as Real + 0.5) / S as Real) * grid.h;
-        let y = grid.origin.y + (j as Real + (b as Real + 0.5) / S as Real) * grid.h;
+        // (a rank's cells by their global index: the same points as the domain's)
+        let x = grid.origin.x + (grid.global(0, i) + (a as Real + 0.5) / S as Real) * grid.h;
+        let y = grid.origin.y + (grid.global(1, j) + (b as Real + 0.5) / S as Real) * grid.h;
         (x, y)
     };
     if let Region::Bodies(bodies) = region {
@@ -234,16 +235,16 @@ pub fn region_fraction(region: &Region, grid: &Grid) -> Vec<Real> {
         let mut masks = vec![0u64; grid.n_cells()];
         for body in bodies {
             let (lo, hi) = body.shape.bounds();
-            let range = |lo: Real, hi: Real, origin: Real, n: usize| {
+            let range = |lo: Real, hi: Real, origin: Real, n: usize, start: isize| {
                 // one cell of margin: a sample on the rounded edge of a disk may lie a few
-                // ulps outside its bounding box
-                let first = ((lo - origin) / grid.h).floor() - 1.0;
-                let last = ((hi - origin) / grid.h).floor() + 1.0;
+                // ulps outside its bounding box (local cells: less a rank's start)
+                let first = ((lo - origin) / grid.h).floor() - 1.0 - start as Real;
+                let last = ((hi - origin) / grid.h).floor() + 1.0 - start as Real;
                 let clamp = |c: Real| if c.is_nan() { 0 } else { c.clamp(0.0, (n - 1) as Real) as usize };
                 (clamp(first), clamp(last))
             };
-            let (i0, i1) = range(lo[0], hi[0], grid.origin.x, grid.nx);
-            let (j0, j1) = range(lo[1], hi[1], grid.origin.y, grid.ny);
+            let (i0, i1) = range(lo[0], hi[0], grid.origin.x, grid.nx, grid.start[0]);
+            let (j0, j1) = range(lo[1], hi[1], grid.origin.y, grid.ny, grid.start[1]);
             for j in j0..=j1 {
                 for i in i0..=i1 {
                     let mask = &mut masks[grid.cell(i, j)];
@@ -299,7 +300,9 @@ pub fn region_fraction(region: &Region, grid: &Grid) -> Vec<Real> {
                     for a in 0..S {
                         let sub = [a, b, c];
                         let p = grid.origin
-                            + Vector::from_fn(|d, _| (at[d] as Real + (sub[d] as Real + 0.5) / S as Real) * grid.h);
+                            + Vector::from_fn(|d, _| {
+                                (grid.global(d, at[d]) + (sub[d] as Real + 0.5) / S as Real) * grid.h
+                            });
                         inside += usize::from(region.contains_point(p));
                     }
                 }

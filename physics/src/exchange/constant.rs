@@ -44,6 +44,10 @@ impl ExchangeModel for Constant {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // one coefficient per face, from nothing around it
+        true
+    }
     fn coefficients(&self, _ctx: &ExchangeContext, k: &mut FaceArrays) {
         for a in AXES {
             k[a].fill(self.coefficient);
