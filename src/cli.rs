@@ -282,11 +282,12 @@ pub fn main() -> ExitCode {
     #[cfg(all(feature = "mpi", feature = "dim2"))]
     let ranks = {
         use crate::core::parallel::Comm;
-        (mpi_session.comm.size() > 1).then(|| run::Ranks(mpi_session.comm.clone()))
+        (mpi_session.comm.size() > 1)
+            .then(|| run::Ranks(std::sync::Arc::new(crate::core::parallel::Counted::new(mpi_session.comm.clone()))))
     };
     #[cfg(not(all(feature = "mpi", feature = "dim2")))]
     let ranks: Option<run::Ranks> = None;
-    let quiet_rank = ranks.as_ref().is_some_and(|r| r.0.rank() != 0);
+    let quiet_rank = ranks.as_ref().is_some_and(|r| r.rank() != 0);
     // a 3D case runs in the 3D compile of this library, which parses the same command line
     #[cfg(feature = "dim2")]
     if dimension_of(&cli) == Some(3) {
@@ -440,7 +441,7 @@ fn run_case(case: &Case, file: &Path, out: Option<PathBuf>, options: &RunOptions
         e => Failure::Input(e.in_file(file)),
     })?;
     let s = &outcome.summary;
-    let report = options.ranks.as_ref().is_none_or(|r| r.0.rank() == 0);
+    let report = options.ranks.as_ref().is_none_or(|r| r.rank() == 0);
     if !report {
         // (the other ranks of a decomposed run: rank 0 reports, and their outcome is its)
         return status_result(outcome.status);

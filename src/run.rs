@@ -51,8 +51,9 @@
 use crate::core::case::Case;
 use crate::core::driver::{BodiesCsv, DiagnosticsCsv, Driver, RunState};
 use crate::core::error::Error;
-use crate::core::math::Real;
+use crate::core::math::{Real, DIM};
 use crate::core::monitor::Monitors;
+use crate::core::parallel::Comm;
 use crate::core::simulation::{Simulation, Status};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
@@ -88,9 +89,16 @@ pub struct RunOptions {
     pub ranks: Option<Ranks>,
 }
 
-/// The communicator of a decomposed run's ranks.
+/// The communicator of a decomposed run's ranks, counting their traffic.
 #[derive(Clone)]
-pub struct Ranks(pub Arc<dyn crate::core::parallel::Comm>);
+pub struct Ranks(pub Arc<crate::core::parallel::Counted>);
+
+impl Ranks {
+    /// This process's rank.
+    pub fn rank(&self) -> usize {
+        self.0.rank()
+    }
+}
 
 impl std::fmt::Debug for Ranks {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -146,6 +154,9 @@ pub struct Summary {
     pub restarted_from: Option<String>,
     /// The last checkpoint written (`null` when none).
     pub last_checkpoint: Option<String>,
+    /// A decomposed run's ranks and what they sent (absent on one process).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub communication: Option<Communication>,
     /// Where the run left its models' range of validity: point particles larger than a
     /// cell, Reynolds numbers outside a drag law's range (one sentence each, with the
     /// ratio; empty when none). Also printed at the end of the run.
@@ -226,6 +237,32 @@ pub fn catch_signals() -> Result<(), Error> {
     .map_err(|e| Error::Model(format!("cannot catch interrupt signals: {e}")))
 }
 
+/// The ranks of a decomposed run and their traffic in its time loop.
+#[derive(Clone, Debug, Serialize)]
+pub struct Communication {
+    /// Ranks.
+    pub ranks: usize,
+    /// The rank grid (ranks along each axis).
+    pub rank_grid: Vec<usize>,
+    /// Each rank's traffic per step of the time loop (the build's not counted), by rank.
+    pub per_step: Vec<RankTraffic>,
+}
+
+/// One rank's traffic per step ([`crate::core::parallel::Traffic`] over the steps).
+#[derive(Clone, Debug, Serialize)]
+pub struct RankTraffic {
+    /// Bytes of the point-to-point messages it sent (the halo exchanges).
+    pub bytes: Real,
+    /// Messages it sent.
+    pub messages: Real,
+    /// Halo exchanges.
+    pub exchanges: Real,
+    /// Exact-sum reductions (and agreements).
+    pub reductions: Real,
+    /// Gathers (maxima).
+    pub gathers: Real,
+}
+
 /// Runs `case` and writes its output into `output_dir` (created if needed).
 ///
 /// Returns `Err` only when the case cannot start: a plugin that is not registered or
@@ -272,6 +309,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
         restarted_from: None,
         warnings: Vec::new(),
         last_checkpoint: None,
+        communication: None,
     };
     // a bad checkpoint is refused before anything in the output directory is touched
     let (sim, resumed) = match &options.restart {
@@ -321,7 +359,7 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
 
 /// Whether this process writes the run's output: one process, or rank 0 of several.
 fn writes_output(options: &RunOptions) -> bool {
-    options.ranks.as_ref().is_none_or(|r| r.0.rank() == 0)
+    options.ranks.as_ref().is_none_or(|r| r.rank() == 0)
 }
 
 /// The refusal, before step 0, of what a run on several ranks does not do yet (issue 19's
@@ -434,6 +472,7 @@ fn run_simulation(
     summary.initial_kinetic_energy = sim.initial_energy;
     summary.kinetic_energy_bound = ENERGY_GROWTH * reference_energy(&sim);
     let end = sim.case.time.end;
+    let sim_steps_at_start = sim.steps;
     let mut driver = Driver::resume(sim, state);
     // (the other ranks of a decomposed run: no file; the diagnostics are the same on each)
     if let Some(csv) = csv {
@@ -470,8 +509,24 @@ fn run_simulation(
         });
     }
     driver.stop_on(interrupt_flag());
+    let traffic_before = options.ranks.as_ref().map(|r| r.0.traffic());
     let started = Instant::now();
     let result = driver.run();
+    if let (Some(r), Some(before)) = (&options.ranks, traffic_before) {
+        // every rank reaches this point after the same steps: gather what each sent
+        let t = r.0.traffic().since(&before);
+        let steps = (driver.sim.steps - sim_steps_at_start).max(1) as Real;
+        let mine = [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers].map(|v| v as Real / steps);
+        let all = r.0.gather_all_f64(&mine);
+        summary.communication = Some(Communication {
+            ranks: all.len(),
+            rank_grid: driver.sim.grid.part.block().map(|(g, _)| g.p.to_vec()).unwrap_or_else(|| vec![1; DIM]),
+            per_step: all
+                .iter()
+                .map(|v| RankTraffic { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] })
+                .collect(),
+        });
+    }
     bar.finish_and_clear();
     let (sim, state) = (&driver.sim, &driver.state);
     summary.steps = sim.steps;

@@ -102,6 +102,92 @@ impl Comm for Serial {
     }
 }
 
+/// What one rank sent through a communicator: its own point-to-point messages and the
+/// collectives it took part in (docs/design/mpi.md §9's B, X and R, measured).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Traffic {
+    /// Point-to-point messages sent (a halo exchange sends one to each neighbour and axis).
+    pub messages: u64,
+    /// Bytes of those messages.
+    pub bytes: u64,
+    /// Exchanges (calls of [`Comm::exchange`]).
+    pub exchanges: u64,
+    /// Reductions (calls of [`Comm::sum_words`]: exact sums and agreements).
+    pub reductions: u64,
+    /// Words those reductions summed (8 bytes each).
+    pub reduced_words: u64,
+    /// Gathers (calls of [`Comm::gather_all`]: maxima, minima).
+    pub gathers: u64,
+}
+
+impl Traffic {
+    /// The traffic since `before`.
+    pub fn since(&self, before: &Traffic) -> Traffic {
+        Traffic {
+            messages: self.messages - before.messages,
+            bytes: self.bytes - before.bytes,
+            exchanges: self.exchanges - before.exchanges,
+            reductions: self.reductions - before.reductions,
+            reduced_words: self.reduced_words - before.reduced_words,
+            gathers: self.gathers - before.gathers,
+        }
+    }
+}
+
+/// A communicator that counts this rank's [`Traffic`] through another.
+pub struct Counted {
+    inner: std::sync::Arc<dyn Comm>,
+    traffic: std::sync::Mutex<Traffic>,
+}
+
+impl Counted {
+    /// Counts the traffic through `inner`.
+    pub fn new(inner: std::sync::Arc<dyn Comm>) -> Self {
+        Self { inner, traffic: Default::default() }
+    }
+    /// The traffic so far.
+    pub fn traffic(&self) -> Traffic {
+        *self.count()
+    }
+    fn count(&self) -> std::sync::MutexGuard<'_, Traffic> {
+        // counters only: a panic elsewhere leaves them usable
+        self.traffic.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Comm for Counted {
+    fn rank(&self) -> usize {
+        self.inner.rank()
+    }
+    fn size(&self) -> usize {
+        self.inner.size()
+    }
+    fn exchange(&self, sends: &[(usize, Tag, &[u8])], receives: &[(usize, Tag)]) -> Vec<Vec<u8>> {
+        {
+            let mut t = self.count();
+            t.exchanges += 1;
+            t.messages += sends.len() as u64;
+            t.bytes += sends.iter().map(|s| s.2.len() as u64).sum::<u64>();
+        }
+        self.inner.exchange(sends, receives)
+    }
+    fn sum_words(&self, words: &mut [i64]) {
+        {
+            let mut t = self.count();
+            t.reductions += 1;
+            t.reduced_words += words.len() as u64;
+        }
+        self.inner.sum_words(words)
+    }
+    fn gather_all(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        self.count().gathers += 1;
+        self.inner.gather_all(mine)
+    }
+    fn barrier(&self) {
+        self.inner.barrier()
+    }
+}
+
 /// P ranks as threads of one process, with channels for messages: the tests of the
 /// decomposition and the halo exchange run on it without MPI.
 pub mod fake {
@@ -211,6 +297,43 @@ pub mod fake {
 mod tests {
     use super::*;
     use crate::exact::ExactSum;
+
+    /// The counters see a halo exchange's messages and bytes as the halo's size gives
+    /// them, and every collective once on each rank.
+    #[cfg(feature = "dim2")]
+    #[test]
+    fn counted_traffic_is_the_halo_and_the_collectives() {
+        use crate::decomposition::RankGrid;
+        use crate::grid::Lattice;
+        use crate::halo::{exchange, storage_shape, Layout};
+        use std::sync::Arc;
+        // 64 × 16 cells, periodic along y only, on 2 × 1 ranks: one neighbour along x each
+        let grid = RankGrid::new([64, 16], [false, true], 2, Some([2, 1])).unwrap();
+        let traffic: Vec<Traffic> = std::thread::scope(|s| {
+            let ranks: Vec<_> = fake::world(2)
+                .into_iter()
+                .map(|c| {
+                    let grid = &grid;
+                    s.spawn(move || {
+                        let comm = Counted::new(Arc::new(c));
+                        let block = grid.block(comm.rank());
+                        let mut cells = vec![1.0; storage_shape(&block, Layout::Local, Lattice::Cell).iter().product()];
+                        exchange(&comm, &block, Layout::Local, &mut [(Lattice::Cell, &mut cells)]);
+                        comm.sum_words(&mut [1, 2, 3]);
+                        comm.max(&mut [1.0]);
+                        comm.traffic()
+                    })
+                })
+                .collect();
+            ranks.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        for t in traffic {
+            // one message to the neighbour along x: H = 2 columns of the 16 rows, 8 bytes each
+            let expected =
+                Traffic { messages: 1, bytes: 2 * 16 * 8, exchanges: 1, reductions: 1, reduced_words: 3, gathers: 1 };
+            assert_eq!(t, expected);
+        }
+    }
 
     #[test]
     fn serial_collectives_are_the_identity() {

@@ -149,10 +149,16 @@ impl Part {
 
     /// The largest |x| over the owned nodes of a lattice stored as `shape`, on every rank.
     pub fn max_abs(&self, lattice: Lattice, shape: Index, a: &[Real]) -> Real {
-        let g = self.groups(lattice, shape, GROUP);
-        let mut m = [g.rows().flat_map(|r| a[r].iter()).fold(0.0, |m: Real, x| m.max(x.abs()))];
+        let mut m = [self.local_max_abs(lattice, shape, a)];
         self.max(&mut m);
         m[0]
+    }
+
+    /// The largest |x| over this rank's owned nodes of a lattice stored as `shape` (to
+    /// gather with others' in one [`Part::max`]).
+    pub fn local_max_abs(&self, lattice: Lattice, shape: Index, a: &[Real]) -> Real {
+        let g = self.groups(lattice, shape, GROUP);
+        g.rows().flat_map(|r| a[r].iter()).fold(0.0, |m: Real, x| m.max(x.abs()))
     }
 }
 

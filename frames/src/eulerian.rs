@@ -957,11 +957,11 @@ impl Frame for Eulerian {
         if w.grid.part.is_whole() {
             return w.velocity.max_abs();
         }
-        // the owned faces of every rank
+        // the owned faces of every rank, the components in one gather
         let g = &w.grid;
-        AXES.iter()
-            .map(|&a| g.part.max_abs(Lattice::face(a), g.shape(Lattice::face(a)), &w.velocity[a]))
-            .fold(0.0, Real::max)
+        let mut m = AXES.map(|a| g.part.local_max_abs(Lattice::face(a), g.shape(Lattice::face(a)), &w.velocity[a]));
+        g.part.max(&mut m);
+        m.into_iter().fold(0.0, Real::max)
     }
 
     #[cfg(feature = "dim2")]

@@ -47,5 +47,19 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
         assert!(got == reference, "np {np}: diagnostics.csv differs from the serial run's");
         let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
         assert!(summary.contains("\"status\": \"completed\""), "np {np}: {summary}");
+        let s: serde_json::Value = serde_json::from_str(&summary).unwrap();
+        let c = &s["communication"];
+        if np == 1 {
+            assert!(c.is_null(), "np 1 is not decomposed: {summary}");
+            continue;
+        }
+        assert_eq!(c["ranks"], np, "{summary}");
+        let per = c["per_step"].as_array().unwrap();
+        assert_eq!(per.len(), np);
+        // every rank takes part in the same collectives; each sends its halos
+        for key in ["reductions", "gathers", "exchanges"] {
+            assert!(per.iter().all(|r| r[key] == per[0][key]), "np {np}: {key} differ between ranks: {summary}");
+        }
+        assert!(per.iter().all(|r| r["bytes"].as_f64().unwrap() > 0.0), "{summary}");
     }
 }
