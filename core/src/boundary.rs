@@ -404,8 +404,10 @@ impl Boundaries {
     /// `axis` of the velocity), on a grid of `n` cells: along the component the next face,
     /// or at an open end the face itself; across it the next face (wrapped when periodic)
     /// or the boundary's ghost, at the face's own coordinate along its axis and the cell
-    /// centre's along the others. The 5-point (7-point) stencils of the viscous terms.
-    pub fn face_neighbour(&self, n: Index, axis: usize, at: Index, side: Side) -> FaceNeighbour {
+    /// centre's along the others (fractions of the domain's side: a rank's block gives its
+    /// nodes' global coordinates). The 5-point (7-point) stencils of the viscous terms.
+    pub fn face_neighbour(&self, grid: &Grid, axis: usize, at: Index, side: Side) -> FaceNeighbour {
+        let n = grid.n();
         let (d, high) = (side.axis(), side.high());
         let mut m = at;
         if d == axis {
@@ -427,9 +429,9 @@ impl Boundaries {
         } else {
             let s = tangential_axes(d).map(|t| {
                 if t == axis {
-                    at[axis] as Real / n[axis] as Real
+                    grid.global(axis, at[axis]) / grid.domain[axis] as Real
                 } else {
-                    (at[t] as Real + 0.5) / n[t] as Real
+                    (grid.global(t, at[t]) + 0.5) / grid.domain[t] as Real
                 }
             });
             return FaceNeighbour::Ghost(along(s));

@@ -162,6 +162,130 @@ impl Part {
     }
 }
 
+/// A value the ranks gather and scatter as bytes (`f64`, `f32`).
+pub trait Word: Copy + Default + Send + Sync {
+    /// Its size in bytes.
+    const SIZE: usize;
+    /// Appends its little-endian bytes.
+    fn put(self, out: &mut Vec<u8>);
+    /// Reads it from its little-endian bytes.
+    fn get(bytes: &[u8]) -> Self;
+}
+
+impl Word for f64 {
+    const SIZE: usize = 8;
+    fn put(self, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.to_le_bytes());
+    }
+    fn get(bytes: &[u8]) -> Self {
+        f64::from_le_bytes(bytes.try_into().expect("8 bytes"))
+    }
+}
+
+impl Word for f32 {
+    const SIZE: usize = 4;
+    fn put(self, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.to_le_bytes());
+    }
+    fn get(bytes: &[u8]) -> Self {
+        f32::from_le_bytes(bytes.try_into().expect("4 bytes"))
+    }
+}
+
+/// Calls `f(global storage index)` for each node of the box `r` of a lattice of the domain
+/// (shape `s`), x fastest.
+fn for_box(s: Index, r: &[Range<usize>; DIM], mut f: impl FnMut(usize)) {
+    let rows: usize = r[1..].iter().map(|r| r.len()).product();
+    for k in 0..rows {
+        let mut rest = k;
+        let mut row = 0;
+        let mut stride = s[0];
+        for a in 1..DIM {
+            row += (r[a].start + rest % r[a].len()) * stride;
+            rest /= r[a].len();
+            stride *= s[a];
+        }
+        for i in r[0].clone() {
+            f(row + i);
+        }
+    }
+}
+
+impl Part {
+    /// The domain's array of a lattice from every rank's owned nodes, on every rank (in the
+    /// domain's storage; face n of a periodic axis holds face 0's value). `local` is this
+    /// rank's storage of shape `shape`. For the whole domain: a copy.
+    pub fn gather<T: Word>(&self, lattice: Lattice, shape: Index, local: &[T]) -> Vec<T> {
+        let Some(r) = &self.0 else {
+            return local.to_vec();
+        };
+        let mut mine = Vec::new();
+        for rows in self.groups(lattice, shape, GROUP).rows() {
+            for v in &local[rows] {
+                v.put(&mut mine);
+            }
+        }
+        let all = r.comm.gather_all(&mine);
+        let n = r.grid.n;
+        let domain: Index = std::array::from_fn(|a| n[a] + (lattice.axis() == Some(a)) as usize);
+        let mut out = vec![T::default(); domain.iter().product()];
+        for (rank, bytes) in all.iter().enumerate() {
+            let block = r.grid.block(rank);
+            let owned: [Range<usize>; DIM] = std::array::from_fn(|a| block.owned_global(lattice, a));
+            let mut words = bytes.chunks_exact(T::SIZE);
+            for_box(domain, &owned, |g| out[g] = T::get(words.next().expect("a rank's owned nodes")));
+        }
+        // face n of a periodic axis: face 0's copy, as serially
+        if let Some(a) = lattice.axis().filter(|&a| r.grid.periodic[a]) {
+            let mut low: [Range<usize>; DIM] = domain.map(|k| 0..k);
+            let mut high = low.clone();
+            (low[a], high[a]) = (0..1, n[a]..n[a] + 1);
+            let mut sources = Vec::new();
+            for_box(domain, &low, |g| sources.push(out[g]));
+            let mut it = sources.into_iter();
+            for_box(domain, &high, |g| out[g] = it.next().expect("a face 0 for each face n"));
+        }
+        out
+    }
+
+    /// Fills every node of this rank's storage (shape `shape`) of a lattice whose global
+    /// node lies in the domain, halo included, from the domain's array `global` (the
+    /// inverse of [`Part::gather`]). For the whole domain: a copy.
+    pub fn scatter<T: Word>(&self, lattice: Lattice, shape: Index, global: &[T], local: &mut [T]) {
+        let Some(r) = &self.0 else {
+            local.copy_from_slice(global);
+            return;
+        };
+        let n = r.grid.n;
+        let domain: Index = std::array::from_fn(|a| n[a] + (lattice.axis() == Some(a)) as usize);
+        let pads: [usize; DIM] = std::array::from_fn(|a| self.pads(a)[0]);
+        let mut at = [0usize; DIM];
+        for v in local.iter_mut() {
+            let mut g = 0;
+            let mut stride = 1;
+            let mut inside = true;
+            for a in 0..DIM {
+                let x = (r.block.cells[a].start + at[a]) as isize - pads[a] as isize;
+                match crate::decomposition::wrap(x, n[a], r.grid.periodic[a], lattice.axis() == Some(a)) {
+                    Some(x) => g += x * stride,
+                    None => inside = false,
+                }
+                stride *= domain[a];
+            }
+            if inside {
+                *v = global[g];
+            }
+            for a in 0..DIM {
+                at[a] += 1;
+                if at[a] < shape[a] {
+                    break;
+                }
+                at[a] = 0;
+            }
+        }
+    }
+}
+
 impl PartialEq for Part {
     fn eq(&self, other: &Self) -> bool {
         match (&self.0, &other.0) {

@@ -93,6 +93,37 @@ impl PoissonProblem {
         p
     }
 
+    /// The whole domain's problem, on every rank of a decomposed run (its coefficients and
+    /// right-hand side gathered from every rank's owned nodes, its sides the domain's): for
+    /// a solver that works on the whole domain (the multigrid V-cycle, so far). A copy on
+    /// one rank.
+    pub fn gathered(&self) -> PoissonProblem {
+        let g = &self.grid;
+        let part = &g.part;
+        let Some((rank_grid, _)) = part.block() else {
+            return self.clone();
+        };
+        let grid = Grid::from_cells(g.domain, g.h, g.origin);
+        let mut c = FaceArrays::zeros(&grid);
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            c[a] = part.gather(lattice, g.shape(lattice), &self.c[a]);
+        }
+        let rhs = part.gather(Lattice::Cell, g.shape(Lattice::Cell), &self.rhs);
+        // a side fixes p if it does on the rank whose block touches it
+        let mut sides = self.dirichlet.map(|d| if d { 1.0 } else { 0.0 });
+        part.max(&mut sides);
+        Self {
+            grid,
+            c,
+            rhs,
+            periodic: rank_grid.periodic,
+            dirichlet: sides.map(|d| d > 0.0),
+            incompatibility: self.incompatibility,
+            singular: self.singular,
+        }
+    }
+
     /// Whether the operator has the constant null space.
     pub fn is_singular(&self) -> bool {
         self.singular

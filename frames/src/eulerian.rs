@@ -454,13 +454,17 @@ impl Work {
         let (nx, ny) = (self.nx, self.ny);
         let (px, py) = self.periodic;
         let clamp = |t: Real| t.clamp(0.0, 1.0);
+        // fractions along the domain's sides (a rank's block: by global index)
+        let g = &self.grid;
+        let (sx, sy) = (g.start[0], g.start[1]);
+        let (dx, dy) = (g.domain[0] as Real, g.domain[1] as Real);
         fill(
             &mut self.pu,
             &vel.u,
             (normal_rule(bc, Side::Left, nx, px), normal_rule(bc, Side::Right, nx, px)),
             (tangential_rule(Side::Bottom, ny, py), tangential_rule(Side::Top, ny, py)),
             bc,
-            |i| clamp(i as Real / nx as Real),
+            |i| clamp((i + sx) as Real / dx),
             |_| 0.5,
         );
         fill(
@@ -470,7 +474,7 @@ impl Work {
             (normal_rule(bc, Side::Bottom, ny, py), normal_rule(bc, Side::Top, ny, py)),
             bc,
             |_| 0.5,
-            |j| clamp(j as Real / ny as Real),
+            |j| clamp((j + sy) as Real / dy),
         );
     }
 

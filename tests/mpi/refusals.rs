@@ -26,14 +26,15 @@ fn what_is_not_decomposed_is_refused_before_step_0() {
         let o = mpirun(t, 2, &args.iter().map(String::as_str).collect::<Vec<_>>())?;
         Some((o, out))
     };
-    // the pressure solver's default multigrid preconditioner is not distributed yet
-    let Some((o, out)) = run("multigrid", &[]) else { return };
+    // a Lagrangian (FLIP) field: points do not migrate between ranks yet
+    let flip = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/taylor_green_flip.ron").display().to_string();
+    let out = dir.join("flip");
+    let Some(o) = mpirun(t, 2, &["run", &flip, "--out", out.to_str().unwrap(), "--quiet"]) else { return };
     let (stdout, err) = text(&o);
     assert_eq!(o.status.code(), Some(2), "{stdout}\n{err}");
     assert!(
         err.contains(
-            "pressure: the `pcg` pressure solver with its default multigrid preconditioner does not run on \
-                      several ranks yet, and this run has 2"
+            "fields.fluid.frame: the `lagrangian` frame does not run on several ranks yet, and this run has 2"
         ),
         "{err}"
     );
@@ -43,12 +44,11 @@ fn what_is_not_decomposed_is_refused_before_step_0() {
     assert!(summary.contains("\"status\": \"failed\""), "{summary}");
     assert!(!out.join("diagnostics.csv").exists());
     // snapshots are not written from many ranks yet
-    let jacobi = "pressure.params.preconditioner=\"jacobi\"";
-    let Some((o, _)) = run("snapshots", &[jacobi, "output.snapshots=Some((interval: 0.1))"]) else { return };
+    let Some((o, _)) = run("snapshots", &["output.snapshots=Some((interval: 0.1))"]) else { return };
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).1.contains("output.snapshots: snapshots: not yet on several ranks"), "{}", text(&o).1);
     // 6 × 6 cells: cuts along x on multiples of 32 cells, blocks of at least 4 cells
-    let Some((o, _)) = run("cells", &[jacobi, "domain.cells=(6, 6)"]) else { return };
+    let Some((o, _)) = run("cells", &["domain.cells=(6, 6)"]) else { return };
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).1.contains("domain.cells: a run on 2 ranks:"), "{}", text(&o).1);
     // the other commands

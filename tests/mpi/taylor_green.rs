@@ -1,6 +1,6 @@
 //! The Taylor–Green vortex decomposed (issue 19): `mpirun -np 1/2/3/4 multifield run` at
 //! 64² (rank grids 1, 1 × 2, 1 × 3, 2 × 2), 20 steps of the Eulerian frame with
-//! Crank–Nicolson viscosity and the Jacobi-preconditioned PCG, writes the `diagnostics.csv`
+//! Crank–Nicolson viscosity and the multigrid-preconditioned PCG (its default), writes the `diagnostics.csv`
 //! of the run without mpirun byte for byte (a row every step: time, Δt, kinetic energy,
 //! momentum, mass, max speed, max divergence, volume fractions, pressure iterations and
 //! residual). `tests/verification/decomposed.rs` checks the fields themselves on
@@ -19,13 +19,7 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
         let mut a: Vec<String> = ["run", &case, "--out", &out.display().to_string(), "--quiet", "--threads", "1"]
             .map(str::to_string)
             .to_vec();
-        for s in [
-            "domain.cells=(64, 64)",
-            "pressure.params.preconditioner=\"jacobi\"",
-            "time.max_steps=20",
-            "output.interval=0",
-            "output.charts=false",
-        ] {
+        for s in ["domain.cells=(64, 64)", "time.max_steps=20", "output.interval=0", "output.charts=false"] {
             a.extend(["--set".to_string(), s.to_string()]);
         }
         a

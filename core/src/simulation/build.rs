@@ -390,8 +390,8 @@ fn refuse_undecomposed(
             format!(
                 "{what} does not run on several ranks yet, and this run has {ranks}: run the case on one rank \
                  (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): Eulerian \
-                 fields in 2D with `newtonian` stress, the `constant` exchange and the `pcg` pressure solver with \
-                 preconditioner \"jacobi\" or \"none\" (docs/design/mpi.md)"
+                 fields in 2D with `newtonian` stress, the `constant` exchange and the `pcg` pressure solver \
+                 (docs/design/mpi.md)"
             ),
         ))
     };
@@ -416,8 +416,7 @@ fn refuse_undecomposed(
         );
     }
     if let Some(p) = pressure.as_ref().filter(|p| !p.decomposed()) {
-        let how = if p.model() == "pcg" { " with its default multigrid preconditioner" } else { "" };
-        return refuse("pressure".into(), format!("the `{}` pressure solver{how}", p.model()));
+        return refuse("pressure".into(), format!("the `{}` pressure solver", p.model()));
     }
     if let Some(c) = contact.as_ref().filter(|c| !c.decomposed()) {
         return refuse("contact".into(), format!("the `{}` contact model", c.model()));

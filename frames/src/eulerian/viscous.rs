@@ -114,7 +114,7 @@ impl LatticeOperator {
             if !active[k] {
                 continue;
             }
-            neighbours[k] = Side::ALL.map(|side| match bc.face_neighbour(n, a, at, side) {
+            neighbours[k] = Side::ALL.map(|side| match bc.face_neighbour(grid, a, at, side) {
                 FaceNeighbour::Face(m) => face(m),
                 FaceNeighbour::Itself => Neighbour::Ghost(1.0, 0.0),
                 FaceNeighbour::Ghost(s) => ghost(side, s),

@@ -7,11 +7,11 @@
 
 use super::multigrid::{default_sweeps, to_f32, Hierarchy, CHUNK, F};
 use super::stencil::Stencil;
-use multifield_core::exact::{lanes_dot, reduce, row_groups, row_sums, Sums, GROUP};
-use multifield_core::grid::Lattice;
+use multifield_core::exact::{lanes_dot, Sums};
+use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Index, Real};
 use multifield_core::plugin::PressureSolver;
-use multifield_core::poisson::{dot, PoissonProblem, SolveStats};
+use multifield_core::poisson::{PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::{Error, Result};
 use rayon::prelude::*;
@@ -66,19 +66,24 @@ struct Scratch {
 /// Runs PCG with one f32 multigrid V-cycle as preconditioner (see [`pcg`]), with the vector
 /// passes fused: A p with p · q; the update of r with r · r and the f32 copy of r; x += α p
 /// with the next p = z + β p (z read in f32). Reductions go by the reduction rule (row groups added
-/// exactly): the result is the same to the bit for any number of threads.
+/// exactly): the result is the same to the bit for any number of threads. `op` is the
+/// operator on the problem's grid (a rank's block of a decomposed domain: the halo of x and
+/// p exchanged before it is applied, the sums over the owned cells of every rank) and
+/// `precondition` z = M r in f32 on that grid.
 fn pcg_multigrid(
     problem: &PoissonProblem,
     x: &mut [Real],
     tolerance: Real,
     max_iterations: usize,
-    mg: &mut Hierarchy,
+    op: &Stencil,
+    mut precondition: impl FnMut(&[F], &mut [F]),
     s: &mut Scratch,
 ) -> Result<SolveStats> {
     let n = x.len();
-    let nx = problem.grid.nx;
+    let grid = &problem.grid;
+    let dot = |a: &[Real], b: &[Real]| grid.dot(Lattice::Cell, a, b);
     let b = &problem.rhs;
-    let bnorm = dot(b, b, nx).sqrt();
+    let bnorm = dot(b, b).sqrt();
     let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
     if bnorm == 0.0 {
         x.fill(0.0);
@@ -89,31 +94,32 @@ fn pcg_multigrid(
     }
     s.z32.resize(n, 0.0);
     let Scratch { r, p, q, r32, z32 } = s;
-    let (op, mut precondition) = mg.split32();
+    grid.exchange(&mut [(Lattice::Cell, x)]);
     op.residual(x, b, r);
     if problem.is_singular() {
         // keep the residual in the range of A (round-off drift of the constant)
-        let mean = multifield_core::poisson::sum(r, nx) / n as Real;
+        let mean = grid.sum(Lattice::Cell, r) / grid.domain_cells() as Real;
         r.par_iter_mut().for_each(|v| *v -= mean);
     }
-    let mut rnorm = dot(r, r, nx).sqrt();
+    let mut rnorm = dot(r, r).sqrt();
     let mut history = vec![rnorm / bnorm];
     if rnorm / bnorm <= tolerance {
         return Ok(stats(0, rnorm / bnorm));
     }
     to_f32(r, r32);
     precondition(r32, z32);
-    let mut rz = dot_mixed(r, z32, nx);
+    let mut rz = dot_mixed(grid, r, z32);
     p.par_chunks_mut(CHUNK).zip(z32.par_chunks(CHUNK)).for_each(|(p, z)| {
         p.iter_mut().zip(z).for_each(|(p, &z)| *p = Real::from(z));
     });
     for it in 1..=max_iterations {
+        grid.exchange(&mut [(Lattice::Cell, p)]);
         let pq = op.apply_dot(p, q);
         if pq.is_nan() || pq <= 0.0 {
             break;
         }
         let alpha = rz / pq;
-        let rr = update(r, r32, q, alpha, nx);
+        let rr = update(grid, r, r32, q, alpha);
         rnorm = rr.sqrt();
         history.push(rnorm / bnorm);
         if rnorm / bnorm <= tolerance {
@@ -123,7 +129,7 @@ fn pcg_multigrid(
             return Ok(stats(it, rnorm / bnorm));
         }
         precondition(r32, z32);
-        let rz_new = dot_mixed(r, z32, nx);
+        let rz_new = dot_mixed(grid, r, z32);
         let beta = rz_new / rz;
         rz = rz_new;
         // x += α p with the p of this iteration, then the next p = z + β p
@@ -143,9 +149,10 @@ fn pcg_multigrid(
     })
 }
 
-/// r · z with z in f32, by the reduction rule (row groups of 32 cells in eight lanes).
-fn dot_mixed(r: &[Real], z: &[F], nx: usize) -> Real {
-    let sums = row_sums(r.len(), nx, nx, GROUP, |g| {
+/// r · z with z in f32, by the reduction rule (row groups of 32 cells in eight lanes) over
+/// the owned cells of `grid` (every rank's).
+fn dot_mixed(grid: &Grid, r: &[Real], z: &[F]) -> Real {
+    let sums = grid.groups(Lattice::Cell).sums(|g| {
         let (r, z) = (&r[g.clone()], &z[g]);
         let mut acc = [0.0; 8];
         let (cr, cz) = (r.chunks_exact(8), z.chunks_exact(8));
@@ -157,29 +164,33 @@ fn dot_mixed(r: &[Real], z: &[F], nx: usize) -> Real {
         }
         [((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail]
     });
-    reduce(&sums)[0]
+    grid.part.reduce(sums)[0]
 }
 
-/// r −= α q, r32 = r in f32; returns r · r (by the reduction rule, rows of `nx` cells).
-fn update(r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real, nx: usize) -> Real {
+/// r −= α q, r32 = r in f32; returns r · r (by the reduction rule over the owned cells of
+/// `grid`, every rank's).
+fn update(grid: &Grid, r: &mut [Real], r32: &mut [F], q: &[Real], alpha: Real) -> Real {
+    let nx = grid.nx;
+    let groups = grid.groups(Lattice::Cell);
     let sums = r
         .par_chunks_mut(nx)
         .zip(r32.par_chunks_mut(nx))
         .zip(q.par_chunks(nx))
+        .enumerate()
         .with_min_len((CHUNK / nx).max(1))
-        .fold(Sums::boxed, |mut sums, ((r, r32), q)| {
+        .fold(Sums::boxed, |mut sums, (j, ((r, r32), q))| {
             r.iter_mut().zip(q).zip(r32.iter_mut()).for_each(|((r, q), r32)| {
                 *r -= alpha * q;
                 *r32 = *r as F;
             });
-            for g in row_groups(nx, nx, GROUP) {
+            for g in groups.of_row(j) {
                 let r = &r[g];
                 sums.add([lanes_dot(r, r)]);
             }
             sums
         })
         .reduce(Sums::boxed, Sums::merge_boxed);
-    reduce(&sums)[0]
+    grid.part.reduce(*sums)[0]
 }
 
 /// Multigrid: a V-cycle costs a few Jacobi iterations and takes the iteration count from
@@ -325,8 +336,8 @@ impl PressureSolver for Pcg {
         "pcg"
     }
     fn decomposed(&self) -> bool {
-        // the multigrid hierarchy is not yet distributed (issue 19, P1)
-        self.preconditioner != PreconditionerKind::Multigrid
+        // (the multigrid V-cycle runs on the gathered residual, whole, on every rank)
+        true
     }
     fn params(&self) -> serde_json::Value {
         params_value(self)
@@ -334,8 +345,25 @@ impl PressureSolver for Pcg {
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
         let (tol, cap) = (self.tolerance, self.max_iterations);
         if self.preconditioner == PreconditionerKind::Multigrid {
-            self.multigrid.setup(problem).map_err(Error::Model)?;
-            return pcg_multigrid(problem, x, tol, cap, &mut self.multigrid, &mut self.scratch);
+            if problem.grid.part.is_whole() {
+                self.multigrid.setup(problem).map_err(Error::Model)?;
+                let (op, precondition) = self.multigrid.split32();
+                return pcg_multigrid(problem, x, tol, cap, op, precondition, &mut self.scratch);
+            }
+            // a rank's block: the V-cycle on the whole domain, on every rank (the residual
+            // gathered, the correction's block taken back); the CG on the block
+            self.multigrid.setup(&problem.gathered()).map_err(Error::Model)?;
+            self.stencil.assign(problem);
+            let (g, mg) = (&problem.grid, &mut self.multigrid);
+            let shape = g.shape(Lattice::Cell);
+            let (mut whole_r, mut whole_z) = (Vec::new(), Vec::new());
+            let precondition = |r: &[F], z: &mut [F]| {
+                whole_r = g.part.gather(Lattice::Cell, shape, r);
+                whole_z.resize(whole_r.len(), 0.0);
+                mg.split32().1(&whole_r, &mut whole_z);
+                g.part.scatter(Lattice::Cell, shape, &whole_z, z);
+            };
+            return pcg_multigrid(problem, x, tol, cap, &self.stencil, precondition, &mut self.scratch);
         }
         self.stencil.assign(problem);
         let op = &self.stencil;

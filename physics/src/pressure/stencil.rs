@@ -12,7 +12,9 @@
 //! row, so the 2D compile keeps its expression trees.
 
 use multifield_core::exact::{lanes_dot, reduce, row_groups, Sums, GROUP};
+use multifield_core::grid::Lattice;
 use multifield_core::math::{Index, Real, DIM, SIDES};
+use multifield_core::part::{Part, RowGroups};
 use multifield_core::poisson::PoissonProblem;
 use rayon::prelude::*;
 
@@ -46,6 +48,9 @@ pub struct Stencil {
     pub diag: Vec<Real>,
     /// 1 / diagonal, or 0 where a cell is cut off from everything (diagonal 0).
     pub inv_diag: Vec<Real>,
+    /// On a rank's block of a decomposed domain ([`Stencil::assign`] from its problem): its
+    /// part and owned cells, over which [`Stencil::apply_dot`] sums. `None`: every cell.
+    pub owned: Option<(Part, RowGroups)>,
 }
 
 impl Stencil {
@@ -128,6 +133,7 @@ impl Stencil {
     /// Fills the stencil from a pressure problem (same rows as [`PoissonProblem::row`]).
     pub fn assign(&mut self, p: &PoissonProblem) {
         self.resize(p.grid.n(), p.periodic, p.dirichlet);
+        self.owned = (!p.grid.part.is_whole()).then(|| (p.grid.part.clone(), p.grid.groups(Lattice::Cell)));
         #[cfg(feature = "dim2")]
         self.assign_couplings(p);
         #[cfg(feature = "dim3")]
@@ -475,8 +481,17 @@ impl Stencil {
                     *y = d * x - *y;
                 }
             }
-            for g in row_groups(nx, nx, GROUP) {
-                sums.add([lanes_dot(&row[g.clone()], &x[g])]);
+            match &self.owned {
+                Some((_, groups)) => {
+                    for g in groups.of_row(j) {
+                        sums.add([lanes_dot(&row[g.clone()], &x[g])]);
+                    }
+                }
+                None => {
+                    for g in row_groups(nx, nx, GROUP) {
+                        sums.add([lanes_dot(&row[g.clone()], &x[g])]);
+                    }
+                }
             }
         };
         let sums = if self.len() >= PARALLEL_CELLS {
@@ -494,7 +509,10 @@ impl Stencil {
             }
             sums
         };
-        reduce(&sums)[0]
+        match &self.owned {
+            Some((part, _)) => part.reduce(sums)[0],
+            None => reduce(&sums)[0],
+        }
     }
 
     /// y = A x.

@@ -118,7 +118,7 @@ impl StressModel for Newtonian {
                         sum
                     } else {
                         let neighbour = |side: Side| -> Real {
-                            match bc.face_neighbour(n, a, at, side) {
+                            match bc.face_neighbour(g, a, at, side) {
                                 FaceNeighbour::Face(m) => u[g.index(lattice, m)],
                                 FaceNeighbour::Itself => c,
                                 FaceNeighbour::Ghost(s) => bc.ghost(side, a, c, s),
