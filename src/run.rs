@@ -363,8 +363,8 @@ fn writes_output(options: &RunOptions) -> bool {
 }
 
 /// The refusal, before step 0, of what a run on several ranks does not do yet (issue 19's
-/// later phases): the output beyond `diagnostics.csv` and `summary.json`, checkpoints,
-/// restarts and monitors. Every rank decides alike (from the case).
+/// later phases): pictures, checkpoints, restarts and monitors. Every rank decides alike
+/// (from the case).
 fn refuse_on_ranks(sim: &Simulation, options: &RunOptions) -> Result<(), Error> {
     let Some(r) = options.ranks.as_ref().filter(|r| r.0.size() > 1) else {
         return Ok(());
@@ -376,7 +376,7 @@ fn refuse_on_ranks(sim: &Simulation, options: &RunOptions) -> Result<(), Error> 
             key,
             format!(
                 "{what}: not yet on several ranks, and this run has {ranks}; {fix} (a decomposed run writes \
-                 diagnostics.csv, summary.json and the charts so far), or run on one rank"
+                 diagnostics.csv, summary.json, the charts and snapshots so far), or run on one rank"
             ),
         ))
     };
@@ -388,9 +388,6 @@ fn refuse_on_ranks(sim: &Simulation, options: &RunOptions) -> Result<(), Error> 
     }
     if !sim.case.monitors.is_empty() || !sim.case.stop.is_empty() {
         return refuse("monitors", "monitors and stop conditions", "remove `monitors` and `stop`");
-    }
-    if o.snapshots.is_some() {
-        return refuse("output.snapshots", "snapshots", "set `snapshots: None`");
     }
     if o.pictures.is_some() {
         return refuse("output.pictures", "pictures", "set `pictures: None`");

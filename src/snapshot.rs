@@ -100,7 +100,7 @@
 use crate::core::case::SnapshotSpec;
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
-use crate::core::grid::Grid;
+use crate::core::grid::{Grid, Lattice};
 use crate::core::mapping::SampledVelocity;
 #[cfg(feature = "dim2")]
 use crate::core::mapping::Samples;
@@ -387,6 +387,43 @@ impl Snapshot {
             averages,
             suspensions,
         })
+    }
+
+    /// The whole domain's snapshot from the blocks of a decomposed run (`grid`: this rank's
+    /// block): every cell and face array gathered from the ranks' owned nodes, on every
+    /// rank; the snapshot itself on one rank. Every rank calls it, with the same arrays.
+    pub fn gathered(mut self, grid: &Grid) -> Snapshot {
+        let part = &grid.part;
+        if part.is_whole() {
+            return self;
+        }
+        let shape = grid.shape(Lattice::Cell);
+        let cells = grid.n_cells();
+        let gather = |arrays: &mut Arrays| {
+            for a in arrays.values_mut() {
+                // (an array a quantity does not give is empty on every rank)
+                if !a.is_empty() {
+                    *a = part.gather_per(Lattice::Cell, shape, a, a.len() / cells);
+                }
+            }
+        };
+        gather(&mut self.cells);
+        for f in &mut self.fields {
+            gather(&mut f.cells);
+            if let Some(faces) = &mut f.faces {
+                for (a, values) in faces.iter_mut().enumerate() {
+                    let lattice = Lattice::face(a);
+                    *values = part.gather(lattice, grid.shape(lattice), values);
+                }
+            }
+        }
+        let n = grid.domain;
+        (self.nx, self.ny) = (n[0], n[1]);
+        #[cfg(feature = "dim3")]
+        {
+            self.nz = n[2];
+        }
+        self
     }
 
     /// The statistics of the `Suspension` monitor `name`, if written.
@@ -974,6 +1011,9 @@ pub struct Snapshots {
     written: Vec<Entry>,
     next_index: usize,
     spec: SnapshotSpec,
+    /// Whether this process writes the files: one process, or rank 0 of a decomposed run
+    /// (the other ranks gather their blocks into its snapshots and keep its schedule).
+    writes: bool,
 }
 
 impl Snapshots {
@@ -990,9 +1030,14 @@ impl Snapshots {
         }
         let folder = dir.join(FOLDER);
         let io = |source| Error::Io { path: folder.clone(), source };
-        std::fs::create_dir_all(&folder).map_err(io)?;
         let mut kept = Vec::new();
-        for entry in std::fs::read_dir(&folder).map_err(io)? {
+        // (the other ranks of a decomposed run touch no file)
+        let writes = sim.grid.part.rank() == 0;
+        if writes {
+            std::fs::create_dir_all(&folder).map_err(io)?;
+        }
+        let entries = if writes { std::fs::read_dir(&folder).map_err(io)?.collect() } else { Vec::new() };
+        for entry in entries {
             let path = entry.map_err(io)?.path();
             let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
             let snapshot = name.starts_with("snapshot_") && name.ends_with(".h5");
@@ -1025,7 +1070,9 @@ impl Snapshots {
             xdmf: folder.join(xdmf_name(&sim.case.name)),
             case: sim.case.name.clone(),
             due: Moments::new(due, &spec.times, spec.at_end, sim.time),
-            grid: sim.grid.clone(),
+            // the domain's (a decomposed run's rank 0 writes the whole domain)
+            grid: Grid::from_cells(sim.grid.domain, sim.grid.h, sim.grid.origin),
+            writes,
             written: kept,
             next_index,
             spec,
@@ -1044,12 +1091,29 @@ impl Snapshots {
 
     /// Writes the snapshot of the current state and rewrites the XDMF.
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
-        let snap = Snapshot::with(sim, &self.spec)?;
+        let snap = Snapshot::with(sim, &self.spec)?.gathered(&sim.grid);
         let file = file_name(self.next_index);
-        snap.write(&self.dir.join(&file))?;
+        let written = if self.writes {
+            snap.write(&self.dir.join(&file)).and_then(|_| {
+                write_atomically(&self.xdmf, xdmf(&self.case, &self.grid, &self.written_with(&snap, &file)).as_bytes())
+            })
+        } else {
+            Ok(())
+        };
+        // every rank of a decomposed run learns whether rank 0 could write
+        if sim.grid.part.any(written.is_err()) {
+            return written.and(Err(Error::Model("rank 0 could not write a snapshot".into())));
+        }
         self.next_index += 1;
         self.written.push(Entry::of(&snap, file));
-        write_atomically(&self.xdmf, xdmf(&self.case, &self.grid, &self.written).as_bytes())
+        Ok(())
+    }
+
+    /// The entries written so far and `snap`'s.
+    fn written_with(&self, snap: &Snapshot, file: &str) -> Vec<Entry> {
+        let mut all = self.written.clone();
+        all.push(Entry::of(snap, file.to_string()));
+        all
     }
 }
 

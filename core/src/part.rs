@@ -216,24 +216,33 @@ impl Part {
     /// domain's storage; face n of a periodic axis holds face 0's value). `local` is this
     /// rank's storage of shape `shape`. For the whole domain: a copy.
     pub fn gather<T: Word>(&self, lattice: Lattice, shape: Index, local: &[T]) -> Vec<T> {
+        self.gather_per(lattice, shape, local, 1)
+    }
+
+    /// [`Part::gather`] of an array of `per` consecutive values a node (a vector quantity).
+    pub fn gather_per<T: Word>(&self, lattice: Lattice, shape: Index, local: &[T], per: usize) -> Vec<T> {
         let Some(r) = &self.0 else {
             return local.to_vec();
         };
         let mut mine = Vec::new();
         for rows in self.groups(lattice, shape, GROUP).rows() {
-            for v in &local[rows] {
+            for v in &local[rows.start * per..rows.end * per] {
                 v.put(&mut mine);
             }
         }
         let all = r.comm.gather_all(&mine);
         let n = r.grid.n;
         let domain: Index = std::array::from_fn(|a| n[a] + (lattice.axis() == Some(a)) as usize);
-        let mut out = vec![T::default(); domain.iter().product()];
+        let mut out = vec![T::default(); domain.iter().product::<usize>() * per];
         for (rank, bytes) in all.iter().enumerate() {
             let block = r.grid.block(rank);
             let owned: [Range<usize>; DIM] = std::array::from_fn(|a| block.owned_global(lattice, a));
             let mut words = bytes.chunks_exact(T::SIZE);
-            for_box(domain, &owned, |g| out[g] = T::get(words.next().expect("a rank's owned nodes")));
+            for_box(domain, &owned, |g| {
+                for v in &mut out[g * per..(g + 1) * per] {
+                    *v = T::get(words.next().expect("a rank's owned nodes"));
+                }
+            });
         }
         // face n of a periodic axis: face 0's copy, as serially
         if let Some(a) = lattice.axis().filter(|&a| r.grid.periodic[a]) {
@@ -241,9 +250,13 @@ impl Part {
             let mut high = low.clone();
             (low[a], high[a]) = (0..1, n[a]..n[a] + 1);
             let mut sources = Vec::new();
-            for_box(domain, &low, |g| sources.push(out[g]));
+            for_box(domain, &low, |g| sources.extend_from_slice(&out[g * per..(g + 1) * per]));
             let mut it = sources.into_iter();
-            for_box(domain, &high, |g| out[g] = it.next().expect("a face 0 for each face n"));
+            for_box(domain, &high, |g| {
+                for v in &mut out[g * per..(g + 1) * per] {
+                    *v = it.next().expect("a face 0 for each face n");
+                }
+            });
         }
         out
     }

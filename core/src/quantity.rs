@@ -335,11 +335,16 @@ pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
     let mut occupied = vec![0.0; g.n_cells()];
     let mut out: Vec<(Vec<Real>, FaceVelocity)> = Vec::new();
     for (f, spec) in sim.fields.iter().zip(&sim.case.fields) {
-        let theta: Vec<Real> = if f.fills_rest {
+        let mut theta: Vec<Real> = if f.fills_rest {
             Vec::new()
         } else {
             region_fraction(&spec.region, g).into_iter().map(|t| t * spec.volume_fraction).collect()
         };
+        // a rank's halo as its neighbours' (the initial state at the unwrapped positions
+        // of a periodic side's halo is not the owners' to the bit); every rank calls this
+        if !f.fills_rest {
+            g.exchange(&mut [(Lattice::Cell, &mut theta)]);
+        }
         for (o, t) in occupied.iter_mut().zip(&theta) {
             *o += t;
         }
@@ -361,6 +366,7 @@ pub(crate) fn grid_states(sim: &Simulation) -> Vec<(Vec<Real>, FaceVelocity)> {
             }
         };
         sim.boundaries.enforce(g, &mut vel);
+        g.exchange_faces(&mut vel);
         out.push((theta, vel));
     }
     for ((theta, _), f) in out.iter_mut().zip(&sim.fields) {

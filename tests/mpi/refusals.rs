@@ -1,6 +1,7 @@
 //! Under `mpirun -np N` with N > 1, what is not decomposed yet is refused before step 0
 //! (docs/design/mpi.md §7), rank 0 saying why: a plugin (named with its key), the output
-//! that is not written from many ranks yet, a 3D case, and every command but `run` and
+//! that is not written from many ranks yet (pictures), a domain the ranks do not fit, and
+//! every command but `run` and
 //! `mpi-check`. On one rank a run is the run without mpirun.
 
 use super::common::{mpirun, scratch, text};
@@ -43,10 +44,10 @@ fn what_is_not_decomposed_is_refused_before_step_0() {
     let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
     assert!(summary.contains("\"status\": \"failed\""), "{summary}");
     assert!(!out.join("diagnostics.csv").exists());
-    // snapshots are not written from many ranks yet
-    let Some((o, _)) = run("snapshots", &["output.snapshots=Some((interval: 0.1))"]) else { return };
+    // pictures are not drawn from many ranks yet
+    let Some((o, _)) = run("pictures", &["output.pictures=Some((interval: 0.1, quantity: Speed))"]) else { return };
     assert_eq!(o.status.code(), Some(2));
-    assert!(text(&o).1.contains("output.snapshots: snapshots: not yet on several ranks"), "{}", text(&o).1);
+    assert!(text(&o).1.contains("output.pictures: pictures: not yet on several ranks"), "{}", text(&o).1);
     // 6 × 6 cells: cuts along x on multiples of 32 cells, blocks of at least 4 cells
     let Some((o, _)) = run("cells", &["domain.cells=(6, 6)"]) else { return };
     assert_eq!(o.status.code(), Some(2));

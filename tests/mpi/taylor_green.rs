@@ -3,8 +3,9 @@
 //! Crank–Nicolson viscosity and the multigrid-preconditioned PCG (its default), writes the `diagnostics.csv`
 //! of the run without mpirun byte for byte (a row every step: time, Δt, kinetic energy,
 //! momentum, mass, max speed, max divergence, volume fractions, pressure iterations and
-//! residual). `tests/verification/decomposed.rs` checks the fields themselves on
-//! in-process ranks.
+//! residual), and the same snapshots (HDF5 and XDMF, gathered onto rank 0, byte for
+//! byte). `tests/verification/decomposed.rs` checks the fields themselves on in-process
+//! ranks.
 
 use super::common::{mpirun, scratch, text};
 use std::path::Path;
@@ -19,7 +20,13 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
         let mut a: Vec<String> = ["run", &case, "--out", &out.display().to_string(), "--quiet", "--threads", "1"]
             .map(str::to_string)
             .to_vec();
-        for s in ["domain.cells=(64, 64)", "time.max_steps=20", "output.interval=0", "output.charts=false"] {
+        for s in [
+            "domain.cells=(64, 64)",
+            "time.max_steps=20",
+            "output.interval=0",
+            "output.charts=false",
+            "output.snapshots=Some((interval: 0.25, faces: true))",
+        ] {
             a.extend(["--set".to_string(), s.to_string()]);
         }
         a
@@ -30,6 +37,13 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
     let reference = std::fs::read(serial.join("diagnostics.csv")).unwrap();
     // a header and 20 steps
     assert_eq!(String::from_utf8_lossy(&reference).lines().count(), 21);
+    // t = 0, 0.25, 0.5, 0.75 and the last step's (t = 0.79)
+    let mut snapshots: Vec<String> = std::fs::read_dir(serial.join("snapshots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    snapshots.sort();
+    assert_eq!(snapshots.len(), 6, "{snapshots:?}");
     for np in 1..=4 {
         let out = dir.join(format!("np{np}"));
         let a = args(&out);
@@ -39,6 +53,11 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
         assert_eq!(stdout.matches("completed: 20 steps").count(), 1, "np {np}: rank 0 alone reports: {stdout}");
         let got = std::fs::read(out.join("diagnostics.csv")).unwrap();
         assert!(got == reference, "np {np}: diagnostics.csv differs from the serial run's");
+        for file in &snapshots {
+            let (a, b) =
+                (std::fs::read(serial.join("snapshots").join(file)), std::fs::read(out.join("snapshots").join(file)));
+            assert!(a.unwrap() == b.unwrap_or_default(), "np {np}: snapshots/{file} differs from the serial run's");
+        }
         let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
         assert!(summary.contains("\"status\": \"completed\""), "np {np}: {summary}");
         let s: serde_json::Value = serde_json::from_str(&summary).unwrap();

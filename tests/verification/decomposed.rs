@@ -4,9 +4,13 @@
 //! the Eulerian frame with Crank–Nicolson viscosity and the PCG (Jacobi, and the multigrid
 //! V-cycle on the gathered residual).
 //! Every step's diagnostics on every rank, and at the end every owned node of θ, u, v and
-//! p, equal the serial run's to the bit; the ranks' owned nodes cover the domain once.
+//! p and every array of the snapshot gathered from the ranks (the cell quantities of the
+//! mixture and of each field: pressure, velocity, vorticity, θ, … and the face
+//! velocities), equal the serial run's to the bit; the ranks' owned nodes cover the domain
+//! once.
 
-use multifield_core::case::Case;
+use multifield::snapshot::Snapshot;
+use multifield_core::case::{Case, SnapshotSpec};
 use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Real, AXES, DIM};
 use multifield_core::parallel::{fake, Comm};
@@ -78,12 +82,33 @@ fn owned(grid: &Grid, lattice: Lattice, periodic: [bool; DIM]) -> Vec<(usize, us
 
 struct RankRun {
     diagnostics: Vec<Vec<u64>>,
+    /// Every array of the snapshot (gathered from the ranks), as bits, by name.
+    snapshot: Vec<(String, Vec<u64>)>,
     /// Per array: (global index, value bits) of the owned nodes.
     owned: Vec<Vec<(usize, u64)>>,
     rank_grid: Option<Vec<usize>>,
 }
 
+/// Every array of the snapshot of `sim` (gathered from the ranks), as bits, by name.
+fn snapshot_bits(sim: &Simulation) -> Vec<(String, Vec<u64>)> {
+    let spec = SnapshotSpec { faces: true, ..SnapshotSpec::every(1.0) };
+    let snap = Snapshot::with(sim, &spec).unwrap().gathered(&sim.grid);
+    let bits = |a: &[Real]| a.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+    let mut snapshot: Vec<(String, Vec<u64>)> = snap.cells.iter().map(|(k, v)| (k.clone(), bits(v))).collect();
+    for f in &snap.fields {
+        snapshot.extend(f.cells.iter().map(|(k, v)| (format!("{}/{k}", f.name), bits(v))));
+        for (a, v) in f.faces.iter().flatten().enumerate() {
+            snapshot.push((format!("{}/faces/{a}", f.name), bits(v)));
+        }
+    }
+    snapshot.push(("cells".into(), vec![snap.nx as u64, snap.ny as u64]));
+    snapshot
+}
+
 fn run_on(sim: &mut Simulation) -> RankRun {
+    // the initial state's snapshot (computed from the case at step 0) and the last one's
+    let mut snapshot: Vec<(String, Vec<u64>)> =
+        snapshot_bits(sim).into_iter().map(|(k, v)| (format!("t = 0: {k}"), v)).collect();
     let diagnostics = (0..STEPS).map(|_| bits(&sim.step().unwrap())).collect();
     let owned = arrays(sim)
         .iter()
@@ -93,7 +118,8 @@ fn run_on(sim: &mut Simulation) -> RankRun {
         })
         .collect();
     let rank_grid = sim.grid.part.block().map(|(g, _)| g.p.to_vec());
-    RankRun { diagnostics, owned, rank_grid }
+    snapshot.extend(snapshot_bits(sim));
+    RankRun { diagnostics, snapshot, owned, rank_grid }
 }
 
 /// Runs `case` serially and on each of `ranks` (with the rank grid expected) in-process,
@@ -120,6 +146,10 @@ fn check(case: &Case, ranks: &[(usize, Option<Vec<usize>>)]) -> Simulation {
             assert_eq!(run.rank_grid, expected, "{ranks} ranks: the rank grid");
             for (step, (d, e)) in run.diagnostics.iter().zip(&reference.diagnostics).enumerate() {
                 assert_eq!(d, e, "{ranks} ranks, rank {r}: the diagnostics of step {}", step + 1);
+            }
+            assert_eq!(run.snapshot.len(), reference.snapshot.len());
+            for ((name, a), (_, b)) in run.snapshot.iter().zip(&reference.snapshot) {
+                assert!(a == b, "{ranks} ranks, rank {r}: the snapshot's {name} differs from the serial one");
             }
         }
         for (k, serial_owned) in reference.owned.iter().enumerate() {
