@@ -124,6 +124,28 @@ impl PoissonProblem {
         }
     }
 
+    /// Solves with `solve` on the whole domain: on one rank the problem itself; on a rank of
+    /// a decomposed run the [`PoissonProblem::gathered`] one from the gathered initial
+    /// guess, the same on every rank (so are its errors), and this rank's block of the
+    /// solution taken back, halo included: a direct or whole-domain solver on ranks, with
+    /// the serial bits (not faster with more ranks).
+    pub fn solve_whole<E>(
+        &self,
+        x: &mut [Real],
+        solve: impl FnOnce(&PoissonProblem, &mut [Real]) -> Result<SolveStats, E>,
+    ) -> Result<SolveStats, E> {
+        let part = &self.grid.part;
+        if part.is_whole() {
+            return solve(self, x);
+        }
+        let whole = self.gathered();
+        let shape = self.grid.shape(Lattice::Cell);
+        let mut xw = part.gather(Lattice::Cell, shape, x);
+        let stats = solve(&whole, &mut xw)?;
+        part.scatter(Lattice::Cell, shape, &xw, x);
+        Ok(stats)
+    }
+
     /// Whether the operator has the constant null space.
     pub fn is_singular(&self) -> bool {
         self.singular

@@ -248,3 +248,25 @@ fn channel_with_inflow_and_outflow_on_ranks_gives_the_serial_bits() {
     // fully developed: the outflow carries the inflow's flux (mass of the water constant)
     assert!(serial.last.max_divergence < 1e-6, "{}", serial.last.max_divergence);
 }
+
+/// The whole-domain pressure solvers on ranks, each on the gathered problem on every
+/// rank: the direct `cholesky` on the cavity (walls: a singular problem) on 2 × 2 ranks,
+/// the `multigrid` solver (V-cycles to tolerance) on 1 × 3.
+#[test]
+fn whole_domain_pressure_solvers_on_ranks_give_the_serial_bits() {
+    for (model, ranks) in [("cholesky", (4, vec![2, 2])), ("multigrid", (3, vec![1, 3]))] {
+        let text = format!(
+            r#"(
+            name: "cavity_{model}", domain: (size: (1.0, 1.0), cells: (64, 64)),
+            boundaries: (left: NoSlip, right: NoSlip, bottom: NoSlip, top: Velocity(velocity: (1.0, 0.0))),
+            time: (end: 10.0, cfl: 0.4, max_dt: 0.05),
+            fields: [(name: "fluid", density: 1.0, frame: (model: "eulerian"), region: All,
+                      stress: [(model: "newtonian", params: (viscosity: 0.01))])],
+            pressure: Some((model: "{model}")),
+        )"#
+        );
+        let case = Case::from_ron(&text, Path::new("cavity.ron")).unwrap();
+        let serial = check(&case, &[(ranks.0, Some(ranks.1))]);
+        assert!(serial.last.max_divergence < 1e-6, "{model}: {}", serial.last.max_divergence);
+    }
+}

@@ -390,7 +390,7 @@ fn refuse_undecomposed(
             format!(
                 "{what} does not run on several ranks yet, and this run has {ranks}: run the case on one rank \
                  (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): Eulerian \
-                 fields in 2D with `newtonian` stress, the `constant` exchange and the `pcg` pressure solver \
+                 fields in 2D with `newtonian` stress, the `constant` exchange and the shipped pressure solvers \
                  (docs/design/mpi.md)"
             ),
         ))

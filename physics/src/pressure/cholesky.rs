@@ -393,7 +393,18 @@ impl PressureSolver for Cholesky {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // (the factorization of the whole domain's gathered problem, on every rank)
+        true
+    }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
+        problem.solve_whole(x, |problem, x| self.solve_on(problem, x))
+    }
+}
+
+impl Cholesky {
+    /// [`PressureSolver::solve`] on a whole domain.
+    fn solve_on(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
         let stats =
             |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
         let b = &problem.rhs;
