@@ -349,8 +349,22 @@ pub fn differences(checkpoint: &Case, here: &Case) -> Vec<String> {
 /// Builds the simulation of `case` and restores the checkpoint `path` into it. Refuses a
 /// checkpoint of another case (module doc) with the entries that differ.
 pub fn restore(case: &Case, path: &Path) -> Result<(Simulation, Checkpoint), Error> {
+    restore_on(case, path, None)
+}
+
+/// [`restore`] on the ranks of a decomposed run (`None`: one process): every rank reads the
+/// checkpoint (of the whole domain, whatever the rank count that wrote it) and takes its
+/// block.
+pub fn restore_on(
+    case: &Case,
+    path: &Path,
+    comm: Option<std::sync::Arc<dyn crate::core::parallel::Comm>>,
+) -> Result<(Simulation, Checkpoint), Error> {
     let checkpoint = read(path)?;
-    let mut sim = Simulation::new(case)?;
+    let mut sim = match comm {
+        Some(comm) => Simulation::with_comm(case, comm)?,
+        None => Simulation::new(case)?,
+    };
     let diff = differences(&checkpoint.case, &sim.case);
     if !diff.is_empty() {
         let shown = diff.iter().take(6).cloned().collect::<Vec<_>>().join("; ");
@@ -395,6 +409,9 @@ pub struct Checkpoints {
     due: Due,
     last_step: Option<u64>,
     last_path: Option<PathBuf>,
+    /// Whether this process writes the files: one process, or rank 0 of a decomposed run
+    /// (every rank gathers its block into the checkpoint and keeps the schedule).
+    writes: bool,
 }
 
 impl Checkpoints {
@@ -402,15 +419,30 @@ impl Checkpoints {
     /// interval for a new run); `last_step` is the step of a checkpoint the run starts
     /// from. Creates the folder and removes temporary files left by a killed run.
     pub fn create(run_dir: &Path, schedule: Schedule, next: Real, last_step: Option<u64>) -> Result<Self, Error> {
+        Self::create_on(run_dir, schedule, next, last_step, true)
+    }
+
+    /// [`Checkpoints::create`] on a rank of a decomposed run: `writes` on rank 0 only (the
+    /// others touch no file).
+    pub fn create_on(
+        run_dir: &Path,
+        schedule: Schedule,
+        next: Real,
+        last_step: Option<u64>,
+        writes: bool,
+    ) -> Result<Self, Error> {
         let folder = run_dir.join(FOLDER);
-        std::fs::create_dir_all(&folder).map_err(|source| Error::Io { path: folder.clone(), source })?;
-        for e in std::fs::read_dir(&folder).map_err(|source| Error::Io { path: folder.clone(), source })?.flatten() {
-            let name = e.file_name().to_string_lossy().into_owned();
-            if name.starts_with(".checkpoint_") && name.ends_with(".bin.tmp") {
-                let _ = std::fs::remove_file(e.path());
+        if writes {
+            std::fs::create_dir_all(&folder).map_err(|source| Error::Io { path: folder.clone(), source })?;
+            for e in std::fs::read_dir(&folder).map_err(|source| Error::Io { path: folder.clone(), source })?.flatten()
+            {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.starts_with(".checkpoint_") && name.ends_with(".bin.tmp") {
+                    let _ = std::fs::remove_file(e.path());
+                }
             }
         }
-        Ok(Self { folder, due: Due::new(next, schedule.interval), last_step, last_path: None })
+        Ok(Self { folder, due: Due::new(next, schedule.interval), last_step, last_path: None, writes })
     }
 
     /// Whether a checkpoint is due after a step that ended at `t`; if so, moves the
@@ -433,17 +465,29 @@ impl Checkpoints {
     /// but the newest of them. `runner.next_checkpoint` is set here.
     pub fn write(&mut self, sim: &Simulation, runner: &RunnerState) -> Result<PathBuf, Error> {
         let runner = RunnerState { next_checkpoint: self.due.next(), ..runner.clone() };
+        // (every rank of a decomposed run: the state is gathered)
         let bytes = encode(sim, &runner)?;
         let path = self.folder.join(file_name(sim.steps));
-        crate::output::write_atomically(&path, &bytes)?;
+        let written = if self.writes { self.write_file(&path, &bytes, sim.steps) } else { Ok(()) };
+        // every rank learns whether rank 0 could write
+        if sim.grid.part.any(written.is_err()) {
+            return Err(written.err().unwrap_or_else(|| Error::Model("rank 0 could not write a checkpoint".into())));
+        }
         self.last_step = Some(sim.steps);
         self.last_path = Some(path.clone());
+        Ok(path)
+    }
+
+    /// Writes the checkpoint file of `step` and deletes those of earlier steps but the
+    /// newest of them.
+    fn write_file(&self, path: &Path, bytes: &[u8], step: u64) -> Result<(), Error> {
+        crate::output::write_atomically(path, bytes)?;
         let run_dir = self.folder.parent().unwrap_or(Path::new("."));
-        let earlier: Vec<PathBuf> = list(run_dir).into_iter().filter(|(s, _)| *s < sim.steps).map(|(_, p)| p).collect();
+        let earlier: Vec<PathBuf> = list(run_dir).into_iter().filter(|(s, _)| *s < step).map(|(_, p)| p).collect();
         for old in earlier.iter().rev().skip(1) {
             std::fs::remove_file(old).map_err(|source| Error::Io { path: old.clone(), source })?;
         }
-        Ok(path)
+        Ok(())
     }
 }
 

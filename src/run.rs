@@ -314,7 +314,8 @@ fn run_in_pool(case: &Case, dir: &Path, options: &RunOptions, threads: usize) ->
     // a bad checkpoint is refused before anything in the output directory is touched
     let (sim, resumed) = match &options.restart {
         Some(path) => {
-            let (sim, checkpoint) = crate::checkpoint::restore(case, path)?;
+            let comm = options.ranks.as_ref().map(|r| r.0.clone() as Arc<dyn Comm>);
+            let (sim, checkpoint) = crate::checkpoint::restore_on(case, path, comm)?;
             (sim, Some(checkpoint))
         }
         None => match match &options.ranks {
@@ -363,8 +364,7 @@ fn writes_output(options: &RunOptions) -> bool {
 }
 
 /// The refusal, before step 0, of what a run on several ranks does not do yet (issue 19's
-/// later phases): pictures, checkpoints, restarts and monitors. Every rank decides alike
-/// (from the case).
+/// later phases): pictures and monitors. Every rank decides alike (from the case).
 fn refuse_on_ranks(sim: &Simulation, options: &RunOptions) -> Result<(), Error> {
     let Some(r) = options.ranks.as_ref().filter(|r| r.0.size() > 1) else {
         return Ok(());
@@ -376,16 +376,10 @@ fn refuse_on_ranks(sim: &Simulation, options: &RunOptions) -> Result<(), Error> 
             key,
             format!(
                 "{what}: not yet on several ranks, and this run has {ranks}; {fix} (a decomposed run writes \
-                 diagnostics.csv, summary.json, the charts and snapshots so far), or run on one rank"
+                 diagnostics.csv, summary.json, the charts, snapshots and checkpoints so far), or run on one rank"
             ),
         ))
     };
-    if options.restart.is_some() {
-        return refuse("--restart", "a restart from a checkpoint", "start from t = 0");
-    }
-    if o.checkpoints.is_some() {
-        return refuse("output.checkpoints", "checkpoints", "set `checkpoints: None`");
-    }
     if !sim.case.monitors.is_empty() || !sim.case.stop.is_empty() {
         return refuse("monitors", "monitors and stop conditions", "remove `monitors` and `stop`");
     }
@@ -406,7 +400,8 @@ fn run_simulation(
 ) -> Result<Outcome, Error> {
     refuse_on_ranks(&sim, options)?;
     let interval = sim.case.output.interval;
-    if let Some(c) = &resumed {
+    let writes = writes_output(options);
+    if let (Some(c), true) = (&resumed, writes) {
         crate::checkpoint::discard_after(dir, c.step)?;
     }
     let mut checkpoints = None;
@@ -419,9 +414,8 @@ fn run_simulation(
             None => schedule.interval,
         };
         let last = resumed.as_ref().map(|c| c.step);
-        checkpoints = Some(crate::checkpoint::Checkpoints::create(dir, schedule, next, last)?);
+        checkpoints = Some(crate::checkpoint::Checkpoints::create_on(dir, schedule, next, last, writes)?);
     }
-    let writes = writes_output(options);
     if writes {
         write_file(&dir.join("case.ron"), &sim.case.to_ron())?;
     }
@@ -454,8 +448,11 @@ fn run_simulation(
                 .filter(|p| p.file_name().is_some_and(|n| n == crate::checkpoint::FOLDER))
                 .and_then(Path::parent);
             let source = |name: &str| source_dir.map(|d| d.join(name));
-            let csv =
-                Some(DiagnosticsCsv::resume(dir.join("diagnostics.csv"), source("diagnostics.csv").as_deref(), keep)?);
+            let csv = if writes {
+                Some(DiagnosticsCsv::resume(dir.join("diagnostics.csv"), source("diagnostics.csv").as_deref(), keep)?)
+            } else {
+                None
+            };
             let bodies = if has_bodies {
                 Some(BodiesCsv::resume(dir.join("bodies.csv"), source("bodies.csv").as_deref(), keep)?)
             } else {

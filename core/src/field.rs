@@ -1,7 +1,7 @@
 //! A field's state on the grid: the scratch space every frame fills and reads back.
 
-use crate::grid::{FaceArrays, FaceVelocity, Grid};
-use crate::math::Real;
+use crate::grid::{FaceArrays, FaceVelocity, Grid, Lattice};
+use crate::math::{Real, AXES};
 use serde::{Deserialize, Serialize};
 
 /// One field's quantities on the MAC grid for the current step.
@@ -44,6 +44,63 @@ impl FieldState {
             specific_volume: FaceVelocity::zeros(grid),
             body_force: FaceVelocity::zeros(grid),
         }
+    }
+
+    /// The whole domain's state from the blocks of a decomposed run (`grid`: this rank's
+    /// block), every array gathered from the ranks' owned nodes, on every rank; a copy on
+    /// one rank. Every rank calls it.
+    pub fn gathered(&self, grid: &Grid) -> FieldState {
+        let part = &grid.part;
+        let faces = |f: &FaceArrays| {
+            let mut out = f.clone();
+            for a in AXES {
+                let lattice = Lattice::face(a);
+                out[a] = part.gather(lattice, grid.shape(lattice), &f[a]);
+            }
+            out
+        };
+        FieldState {
+            theta: part.gather(Lattice::Cell, grid.shape(Lattice::Cell), &self.theta),
+            theta_face: faces(&self.theta_face),
+            mass_face: faces(&self.mass_face),
+            velocity: faces(&self.velocity),
+            velocity_old: faces(&self.velocity_old),
+            pressure_acceleration: faces(&self.pressure_acceleration),
+            specific_volume: faces(&self.specific_volume),
+            body_force: faces(&self.body_force),
+        }
+    }
+
+    /// This rank's block (`grid`) of the whole domain's state `whole` (the inverse of
+    /// [`FieldState::gathered`], halo included); `None` when `whole` is not of the domain's
+    /// size.
+    pub fn block_of(grid: &Grid, whole: &FieldState) -> Option<FieldState> {
+        let part = &grid.part;
+        let domain = Grid::from_cells(grid.domain, grid.h, grid.origin);
+        let mut out = FieldState::new(grid);
+        let cell = |local: &mut Vec<Real>, whole: &[Real]| {
+            (whole.len() == domain.n_cells())
+                .then(|| part.scatter(Lattice::Cell, grid.shape(Lattice::Cell), whole, local))
+        };
+        let faces = |local: &mut FaceArrays, whole: &FaceArrays| -> Option<()> {
+            for a in AXES {
+                let lattice = Lattice::face(a);
+                if whole[a].len() != domain.n_faces(a) {
+                    return None;
+                }
+                part.scatter(lattice, grid.shape(lattice), &whole[a], &mut local[a]);
+            }
+            Some(())
+        };
+        cell(&mut out.theta, &whole.theta)?;
+        faces(&mut out.theta_face, &whole.theta_face)?;
+        faces(&mut out.mass_face, &whole.mass_face)?;
+        faces(&mut out.velocity, &whole.velocity)?;
+        faces(&mut out.velocity_old, &whole.velocity_old)?;
+        faces(&mut out.pressure_acceleration, &whole.pressure_acceleration)?;
+        faces(&mut out.specific_volume, &whole.specific_volume)?;
+        faces(&mut out.body_force, &whole.body_force)?;
+        Some(out)
     }
 
     /// Face volume fractions from the cell ones: the mean of the two neighbours, the

@@ -1012,22 +1012,52 @@ impl Frame for Eulerian {
 
     /// Steps taken (the first step has no lagged pressure), θ and the face velocities; the
     /// rest of the work space is scratch, rebuilt every step.
+    /// (A rank of a decomposed run saves the whole domain's θ and velocities, gathered.)
     fn save_state(&self) -> Result<Vec<u8>, String> {
         let w = &self.work;
+        let g = &w.grid;
+        if g.part.is_whole() {
+            return state::encode(&EulerianState {
+                steps: w.steps,
+                theta: Cow::Borrowed(&w.theta),
+                velocity: Cow::Borrowed(&w.velocity),
+            });
+        }
+        let mut velocity = w.velocity.clone();
+        for a in AXES {
+            let lattice = Lattice::face(a);
+            velocity[a] = g.part.gather(lattice, g.shape(lattice), &w.velocity[a]);
+        }
         state::encode(&EulerianState {
             steps: w.steps,
-            theta: Cow::Borrowed(&w.theta),
-            velocity: Cow::Borrowed(&w.velocity),
+            theta: Cow::Owned(g.part.gather(Lattice::Cell, g.shape(Lattice::Cell), &w.theta)),
+            velocity: Cow::Owned(velocity),
         })
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let saved: EulerianState = state::decode(bytes, "eulerian state")?;
         let w = &mut self.work;
-        state::copy_into(&mut w.theta, &saved.theta, "eulerian volume fraction")?;
-        for a in AXES {
-            let what = format!("eulerian velocity on {}-faces", multifield_core::math::axis_name(a));
-            state::copy_into(&mut w.velocity[a], &saved.velocity[a], &what)?;
+        let g = w.grid.clone();
+        if g.part.is_whole() {
+            state::copy_into(&mut w.theta, &saved.theta, "eulerian volume fraction")?;
+            for a in AXES {
+                let what = format!("eulerian velocity on {}-faces", multifield_core::math::axis_name(a));
+                state::copy_into(&mut w.velocity[a], &saved.velocity[a], &what)?;
+            }
+        } else {
+            // a rank of a decomposed run: its block (halo included) of the whole domain's
+            let domain = Grid::from_cells(g.domain, g.h, g.origin);
+            if saved.theta.len() != domain.n_cells()
+                || AXES.iter().any(|&a| saved.velocity[a].len() != domain.n_faces(a))
+            {
+                return Err("eulerian state: not of this domain's size".into());
+            }
+            g.part.scatter(Lattice::Cell, g.shape(Lattice::Cell), &saved.theta, &mut w.theta);
+            for a in AXES {
+                let lattice = Lattice::face(a);
+                g.part.scatter(lattice, g.shape(lattice), &saved.velocity[a], &mut w.velocity[a]);
+            }
         }
         w.steps = saved.steps;
         Ok(())

@@ -7,4 +7,5 @@
 mod check;
 mod common;
 mod refusals;
+mod restart;
 mod taylor_green;

@@ -45,22 +45,33 @@ impl Simulation {
     /// recomputes them), nor the pressure solvers' caches (multigrid hierarchy, symbolic
     /// and numeric factorizations), which every solve rebuilds from its problem: a solve
     /// depends only on the problem and the initial guess.
+    ///
+    /// A rank of a decomposed run saves the whole domain's state (its arrays gathered from
+    /// every rank's owned nodes, the frames' too): the serial run's bytes, which a restart
+    /// on any number of ranks loads. Every rank calls it.
     pub fn save_state(&self) -> Result<Vec<u8>> {
+        let g = &self.grid;
+        let decomposed = !g.part.is_whole();
         let mut fields = Vec::with_capacity(self.fields.len());
         for f in &self.fields {
             let frame = f.frame.save_state().map_err(|m| Error::Model(format!("field `{}`: {m}", f.name)))?;
             fields.push(FieldCheckpoint {
                 name: Cow::Borrowed(&f.name),
                 model: Cow::Borrowed(f.frame.model()),
-                grid: Cow::Borrowed(&f.state),
+                grid: if decomposed { Cow::Owned(f.state.gathered(g)) } else { Cow::Borrowed(&f.state) },
                 frame: Cow::Owned(frame),
             });
         }
+        let pressure = if decomposed {
+            Cow::Owned(g.part.gather(Lattice::Cell, g.shape(Lattice::Cell), &self.pressure))
+        } else {
+            Cow::Borrowed(&self.pressure[..])
+        };
         let saved = SimulationState {
             time: self.time,
             steps: self.steps,
             initial_energy: self.initial_energy,
-            pressure: Cow::Borrowed(&self.pressure),
+            pressure,
             last: Cow::Borrowed(&self.last),
             body_forces: Cow::Owned(
                 self.body_forces.iter().map(|f| f.iter().map(|c| (c.force, c.torque)).collect()).collect(),
@@ -83,9 +94,24 @@ impl Simulation {
     }
 
     pub(super) fn load_state_inner(&mut self, bytes: &[u8]) -> std::result::Result<(), String> {
-        let saved: SimulationState = state::decode(bytes, "simulation state")?;
+        let mut saved: SimulationState = state::decode(bytes, "simulation state")?;
         let mut pressure = vec![0.0; self.grid.n_cells()];
-        state::copy_into(&mut pressure, &saved.pressure, "pressure")?;
+        let g = &self.grid;
+        if g.part.is_whole() {
+            state::copy_into(&mut pressure, &saved.pressure, "pressure")?;
+        } else {
+            // a rank of a decomposed run: its block of the whole domain's state
+            let cells = g.domain_cells();
+            if saved.pressure.len() != cells {
+                return Err(format!("pressure: {} cells in the checkpoint, {cells} here", saved.pressure.len()));
+            }
+            g.part.scatter(Lattice::Cell, g.shape(Lattice::Cell), &saved.pressure, &mut pressure);
+            for c in &mut saved.fields {
+                let block = FieldState::block_of(g, &c.grid)
+                    .ok_or_else(|| format!("field `{}`: its grid state is not of this domain's size", c.name))?;
+                c.grid = Cow::Owned(block);
+            }
+        }
         let n = saved.body_forces.len();
         if n != self.fields.len() {
             return Err(format!("contact forces of {n} fields in the checkpoint, {} fields here", self.fields.len()));
