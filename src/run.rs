@@ -246,6 +246,19 @@ pub struct Communication {
     pub rank_grid: Vec<usize>,
     /// Each rank's traffic per step of the time loop (the build's not counted), by rank.
     pub per_step: Vec<RankTraffic>,
+    /// Rank 0's traffic per step by phase of the step (the phases numbered in their order;
+    /// "9 …" holds the diagnostics after a step, the next Δt and the output).
+    pub rank0_phases: Vec<PhaseTraffic>,
+}
+
+/// Rank 0's traffic per step in one phase of the step.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhaseTraffic {
+    /// The phase.
+    pub phase: String,
+    /// The traffic per step ([`RankTraffic`]'s figures).
+    #[serde(flatten)]
+    pub traffic: RankTraffic,
 }
 
 /// One rank's traffic per step ([`crate::core::parallel::Traffic`] over the steps).
@@ -503,15 +516,27 @@ fn run_simulation(
         });
     }
     driver.stop_on(interrupt_flag());
-    let traffic_before = options.ranks.as_ref().map(|r| r.0.traffic());
+    let traffic_before = options.ranks.as_ref().map(|r| (r.0.traffic(), r.0.by_phase()));
     let started = Instant::now();
     let result = driver.run();
-    if let (Some(r), Some(before)) = (&options.ranks, traffic_before) {
+    if let (Some(r), Some((before, phases_before))) = (&options.ranks, traffic_before) {
         // every rank reaches this point after the same steps: gather what each sent
-        let t = r.0.traffic().since(&before);
         let steps = (driver.sim.steps - sim_steps_at_start).max(1) as Real;
-        let mine = [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers].map(|v| v as Real / steps);
-        let all = r.0.gather_all_f64(&mine);
+        let per_step = |t: crate::core::parallel::Traffic| {
+            let v = [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers].map(|v| v as Real / steps);
+            RankTraffic { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] }
+        };
+        let phases: Vec<PhaseTraffic> =
+            r.0.by_phase()
+                .into_iter()
+                .map(|(phase, t)| {
+                    let old = phases_before.iter().find(|(p, _)| *p == phase).map(|(_, t)| *t).unwrap_or_default();
+                    PhaseTraffic { phase: phase.to_string(), traffic: per_step(t.since(&old)) }
+                })
+                .filter(|p| p.traffic.messages + p.traffic.reductions + p.traffic.gathers > 0.0)
+                .collect();
+        let t = per_step(r.0.traffic().since(&before));
+        let all = r.0.gather_all_f64(&[t.bytes, t.messages, t.exchanges, t.reductions, t.gathers]);
         summary.communication = Some(Communication {
             ranks: all.len(),
             rank_grid: driver.sim.grid.part.block().map(|(g, _)| g.p.to_vec()).unwrap_or_else(|| vec![1; DIM]),
@@ -519,6 +544,7 @@ fn run_simulation(
                 .iter()
                 .map(|v| RankTraffic { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] })
                 .collect(),
+            rank0_phases: phases,
         });
     }
     bar.finish_and_clear();

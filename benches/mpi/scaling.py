@@ -84,6 +84,14 @@ def main():
         else:
             traffic = "– | – | –"
         print(f"| {name} | {1e3 * m:.1f} | {base / m:.2f} | {same} | {traffic} |")
+    name = configs[-1][0]
+    if comm[name]:
+        print(f"\nrank 0's traffic per step by phase ({name}):\n")
+        print("| phase | bytes | messages | exchanges | reductions | gathers |")
+        print("|---|---:|---:|---:|---:|---:|")
+        for p in comm[name]["rank0_phases"]:
+            print(f"| {p['phase']} | {p['bytes']:,.0f} | {p['messages']:.1f} | {p['exchanges']:.1f} | "
+                  f"{p['reductions']:.1f} | {p['gathers']:.1f} |")
 
 
 if __name__ == "__main__":

@@ -32,6 +32,9 @@ pub trait Comm: Send + Sync {
     fn gather_all(&self, mine: &[u8]) -> Vec<Vec<u8>>;
     /// Waits until every rank has called it.
     fn barrier(&self);
+    /// Names the phase of the step the next calls belong to (for the counters of
+    /// [`Counted`]; nothing otherwise).
+    fn phase(&self, _name: &'static str) {}
 
     /// Every rank's `mine`, by rank.
     fn gather_all_f64(&self, mine: &[f64]) -> Vec<Vec<f64>> {
@@ -134,24 +137,55 @@ impl Traffic {
     }
 }
 
-/// A communicator that counts this rank's [`Traffic`] through another.
+impl std::ops::AddAssign for Traffic {
+    fn add_assign(&mut self, o: Traffic) {
+        self.messages += o.messages;
+        self.bytes += o.bytes;
+        self.exchanges += o.exchanges;
+        self.reductions += o.reductions;
+        self.reduced_words += o.reduced_words;
+        self.gathers += o.gathers;
+    }
+}
+
+/// A communicator that counts this rank's [`Traffic`] through another, by phase
+/// ([`Comm::phase`]; "other" before the first).
 pub struct Counted {
     inner: std::sync::Arc<dyn Comm>,
-    traffic: std::sync::Mutex<Traffic>,
+    counts: std::sync::Mutex<Counts>,
+}
+
+#[derive(Default)]
+struct Counts {
+    phase: &'static str,
+    by_phase: std::collections::BTreeMap<&'static str, Traffic>,
 }
 
 impl Counted {
     /// Counts the traffic through `inner`.
     pub fn new(inner: std::sync::Arc<dyn Comm>) -> Self {
-        Self { inner, traffic: Default::default() }
+        Self { inner, counts: std::sync::Mutex::new(Counts { phase: "other", by_phase: Default::default() }) }
     }
     /// The traffic so far.
     pub fn traffic(&self) -> Traffic {
-        *self.count()
+        let mut total = Traffic::default();
+        for t in self.lock().by_phase.values() {
+            total += *t;
+        }
+        total
     }
-    fn count(&self) -> std::sync::MutexGuard<'_, Traffic> {
+    /// The traffic so far by phase, in the phases' alphabetical order.
+    pub fn by_phase(&self) -> Vec<(&'static str, Traffic)> {
+        self.lock().by_phase.iter().map(|(k, v)| (*k, *v)).collect()
+    }
+    fn lock(&self) -> std::sync::MutexGuard<'_, Counts> {
         // counters only: a panic elsewhere leaves them usable
-        self.traffic.lock().unwrap_or_else(|e| e.into_inner())
+        self.counts.lock().unwrap_or_else(|e| e.into_inner())
+    }
+    fn count(&self, add: impl FnOnce(&mut Traffic)) {
+        let mut c = self.lock();
+        let phase = c.phase;
+        add(c.by_phase.entry(phase).or_default());
     }
 }
 
@@ -163,28 +197,29 @@ impl Comm for Counted {
         self.inner.size()
     }
     fn exchange(&self, sends: &[(usize, Tag, &[u8])], receives: &[(usize, Tag)]) -> Vec<Vec<u8>> {
-        {
-            let mut t = self.count();
+        self.count(|t| {
             t.exchanges += 1;
             t.messages += sends.len() as u64;
             t.bytes += sends.iter().map(|s| s.2.len() as u64).sum::<u64>();
-        }
+        });
         self.inner.exchange(sends, receives)
     }
     fn sum_words(&self, words: &mut [i64]) {
-        {
-            let mut t = self.count();
+        self.count(|t| {
             t.reductions += 1;
             t.reduced_words += words.len() as u64;
-        }
+        });
         self.inner.sum_words(words)
     }
     fn gather_all(&self, mine: &[u8]) -> Vec<Vec<u8>> {
-        self.count().gathers += 1;
+        self.count(|t| t.gathers += 1);
         self.inner.gather_all(mine)
     }
     fn barrier(&self) {
         self.inner.barrier()
+    }
+    fn phase(&self, name: &'static str) {
+        self.lock().phase = name;
     }
 }
 

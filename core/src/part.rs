@@ -139,6 +139,14 @@ impl Part {
         }
     }
 
+    /// Names the phase of the step that the next exchanges and reductions belong to (the
+    /// traffic counters' [`Comm::phase`]).
+    pub fn phase(&self, name: &'static str) {
+        if let Some(r) = &self.0 {
+            r.comm.phase(name);
+        }
+    }
+
     /// Whether `flag` holds on any rank.
     pub fn any(&self, flag: bool) -> bool {
         match &self.0 {

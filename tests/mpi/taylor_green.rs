@@ -74,5 +74,21 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
             assert!(per.iter().all(|r| r[key] == per[0][key]), "np {np}: {key} differ between ranks: {summary}");
         }
         assert!(per.iter().all(|r| r["bytes"].as_f64().unwrap() > 0.0), "{summary}");
+        if np == 2 {
+            // 1 × 2 ranks, each block 64 × 32 cells with a halo of H = 2 rows on both sides
+            // (periodic along y, the other rank on each); x periodic within the block. An
+            // exchange of cells sends 2 messages of 2 rows of 64 values; of x-faces, rows of
+            // 65; of y-faces, 2 rows up and 3 (H + 1) down.
+            let cells = 2.0 * (2.0 * 64.0 * 8.0);
+            let faces = 2.0 * (2.0 * 65.0 * 8.0) + (2.0 + 3.0) * 64.0 * 8.0;
+            let phase = |name: &str| {
+                let p = c["rank0_phases"].as_array().unwrap().iter().find(|p| p["phase"] == name);
+                p.unwrap_or_else(|| panic!("no phase {name}: {summary}"))["bytes"].as_f64().unwrap()
+            };
+            // u* before the constraint, x before the PCG, p in each PCG iteration, the
+            // pressure for the gradient, the corrected u
+            let iterations = s["pressure_iterations_total"].as_f64().unwrap() / 20.0;
+            assert_eq!(phase("5 pressure"), 2.0 * faces + (2.0 + iterations) * cells, "{summary}");
+        }
     }
 }

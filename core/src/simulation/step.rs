@@ -173,19 +173,30 @@ impl Simulation {
         if self.alone {
             return self.step_alone(dt, dt_limit);
         }
+        // (the phases name the traffic of a decomposed run's counters)
+        let part = self.grid.part.clone();
+        part.phase("1 particles to grid");
         self.particles_to_grid(dt)?;
+        part.phase("2 volume fractions");
         let (volume_fraction_error, max_volume_fraction) = self.volume_fractions();
         #[cfg(feature = "dim2")]
         self.carry_immersed_forces();
+        part.phase("3 predictor");
         self.predictor(dt)?;
+        part.phase("4 exchange and contact");
         self.exchange(dt);
         self.contact_forces(dt)?;
         #[cfg(feature = "dim2")]
         self.immersed_boundaries(dt)?;
+        part.phase("5 pressure");
         let (iterations, residual) = self.pressure_projection(dt)?;
+        part.phase("6 max divergence");
         let max_divergence = self.max_divergence(dt);
+        part.phase("7 grid to particles");
         self.grid_to_particles(dt)?;
+        part.phase("8 advection");
         self.advection(dt)?;
+        part.phase("9 diagnostics, time step and output");
         self.time += dt;
         self.steps += 1;
         let momentum = self.fields.iter().map(|f| f.frame.momentum()).fold(Vector::zeros(), |a, b| a + b);
