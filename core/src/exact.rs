@@ -334,35 +334,11 @@ pub fn row_sums<const K: usize>(
     width: usize,
     group: impl Fn(std::ops::Range<usize>) -> [f64; K] + Sync + Send,
 ) -> Sums<K> {
-    use rayon::prelude::*;
     if len == 0 {
         return Sums::new();
     }
     debug_assert_eq!(total % len, 0, "{total} nodes are not rows of {len}");
-    let rows = total / len;
-    let row = |s: &mut Sums<K>, r: usize| {
-        let o = r * len;
-        for g in row_groups(len, nx, width) {
-            s.add(group(o + g.start..o + g.end));
-        }
-    };
-    if total >= PARALLEL_NODES {
-        let min_rows = (4096 / len).max(1);
-        *(0..rows)
-            .into_par_iter()
-            .with_min_len(min_rows)
-            .fold(Sums::boxed, |mut s, r| {
-                row(&mut s, r);
-                s
-            })
-            .reduce(Sums::boxed, Sums::merge_boxed)
-    } else {
-        let mut s = Sums::new();
-        for r in 0..rows {
-            row(&mut s, r);
-        }
-        s
-    }
+    crate::part::RowGroups::rows_of(len, total / len, nx, width).sums(group)
 }
 
 /// Σ a b over a lattice of rows of `len` nodes (`nx` cells along x) by the reduction rule

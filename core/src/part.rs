@@ -180,25 +180,21 @@ pub trait Word: Copy + Default + Send + Sync {
     fn get(bytes: &[u8]) -> Self;
 }
 
-impl Word for f64 {
-    const SIZE: usize = 8;
-    fn put(self, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.to_le_bytes());
-    }
-    fn get(bytes: &[u8]) -> Self {
-        f64::from_le_bytes(bytes.try_into().expect("8 bytes"))
-    }
+macro_rules! word {
+    ($t:ty) => {
+        impl Word for $t {
+            const SIZE: usize = std::mem::size_of::<$t>();
+            fn put(self, out: &mut Vec<u8>) {
+                out.extend_from_slice(&self.to_le_bytes());
+            }
+            fn get(bytes: &[u8]) -> Self {
+                <$t>::from_le_bytes(bytes.try_into().expect("a word's bytes"))
+            }
+        }
+    };
 }
-
-impl Word for f32 {
-    const SIZE: usize = 4;
-    fn put(self, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.to_le_bytes());
-    }
-    fn get(bytes: &[u8]) -> Self {
-        f32::from_le_bytes(bytes.try_into().expect("4 bytes"))
-    }
-}
+word!(f64);
+word!(f32);
 
 /// Calls `f(global storage index)` for each node of the box `r` of a lattice of the domain
 /// (shape `s`), x fastest.
@@ -340,6 +336,13 @@ pub struct RowGroups {
 }
 
 impl RowGroups {
+    /// Every node of `rows` storage rows of `len` nodes each, `cells_x` cells along x.
+    pub fn rows_of(len: usize, rows: usize, cells_x: usize, width: usize) -> Self {
+        let mut shape = [1; DIM];
+        (shape[0], shape[1]) = (len, rows);
+        Self { shape, cells_x, owned: shape.map(|s| 0..s), width }
+    }
+
     /// Every node of a lattice stored as `shape` (the whole domain).
     pub fn whole(lattice: Lattice, shape: Index, width: usize) -> Self {
         let cells_x = shape[0] - (lattice.axis() == Some(0)) as usize;
