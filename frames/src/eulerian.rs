@@ -824,7 +824,7 @@ impl Frame for Eulerian {
             ));
         }
         let g = ctx.grid;
-        let mut w = Work::new(g, ctx.boundaries, ctx.density, ctx.theta.is_some());
+        let mut w = Work::new(g, ctx.boundaries, ctx.density, *ctx.region == Region::Rest);
         match ctx.theta {
             Some(t) => {
                 if t.len() != g.n_cells() {

@@ -85,6 +85,8 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
                 let p = c["rank0_phases"].as_array().unwrap().iter().find(|p| p["phase"] == name);
                 p.unwrap_or_else(|| panic!("no phase {name}: {summary}"))["bytes"].as_f64().unwrap()
             };
+            // θ's two Heun stages
+            assert_eq!(phase("8 advection"), 2.0 * cells, "{summary}");
             // u* before the constraint, x before the PCG, p in each PCG iteration, the
             // pressure for the gradient, the corrected u
             let iterations = s["pressure_iterations_total"].as_f64().unwrap() / 20.0;

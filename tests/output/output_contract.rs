@@ -82,9 +82,10 @@ fn a_short_run_writes_case_diagnostics_and_summary() {
         assert!((t - 0.02 * (k + 1) as f64).abs() < 1e-12, "row {k} at t = {t}");
         assert_eq!(r[2].parse::<f64>().unwrap(), 0.01);
         assert_eq!(r[3], "fixed");
-        // a fluid stores no strain energy; one field that fills the box has Σθ = 1
+        // a fluid stores no strain energy; one field that fills the box has Σθ = 1 to the
+        // divergence the pressure solve leaves (its θ is advected as every field's)
         assert_eq!(r[13], "0");
-        assert_eq!(r[14], "1");
+        assert!((r[14].parse::<f64>().unwrap() - 1.0).abs() < 1e-12, "max Σθ {}", r[14]);
         for c in (4..15).filter(|&c| c != 3) {
             assert!(r[c].parse::<f64>().unwrap().is_finite(), "column {c} of row {k}: {}", r[c]);
         }
@@ -141,7 +142,7 @@ fn a_huge_fixed_step_on_a_fast_flow_ends_unstable_with_a_reason() {
     assert_eq!(summary["status"], "unstable", "{summary}");
     let reason = summary["reason"].as_str().unwrap();
     assert!(
-        reason.contains("exceeds the bound") || reason.contains("non-finite"),
+        reason.contains("exceeds the bound") || reason.contains("non-finite") || reason.contains("collapsed"),
         "the reason says what blew up: {reason}"
     );
     assert!(summary["steps"].as_u64().unwrap() < 1000);

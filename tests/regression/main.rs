@@ -5,6 +5,7 @@
 
 mod a_missed_blow_up;
 mod a_one_megabyte_list;
+mod an_eulerian_blob_that_never_moved;
 mod an_interrupted_run;
 mod body_through_a_periodic_side;
 mod colliding_run_directories;
