@@ -270,3 +270,13 @@ fn whole_domain_pressure_solvers_on_ranks_give_the_serial_bits() {
         assert!(serial.last.max_divergence < 1e-6, "{model}: {}", serial.last.max_divergence);
     }
 }
+
+/// The explicit viscous stencil (`diffusion: "explicit"`: the `newtonian` stress's own
+/// stencil on the grid, after a halo exchange of u*) on 2 × 2 ranks.
+#[test]
+fn explicit_viscosity_on_ranks_gives_the_serial_bits() {
+    let mut case = taylor_green("");
+    case.fields[0].frame.params = serde_json::json!({ "diffusion": "explicit" });
+    let serial = check(&case, &[(4, Some(vec![2, 2]))]);
+    assert!(serial.last.kinetic_energy < 0.999 * serial.initial_energy);
+}
