@@ -251,6 +251,13 @@ pub struct Communication {
     pub rank0_phases: Vec<PhaseTraffic>,
 }
 
+impl RankTraffic {
+    /// From bytes, messages, exchanges, reductions and gathers, in that order.
+    fn of(v: &[Real]) -> Self {
+        Self { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] }
+    }
+}
+
 /// Rank 0's traffic per step in one phase of the step.
 #[derive(Clone, Debug, Serialize)]
 pub struct PhaseTraffic {
@@ -522,10 +529,10 @@ fn run_simulation(
     if let (Some(r), Some((before, phases_before))) = (&options.ranks, traffic_before) {
         // every rank reaches this point after the same steps: gather what each sent
         let steps = (driver.sim.steps - sim_steps_at_start).max(1) as Real;
-        let per_step = |t: crate::core::parallel::Traffic| {
-            let v = [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers].map(|v| v as Real / steps);
-            RankTraffic { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] }
+        let figures = |t: crate::core::parallel::Traffic| {
+            [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers].map(|v| v as Real / steps)
         };
+        let per_step = |t| RankTraffic::of(&figures(t));
         let phases: Vec<PhaseTraffic> =
             r.0.by_phase()
                 .into_iter()
@@ -535,15 +542,11 @@ fn run_simulation(
                 })
                 .filter(|p| p.traffic.messages + p.traffic.reductions + p.traffic.gathers > 0.0)
                 .collect();
-        let t = per_step(r.0.traffic().since(&before));
-        let all = r.0.gather_all_f64(&[t.bytes, t.messages, t.exchanges, t.reductions, t.gathers]);
+        let all = r.0.gather_all_f64(&figures(r.0.traffic().since(&before)));
         summary.communication = Some(Communication {
             ranks: all.len(),
             rank_grid: driver.sim.grid.part.block().map(|(g, _)| g.p.to_vec()).unwrap_or_else(|| vec![1; DIM]),
-            per_step: all
-                .iter()
-                .map(|v| RankTraffic { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] })
-                .collect(),
+            per_step: all.iter().map(|v| RankTraffic::of(v)).collect(),
             rank0_phases: phases,
         });
     }

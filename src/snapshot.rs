@@ -1093,27 +1093,20 @@ impl Snapshots {
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
         let snap = Snapshot::with(sim, &self.spec)?.gathered(&sim.grid);
         let file = file_name(self.next_index);
+        self.written.push(Entry::of(&snap, file.clone()));
         let written = if self.writes {
-            snap.write(&self.dir.join(&file)).and_then(|_| {
-                write_atomically(&self.xdmf, xdmf(&self.case, &self.grid, &self.written_with(&snap, &file)).as_bytes())
-            })
+            snap.write(&self.dir.join(&file))
+                .and_then(|_| write_atomically(&self.xdmf, xdmf(&self.case, &self.grid, &self.written).as_bytes()))
         } else {
             Ok(())
         };
         // every rank of a decomposed run learns whether rank 0 could write
         if sim.grid.part.any(written.is_err()) {
+            self.written.pop();
             return written.and(Err(Error::Model("rank 0 could not write a snapshot".into())));
         }
         self.next_index += 1;
-        self.written.push(Entry::of(&snap, file));
         Ok(())
-    }
-
-    /// The entries written so far and `snap`'s.
-    fn written_with(&self, snap: &Snapshot, file: &str) -> Vec<Entry> {
-        let mut all = self.written.clone();
-        all.push(Entry::of(snap, file.to_string()));
-        all
     }
 }
 

@@ -52,7 +52,7 @@ impl FieldState {
     pub fn gathered(&self, grid: &Grid) -> FieldState {
         let part = &grid.part;
         let faces = |f: &FaceArrays| {
-            let mut out = f.clone();
+            let mut out = FaceArrays::default();
             for a in AXES {
                 let lattice = Lattice::face(a);
                 out[a] = part.gather(lattice, grid.shape(lattice), &f[a]);

@@ -196,25 +196,6 @@ macro_rules! word {
 word!(f64);
 word!(f32);
 
-/// Calls `f(global storage index)` for each node of the box `r` of a lattice of the domain
-/// (shape `s`), x fastest.
-fn for_box(s: Index, r: &[Range<usize>; DIM], mut f: impl FnMut(usize)) {
-    let rows: usize = r[1..].iter().map(|r| r.len()).product();
-    for k in 0..rows {
-        let mut rest = k;
-        let mut row = 0;
-        let mut stride = s[0];
-        for a in 1..DIM {
-            row += (r[a].start + rest % r[a].len()) * stride;
-            rest /= r[a].len();
-            stride *= s[a];
-        }
-        for i in r[0].clone() {
-            f(row + i);
-        }
-    }
-}
-
 impl Part {
     /// The domain's array of a lattice from every rank's owned nodes, on every rank (in the
     /// domain's storage; face n of a periodic axis holds face 0's value). `local` is this
@@ -242,7 +223,7 @@ impl Part {
             let block = r.grid.block(rank);
             let owned: [Range<usize>; DIM] = std::array::from_fn(|a| block.owned_global(lattice, a));
             let mut words = bytes.chunks_exact(T::SIZE);
-            for_box(domain, &owned, |g| {
+            crate::halo::for_each(domain, &owned, |g| {
                 for v in &mut out[g * per..(g + 1) * per] {
                     *v = T::get(words.next().expect("a rank's owned nodes"));
                 }
@@ -254,9 +235,9 @@ impl Part {
             let mut high = low.clone();
             (low[a], high[a]) = (0..1, n[a]..n[a] + 1);
             let mut sources = Vec::new();
-            for_box(domain, &low, |g| sources.extend_from_slice(&out[g * per..(g + 1) * per]));
+            crate::halo::for_each(domain, &low, |g| sources.extend_from_slice(&out[g * per..(g + 1) * per]));
             let mut it = sources.into_iter();
-            for_box(domain, &high, |g| {
+            crate::halo::for_each(domain, &high, |g| {
                 for v in &mut out[g * per..(g + 1) * per] {
                     *v = it.next().expect("a face 0 for each face n");
                 }

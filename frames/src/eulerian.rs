@@ -1023,7 +1023,7 @@ impl Frame for Eulerian {
                 velocity: Cow::Borrowed(&w.velocity),
             });
         }
-        let mut velocity = w.velocity.clone();
+        let mut velocity = FaceVelocity::default();
         for a in AXES {
             let lattice = Lattice::face(a);
             velocity[a] = g.part.gather(lattice, g.shape(lattice), &w.velocity[a]);
