@@ -289,7 +289,8 @@ pub fn points(sim: &Simulation, field: usize, q: &Quantity) -> Option<Vec<Real>>
     sim.fields.get(field)?.frame.points().map(|p| f(&p))
 }
 
-/// Linear (cloud-in-cell) mass-weighted average of point velocities onto the faces.
+/// Linear (cloud-in-cell) mass-weighted average of point velocities onto the faces (of
+/// the storage of `grid`: on a rank's block, the points of every rank reaching it).
 #[cfg(feature = "dim2")]
 fn deposit_velocity(grid: &Grid, points: &PointSet) -> FaceVelocity {
     let mut vel = FaceVelocity::zeros(grid);
@@ -305,7 +306,8 @@ fn deposit_velocity(grid: &Grid, points: &PointSet) -> FaceVelocity {
             let (a, b) = (fx - i0, fy - j0);
             for (di, wx) in [(0, 1.0 - a), (1, a)] {
                 for (dj, wy) in [(0, 1.0 - b), (1, b)] {
-                    let (i, j) = (i0 as i64 + di, j0 as i64 + dj);
+                    // the storage's node (on a rank's block, the domain's less its start)
+                    let (i, j) = (i0 as i64 + di - grid.start[0] as i64, j0 as i64 + dj - grid.start[1] as i64);
                     if i < 0 || j < 0 || i >= cols as i64 || j >= rows as i64 {
                         continue;
                     }

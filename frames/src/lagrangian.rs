@@ -13,15 +13,17 @@
 
 pub mod collocated;
 pub mod lanes;
+pub mod ranks;
 pub mod scatter;
 pub mod shape;
 
 use collocated::{Collocated, Simd};
 use multifield_core::boundary::{Boundaries, Boundary, Side};
 use multifield_core::case::{BodyShape, Motion, Region};
-use multifield_core::exact::{reduce, Sums as ExactSums};
-use multifield_core::grid::{FaceVelocity, Grid};
+use multifield_core::exact::Sums as ExactSums;
+use multifield_core::grid::{FaceVelocity, Grid, Lattice};
 use multifield_core::math::{cross, Matrix, Real, Vector};
+use multifield_core::part::Part;
 use multifield_core::plugin::{
     BodyContact, BodyState, BodyStep, Frame, FrameContext, FrameFigures, InitContext, PointStressContext, StressModel,
 };
@@ -89,6 +91,15 @@ pub struct Points {
     /// `[k p .. k (p + 1)]`; empty for a model without state. Sized (zeros) at the first
     /// stress evaluation.
     pub model_state: Vec<Vec<Real>>,
+    /// Each point's id: its index at seeding, the serial order (points are never created or
+    /// removed afterwards, and serially never reordered, so id = index). A rank of a
+    /// decomposed run keeps its points sorted by id. Not saved: a checkpoint holds every
+    /// point in id order.
+    #[serde(skip)]
+    pub id: Vec<u64>,
+    /// The values per point of each stress model's state (`model_state[m]`), once sized.
+    #[serde(skip)]
+    pub widths: Vec<usize>,
 }
 
 impl Points {
@@ -114,6 +125,7 @@ impl Points {
         if self.model_state.is_empty() {
             return Ok(());
         }
+        self.widths = models.iter().map(|m| m.point_state().len()).collect();
         if self.model_state.len() != models.len() {
             return Err(format!(
                 "the points hold the state of {} stress models, the field has {}",
@@ -136,7 +148,8 @@ impl Points {
         }
         Ok(())
     }
-    fn push(&mut self, x: Vector, v: Vector, m: Real, vol: Real) {
+    fn push(&mut self, id: u64, x: Vector, v: Vector, m: Real, vol: Real) {
+        self.id.push(id);
         self.x.push(x);
         self.v.push(v);
         self.m.push(m);
@@ -192,6 +205,13 @@ pub struct Lagrangian {
     /// The most lanes the collocated grid's transfers may use (tests: all give the same bits).
     #[serde(skip, default = "Simd::available")]
     simd: Simd,
+    /// The grid of the field's storage: on a rank of a decomposed run, its block's, whose
+    /// `part` holds the ranks (the whole domain on one rank).
+    #[serde(skip)]
+    local: Grid,
+    /// On a rank's block: its points and the neighbours' within reach, for the scatter.
+    #[serde(skip)]
+    cloud: ranks::Cloud,
 }
 
 /// A body of a Lagrangian field: its definition and its state.
@@ -269,6 +289,8 @@ impl Lagrangian {
             grid: GridLayout::Staggered,
             collocated: None,
             simd: Simd::available(),
+            local: Grid::default(),
+            cloud: ranks::Cloud::default(),
         }
     }
 
@@ -509,7 +531,11 @@ impl Lagrangian {
     /// docs/design/mpi.md §3 with a group of one point: every point's terms added exactly,
     /// so the sums depend on the set of points only (not on their order, the thread count
     /// or, later, the rank that holds them).
-    pub(crate) fn point_sums<const K: usize>(n: usize, term: impl Fn(usize) -> [Real; K] + Sync + Send) -> [Real; K] {
+    pub(crate) fn point_sums<const K: usize>(
+        part: &Part,
+        n: usize,
+        term: impl Fn(usize) -> [Real; K] + Sync + Send,
+    ) -> [Real; K] {
         let sums = (0..n)
             .into_par_iter()
             .with_min_len(4096)
@@ -518,7 +544,7 @@ impl Lagrangian {
                 sums
             })
             .reduce(ExactSums::boxed, ExactSums::merge_boxed);
-        reduce(&sums)
+        part.reduce(*sums)
     }
 
     /// Stored elastic energy Σ_p V⁰_p ψ(F_p) of the models that define a strain-energy
@@ -529,8 +555,9 @@ impl Lagrangian {
             .iter()
             .filter(|model| model.strain_energy_density(&Matrix::identity()).is_some())
             .map(|model| {
-                Self::point_sums(pts.f.len(), |p| [pts.vol0[p] * model.strain_energy_density(&pts.f[p]).unwrap_or(0.0)])
-                    [0]
+                Self::point_sums(&self.local.part, pts.f.len(), |p| {
+                    [pts.vol0[p] * model.strain_energy_density(&pts.f[p]).unwrap_or(0.0)]
+                })[0]
             })
             .sum()
     }
@@ -546,38 +573,37 @@ impl Lagrangian {
     fn update_deformation_musl(&mut self, g: &Grid, bc: &Boundaries, dt: Real, x_start: &[Vector]) {
         let shape = self.shape;
         let volumetric_only = self.volumetric_only;
+        let tiny = 1e-12 * part_max(&self.local.part, self.points.m.iter().cloned().fold(0.0, Real::max));
         let pts = &mut self.points;
         let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
-        scatter.run(
-            g,
-            bc,
-            shape,
-            &PointsIn {
-                x: x_start,
-                v: &pts.v,
-                m: &pts.m,
-                vol: &self.vol,
-                affine: (self.transfer == Transfer::Apic).then_some((&pts.c_u[..], &pts.c_v[..])),
-                stress: None,
-            },
-        );
-        let tiny = 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max);
+        let view = PointsIn {
+            x: x_start,
+            v: &pts.v,
+            m: &pts.m,
+            vol: &self.vol,
+            affine: (self.transfer == Transfer::Apic).then_some((&pts.c_u[..], &pts.c_v[..])),
+            stress: None,
+        };
+        scatter_on(scatter, &mut self.cloud, g, bc, shape, &view, &pts.id);
         let mut vel = FaceVelocity::zeros(g);
+        // storage node (i, j) is the domain's (i + i0, j + j0)
+        let (i0, j0) = (g.start[0], g.start[1]);
         for j in 0..g.ny {
             for i in 0..=g.nx {
-                let (ii, jj) = (i as isize, j as isize);
+                let (ii, jj) = (i as isize + i0, j as isize + j0);
                 let m = scatter.at(scatter::MASS_U, ii, jj);
                 vel.u[g.xface(i, j)] = if m > tiny { scatter.at(scatter::MOM_U, ii, jj) / m } else { 0.0 };
             }
         }
         for j in 0..=g.ny {
             for i in 0..g.nx {
-                let (ii, jj) = (i as isize, j as isize);
+                let (ii, jj) = (i as isize + i0, j as isize + j0);
                 let m = scatter.at(scatter::MASS_V, ii, jj);
                 vel.v[g.yface(i, j)] = if m > tiny { scatter.at(scatter::MOM_V, ii, jj) / m } else { 0.0 };
             }
         }
         bc.enforce(g, &mut vel);
+        g.exchange_faces(&mut vel);
         pts.f.par_iter_mut().zip(pts.grad_v.par_iter_mut()).zip(x_start.par_iter()).for_each(|((f, gv), x)| {
             let w = point_weights(shape, g, *x);
             let want = Want { delta: false, affine: false };
@@ -595,6 +621,33 @@ impl Lagrangian {
                 *f = Matrix::new(f.determinant(), 0.0, 0.0, 1.0);
             }
         });
+    }
+}
+
+/// The largest `value` of the ranks' (`value` on one rank).
+fn part_max(part: &Part, value: Real) -> Real {
+    let mut v = [value];
+    part.max(&mut v);
+    v[0]
+}
+
+/// The scatter of the points `pts` (ids `id`) on `g`: on a rank's block of a decomposed
+/// domain, of its points and the neighbours' within reach, gathered in `cloud` (every rank
+/// calls it); the points alone on the whole domain.
+fn scatter_on(
+    scatter: &mut Scatter,
+    cloud: &mut ranks::Cloud,
+    g: &Grid,
+    bc: &Boundaries,
+    shape: Shape,
+    pts: &PointsIn,
+    id: &[u64],
+) {
+    if g.part.is_whole() {
+        scatter.run(g, bc, shape, pts);
+    } else {
+        cloud.fill(g, pts, id);
+        scatter.run(g, bc, shape, &cloud.view());
     }
 }
 
@@ -686,7 +739,14 @@ fn check_open_sides(bc: &Boundaries, region: &Region, contact: Option<(&str, boo
     Ok(())
 }
 
-/// Reads a lattice value with ghost nodes from the boundary conditions.
+/// Where storage node `i` along `axis` lies along the domain's side, from 0 to 1.
+#[inline]
+fn along(grid: &Grid, axis: usize, i: isize) -> Real {
+    ((i + grid.start[axis]) as Real / grid.domain[axis] as Real).clamp(0.0, 1.0)
+}
+
+/// Reads a lattice value of the storage of `grid` at storage node (i, j), ghost nodes
+/// beyond a side of the domain from the boundary conditions.
 #[inline]
 fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j: isize) -> Real {
     let (nx, ny) = (grid.nx, grid.ny);
@@ -707,7 +767,7 @@ fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j
         }
         if mj {
             let side = if j < 0 { Side::Bottom } else { Side::Top };
-            out = bc.tangential_ghost(side, out, (i as Real / nx as Real).clamp(0.0, 1.0));
+            out = bc.tangential_ghost(side, out, along(grid, 0, i));
         }
     } else {
         if mj {
@@ -715,7 +775,7 @@ fn sample(grid: &Grid, bc: &Boundaries, arr: &[Real], x_faces: bool, i: isize, j
         }
         if mi {
             let side = if i < 0 { Side::Left } else { Side::Right };
-            out = bc.tangential_ghost(side, out, (j as Real / ny as Real).clamp(0.0, 1.0));
+            out = bc.tangential_ghost(side, out, along(grid, 1, j));
         }
     }
     out
@@ -778,8 +838,10 @@ fn gather_lattice<const NS: usize>(
 ) -> Gathered {
     let (ni, nj) = if x_faces { (g.nx + 1, g.ny) } else { (g.nx, g.ny + 1) };
     let (ox, oy) = if x_faces { (0.0, 0.5) } else { (0.5, 0.0) };
-    let inside = wx.base >= 0 && wy.base >= 0 && wx.base as usize + NS <= ni && wy.base as usize + NS <= nj;
-    let values = |arr: &[Real]| stencil_values::<NS>(g, bc, x_faces, wx.base, wy.base, inside, arr);
+    // the stencil's first node in the storage (the weights are the domain's)
+    let (i0, j0) = (wx.base - g.start[0], wy.base - g.start[1]);
+    let inside = i0 >= 0 && j0 >= 0 && i0 as usize + NS <= ni && j0 as usize + NS <= nj;
+    let values = |arr: &[Real]| stencil_values::<NS>(g, bc, x_faces, i0, j0, inside, arr);
     let un = values(new);
     let uo = if want.delta { values(old) } else { un };
     let dx: [Real; NS] = std::array::from_fn(|a| (wx.base + a as isize) as Real + ox - xi.x);
@@ -842,6 +904,10 @@ impl Frame for Lagrangian {
     fn is_lagrangian(&self) -> bool {
         true
     }
+    /// On the staggered grid (a field of bodies is refused on ranks at `initialize`).
+    fn decomposed(&self) -> bool {
+        self.grid == GridLayout::Staggered
+    }
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
         check_open_sides(ctx.boundaries, ctx.region, ctx.contact)?;
@@ -851,6 +917,17 @@ impl Frame for Lagrangian {
                 .into());
         }
         let g = ctx.grid;
+        self.local = g.clone();
+        if !self.local.part.is_whole() && matches!(ctx.region, Region::Bodies(_)) {
+            return Err(format!(
+                "a Lagrangian field of bodies does not run on several ranks yet, and this run has {}: run the case \
+                 on one rank (without mpirun, or `mpirun -np 1`). Decomposed so far (issue 19): Lagrangian fields \
+                 of material (FLIP, MPM) on the staggered grid",
+                self.local.part.ranks()
+            ));
+        }
+        // seeded over the whole domain in the serial order (the ids); a rank keeps its own
+        let domain = Grid::from_cells(g.domain, g.h, g.origin);
         let n = self.points_per_cell;
         let dv = g.cell_volume() / (n * n) as Real;
         let origin = [g.origin.x, g.origin.y];
@@ -871,22 +948,24 @@ impl Frame for Lagrangian {
                         let y = c.y + (j as Real + 0.5) * a;
                         if spec.shape.contains(x, y) && g.contains(Vector::new(x, y)) {
                             let v = spec.velocity_at(x, y);
-                            self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), rho * dv, dv);
+                            let id = self.points.len() as u64;
+                            self.points.push(id, Vector::new(x, y), Vector::new(v[0], v[1]), rho * dv, dv);
                             *self.points.body.last_mut().expect("just pushed") = k as u32 + 1;
                         }
                     }
                 }
             }
         } else {
-            for j in 0..g.ny {
-                for i in 0..g.nx {
+            for j in 0..domain.ny {
+                for i in 0..domain.nx {
                     for b in 0..n {
                         for a in 0..n {
                             let x = g.origin.x + (i as Real + (a as Real + 0.5) / n as Real) * g.h;
                             let y = g.origin.y + (j as Real + (b as Real + 0.5) / n as Real) * g.h;
                             if ctx.region.contains(x, y) {
                                 let v = ctx.velocity.at([x, y], origin);
-                                self.points.push(Vector::new(x, y), Vector::new(v[0], v[1]), ctx.density * dv, dv);
+                                let (id, m) = (self.points.len() as u64, ctx.density * dv);
+                                self.points.push(id, Vector::new(x, y), Vector::new(v[0], v[1]), m, dv);
                             }
                         }
                     }
@@ -895,6 +974,12 @@ impl Frame for Lagrangian {
         }
         if self.points.is_empty() {
             return Err("the region holds no material point: enlarge it or refine the grid".into());
+        }
+        if let Some((rg, _)) = self.local.part.block() {
+            let me = self.local.part.rank();
+            let x = &self.points.x;
+            let mine = |p: usize| rg.owner(Lattice::Cell, ranks::cell_of(g, x[p])) == Some(me);
+            self.points = self.points.select(mine);
         }
         if let Region::Bodies(specs) = ctx.region {
             let mut held = vec![false; specs.len() + 1];
@@ -988,25 +1073,23 @@ impl Frame for Lagrangian {
         self.vol.resize(n, 0.0);
         self.vol.par_iter_mut().enumerate().for_each(|(p, v)| *v = pts.vol0[p] * pts.f[p].determinant());
         let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
-        scatter.run(
-            g,
-            ctx.boundaries,
-            self.shape,
-            &PointsIn {
-                x: &pts.x,
-                v: &pts.v,
-                m: &pts.m,
-                vol: &self.vol,
-                affine: (self.transfer == Transfer::Apic).then_some((&pts.c_u[..], &pts.c_v[..])),
-                stress: self.has_point_stress.then_some(&pts.stress[..]),
-            },
-        );
+        let view = PointsIn {
+            x: &pts.x,
+            v: &pts.v,
+            m: &pts.m,
+            vol: &self.vol,
+            affine: (self.transfer == Transfer::Apic).then_some((&pts.c_u[..], &pts.c_v[..])),
+            stress: self.has_point_stress.then_some(&pts.stress[..]),
+        };
+        scatter_on(scatter, &mut self.cloud, g, ctx.boundaries, self.shape, &view, &pts.id);
         let s = &mut *ctx.state;
         let area = g.cell_volume();
-        let tiny = 1e-12 * pts.m.iter().cloned().fold(0.0, Real::max);
+        let tiny = 1e-12 * part_max(&self.local.part, pts.m.iter().cloned().fold(0.0, Real::max));
+        // the storage's rows and columns in the domain's numbering
+        let (i0, j0) = (g.start[0], g.start[1]);
         for j in 0..g.ny {
             let theta = &mut s.theta[g.cell(0, j)..g.cell(0, j) + g.nx];
-            for (t, vol) in theta.iter_mut().zip(scatter.row(scatter::VOLUME, j, g.nx)) {
+            for (t, vol) in theta.iter_mut().zip(scatter.row(scatter::VOLUME, i0, j0 + j as isize, g.nx)) {
                 *t = vol / area;
             }
         }
@@ -1027,9 +1110,9 @@ impl Frame for Lagrangian {
                 &mut s.mass_face.u[r.clone()],
                 &mut s.velocity_old.u[r.clone()],
                 &mut s.velocity.u[r],
-                scatter.row(scatter::MASS_U, j, nu),
-                scatter.row(scatter::MOM_U, j, nu),
-                scatter.row(scatter::FORCE_U, j, nu),
+                scatter.row(scatter::MASS_U, i0, j0 + j as isize, nu),
+                scatter.row(scatter::MOM_U, i0, j0 + j as isize, nu),
+                scatter.row(scatter::FORCE_U, i0, j0 + j as isize, nu),
             );
         }
         for j in 0..=g.ny {
@@ -1038,13 +1121,25 @@ impl Frame for Lagrangian {
                 &mut s.mass_face.v[r.clone()],
                 &mut s.velocity_old.v[r.clone()],
                 &mut s.velocity.v[r],
-                scatter.row(scatter::MASS_V, j, g.nx),
-                scatter.row(scatter::MOM_V, j, g.nx),
-                scatter.row(scatter::FORCE_V, j, g.nx),
+                scatter.row(scatter::MASS_V, i0, j0 + j as isize, g.nx),
+                scatter.row(scatter::MOM_V, i0, j0 + j as isize, g.nx),
+                scatter.row(scatter::FORCE_V, i0, j0 + j as isize, g.nx),
             );
         }
         ctx.boundaries.enforce(g, &mut s.velocity_old);
         ctx.boundaries.enforce(g, &mut s.velocity);
+        // the halo as the owners' (the scatter leaves it incomplete)
+        if !g.part.is_whole() {
+            g.exchange(&mut [
+                (Lattice::Cell, &mut s.theta),
+                (Lattice::XFace, &mut s.mass_face.u),
+                (Lattice::YFace, &mut s.mass_face.v),
+                (Lattice::XFace, &mut s.velocity_old.u),
+                (Lattice::YFace, &mut s.velocity_old.v),
+                (Lattice::XFace, &mut s.velocity.u),
+                (Lattice::YFace, &mut s.velocity.v),
+            ]);
+        }
         Ok(())
     }
 
@@ -1142,6 +1237,10 @@ impl Frame for Lagrangian {
         if let Some(x_start) = x_start {
             self.update_deformation_musl(g, bc, dt, &x_start);
         }
+        if !g.part.is_whole() {
+            // (a field of bodies is refused on ranks at `initialize`)
+            ranks::migrate(&mut self.points, g)?;
+        }
         if !self.bodies.is_empty() {
             let apic = self.transfer == Transfer::Apic;
             self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic, None);
@@ -1156,8 +1255,16 @@ impl Frame for Lagrangian {
         self.bodies.iter().map(|b| &b.state).collect()
     }
 
+    /// On a rank's block of a decomposed domain, every rank's points in id order (a
+    /// collective: every rank calls it).
     fn points(&self) -> Option<PointSet> {
-        let p = &self.points;
+        let all;
+        let p = if self.local.part.is_whole() {
+            &self.points
+        } else {
+            all = ranks::gathered(&self.points, &self.local.part);
+            &all
+        };
         Some(PointSet {
             position: p.x.clone(),
             velocity: p.v.clone(),
@@ -1171,22 +1278,24 @@ impl Frame for Lagrangian {
     }
 
     fn max_speed(&self) -> Real {
-        self.points.v.par_iter().map(|v| v.norm()).reduce(|| 0.0, Real::max)
+        let mut max = [self.points.v.par_iter().map(|v| v.norm()).reduce(|| 0.0, Real::max)];
+        self.local.part.max(&mut max);
+        max[0]
     }
     fn strain_energy(&self, stress: &[Box<dyn StressModel>]) -> Real {
         Lagrangian::strain_energy(self, stress)
     }
     fn kinetic_energy(&self) -> Real {
         let (m, v) = (&self.points.m, &self.points.v);
-        Lagrangian::point_sums(m.len(), |p| [0.5 * m[p] * v[p].norm_squared()])[0]
+        Lagrangian::point_sums(&self.local.part, m.len(), |p| [0.5 * m[p] * v[p].norm_squared()])[0]
     }
     fn momentum(&self) -> Vector {
         let (m, v) = (&self.points.m, &self.points.v);
-        Vector::from(Lagrangian::point_sums(m.len(), |p| (m[p] * v[p]).into()))
+        Vector::from(Lagrangian::point_sums(&self.local.part, m.len(), |p| (m[p] * v[p]).into()))
     }
     fn mass(&self) -> Real {
         let m = &self.points.m;
-        Lagrangian::point_sums(m.len(), |p| [m[p]])[0]
+        Lagrangian::point_sums(&self.local.part, m.len(), |p| [m[p]])[0]
     }
     fn as_any(&self) -> &dyn Any {
         self
@@ -1200,8 +1309,16 @@ impl Frame for Lagrangian {
     /// next rigid projection give the hydrodynamic force). The scatter buffers, current
     /// volumes and start positions are scratch, rebuilt every step.
     fn save_state(&self) -> Result<Vec<u8>, String> {
+        // on a rank's block, every rank's points in id order: the serial bytes
+        let all;
+        let points = if self.local.part.is_whole() {
+            &self.points
+        } else {
+            all = ranks::gathered(&self.points, &self.local.part);
+            &all
+        };
         state::encode(&LagrangianState {
-            points: Cow::Borrowed(&self.points),
+            points: Cow::Borrowed(points),
             bodies: self.bodies.iter().map(|b| Cow::Borrowed(&b.state)).collect(),
         })
     }
@@ -1239,7 +1356,20 @@ impl Frame for Lagrangian {
         for (b, s) in self.bodies.iter_mut().zip(saved.bodies) {
             b.state = s.into_owned();
         }
-        self.points = p;
+        let mut p = p;
+        p.id = (0..n as u64).collect();
+        self.points = match self.local.part.block() {
+            // a rank keeps the points in its block
+            Some((rg, _)) => {
+                if let Some(s) = p.model_state.iter().find(|s| s.len() % n.max(1) != 0) {
+                    return Err(format!("{} values of a stress model's point state for {n} points", s.len()));
+                }
+                p.widths = p.model_state.iter().map(|s| s.len() / n.max(1)).collect();
+                let (g, me) = (&self.local, self.local.part.rank());
+                p.select(|k| rg.owner(Lattice::Cell, ranks::cell_of(g, p.x[k])) == Some(me))
+            }
+            None => p,
+        };
         self.vol.clear();
         self.x_old.clear();
         Ok(())

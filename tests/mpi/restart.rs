@@ -7,8 +7,8 @@ use super::common::{mpirun, scratch, text};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn args(out: &Path, steps: u32, restart: Option<&Path>) -> Vec<String> {
-    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/taylor_green.ron").display().to_string();
+fn args(case: &str, out: &Path, steps: u32, restart: Option<&Path>) -> Vec<String> {
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join(case).display().to_string();
     let mut a: Vec<String> =
         ["run", &case, "--out", &out.display().to_string(), "--quiet", "--threads", "1"].map(str::to_string).to_vec();
     for s in [
@@ -26,8 +26,8 @@ fn args(out: &Path, steps: u32, restart: Option<&Path>) -> Vec<String> {
     a
 }
 
-fn serial(out: &Path, steps: u32, restart: Option<&Path>) {
-    let o = Command::new(env!("CARGO_BIN_EXE_multifield")).args(args(out, steps, restart)).output().unwrap();
+fn serial(case: &str, out: &Path, steps: u32, restart: Option<&Path>) {
+    let o = Command::new(env!("CARGO_BIN_EXE_multifield")).args(args(case, out, steps, restart)).output().unwrap();
     assert!(o.status.success(), "{:?}", text(&o));
 }
 
@@ -37,16 +37,32 @@ fn checkpoint(out: &Path, step: u64) -> PathBuf {
 
 #[test]
 fn a_checkpoint_of_ranks_is_the_serial_one_and_restarts_on_any_rank_count() {
-    let t = "a_checkpoint_of_ranks_is_the_serial_one_and_restarts_on_any_rank_count";
-    let dir = scratch("restart");
+    checkpoint_and_restart(
+        "a_checkpoint_of_ranks_is_the_serial_one_and_restarts_on_any_rank_count",
+        "examples/taylor_green.ron",
+    );
+}
+
+/// A Lagrangian field: the checkpoint holds every rank's points in id order (the serial
+/// arrays), and a restart gives each rank the points in its block.
+#[test]
+fn a_checkpoint_of_material_points_on_ranks_is_the_serial_one_and_restarts_on_any_rank_count() {
+    checkpoint_and_restart(
+        "a_checkpoint_of_material_points_on_ranks_is_the_serial_one_and_restarts_on_any_rank_count",
+        "examples/taylor_green_flip.ron",
+    );
+}
+
+fn checkpoint_and_restart(t: &str, case: &str) {
+    let dir = scratch(t);
     // the serial run of 20 steps, and one of 10 (its checkpoint at the end)
     let (whole, half) = (dir.join("serial20"), dir.join("serial10"));
-    serial(&whole, 20, None);
-    serial(&half, 10, None);
+    serial(case, &whole, 20, None);
+    serial(case, &half, 10, None);
     let reference = std::fs::read(whole.join("diagnostics.csv")).unwrap();
     // 10 steps on 2 ranks: the same checkpoint, byte for byte
     let ranks = dir.join("np2");
-    let a = args(&ranks, 10, None);
+    let a = args(case, &ranks, 10, None);
     let Some(o) = mpirun(t, 2, &a.iter().map(String::as_str).collect::<Vec<_>>()) else { return };
     assert!(o.status.success(), "{:?}", text(&o));
     let (mine, theirs) = (checkpoint(&ranks, 10), checkpoint(&half, 10));
@@ -54,7 +70,7 @@ fn a_checkpoint_of_ranks_is_the_serial_one_and_restarts_on_any_rank_count() {
     // continued to step 20 on 3 ranks and on one process: the serial run's rows
     for np in [3, 0] {
         let out = dir.join(format!("restart_np{np}"));
-        let a = args(&out, 20, Some(&mine));
+        let a = args(case, &out, 20, Some(&mine));
         let o = if np == 0 {
             Command::new(env!("CARGO_BIN_EXE_multifield")).args(&a).output().unwrap()
         } else {

@@ -35,6 +35,9 @@ impl StressModel for StrainMeter {
     fn kind(&self) -> StressKind {
         StressKind::Points { volumetric_only: true, velocity_gradient: true }
     }
+    fn decomposed(&self) -> bool {
+        true
+    }
     fn point_state(&self) -> &'static [&'static str] {
         &["equivalent_strain"]
     }
@@ -124,6 +127,66 @@ fn the_state_integrates_the_strain_rate_of_a_uniform_shear() {
         let snap = multifield::snapshot::Snapshot::with(&sim, &spec).unwrap();
         let points = snap.fields[0].points.as_ref().unwrap();
         assert_eq!(points.get("strain_meter_equivalent_strain"), Some(p.model_state[0].as_slice()), "{grid}");
+    }
+}
+
+/// The same shear at 64² on 2 × 2 in-process ranks (issue 19): the points that cross
+/// the cut at x = ½ carry their state to the rank across it; the state of every point,
+/// gathered in id order, is the serial run's to the bit and p + N Δt γ̇/√2 (id p).
+#[test]
+fn the_state_migrates_with_its_point_between_ranks() {
+    use multifield::core::parallel::{fake, Comm};
+    use std::sync::Arc;
+    let rate: Real = 1.0;
+    let mut case = block("staggered");
+    case.domain.cells = [64, 64];
+    let shear = |sim: &mut Simulation| {
+        let p = &mut frame_mut(sim).points;
+        for k in 0..p.len() {
+            p.v[k] = Vector::new(rate * (p.x[k].y - 0.5), 0.0);
+            p.c_u[k] = Vector::new(0.0, rate);
+            p.c_v[k] = Vector::zeros();
+            p.grad_v[k] = Matrix::new(0.0, rate, 0.0, 0.0);
+        }
+        p.model_state = vec![p.id.iter().map(|&i| i as Real).collect()];
+    };
+    let steps = 100;
+    // the state of every point in id order, and the ids this rank held at the start and the end
+    let run = |sim: &mut Simulation| {
+        shear(sim);
+        let start = frame(sim).points.id.clone();
+        for _ in 0..steps {
+            sim.step().unwrap();
+        }
+        let state = sim.fields[0].frame.points().unwrap().model_state[0].clone();
+        (state, start, frame(sim).points.id.clone())
+    };
+    let mut serial = Simulation::new(&case).unwrap();
+    let (reference, _, _) = run(&mut serial);
+    let expected = steps as Real * 1e-3 * rate / Real::sqrt(2.0);
+    let worst = reference.iter().enumerate().map(|(k, s)| (s - k as Real - expected).abs()).fold(0.0, Real::max);
+    assert!(worst < 1e-9, "equivalent strain off by {worst:e}");
+    let ranks: Vec<_> = std::thread::scope(|s| {
+        let handles: Vec<_> = fake::world(4)
+            .into_iter()
+            .map(|c| {
+                let (case, run) = (&case, &run);
+                s.spawn(move || {
+                    let comm: Arc<dyn Comm> = Arc::new(c);
+                    run(&mut Simulation::with_comm(case, comm).unwrap())
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    let crossed: usize =
+        ranks.iter().map(|(_, start, end)| end.iter().filter(|i| start.binary_search(i).is_err()).count()).sum();
+    eprintln!("{} points, {crossed} changed rank", reference.len());
+    assert!(crossed > 0, "no point crossed a cut");
+    for (r, (state, _, _)) in ranks.iter().enumerate() {
+        let same =
+            state.len() == reference.len() && state.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits());
+        assert!(same, "rank {r}: the gathered point state differs from the serial run's");
     }
 }
 

@@ -389,9 +389,10 @@ fn refuse_undecomposed(
             key,
             format!(
                 "{what} does not run on several ranks yet, and this run has {ranks}: run the case on one rank \
-                 (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): Eulerian \
-                 fields in 2D with `newtonian` stress, the `constant` exchange and the shipped pressure solvers \
-                 (docs/design/mpi.md)"
+                 (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): in 2D, \
+                 Eulerian fields and Lagrangian fields of material on the staggered grid (not of bodies), with \
+                 `newtonian`, `linear_elastic`, `neo_hookean` or `weakly_compressible` stress, the `constant` \
+                 exchange and the shipped pressure solvers (docs/design/mpi.md)"
             ),
         ))
     };

@@ -5,12 +5,23 @@
 //! the grid row by row, always in stripe order. No atomics, no locks: the sums are the same
 //! bits for any number of threads. Lattices are padded by two ghost nodes on each side;
 //! ghost contributions are folded back (wrapped on periodic sides, mirrored at walls).
+//!
+//! On a rank's block of a decomposed domain (docs/design/mpi.md §5) the scatter computes a
+//! window of the whole domain's padded lattices: the block's nodes and four more on each
+//! side. Given the block's points and the ghost points within two cells of it, all in id
+//! order (the serial order), the stripes are the serial stripes and every owned node gets
+//! the serial terms in the serial order. The fold's contributions from across a periodic
+//! wrap or a ghost node next to another rank's block come from the rank whose window holds
+//! them complete ([`Scatter::run`] with a decomposed grid), added in the serial order.
 
 use super::shape::{Shape, Weights1};
 use multifield_core::boundary::Boundaries;
-use multifield_core::grid::Grid;
+use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Matrix, Real, Vector};
+use multifield_core::parallel::Tag;
+use multifield_core::part::Part;
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 
 /// Channels scattered in one pass.
 pub const CHANNELS: usize = 7;
@@ -30,6 +41,11 @@ pub const FORCE_V: usize = 5;
 pub const VOLUME: usize = 6;
 
 const PAD: usize = 2;
+/// Nodes of the window beyond a rank's block on each side: the stencils of its ghost points
+/// (two cells out) and the ghost nodes of the fold.
+const REACH: isize = 4;
+/// The tag of the fold's messages.
+const FOLD_TAG: Tag = 40;
 
 /// Read-only view of the points for a scatter.
 pub struct PointsIn<'a> {
@@ -49,12 +65,18 @@ pub struct PointsIn<'a> {
 
 /// Scratch space of the scatter, kept between steps.
 pub struct Scatter {
+    /// The domain's cells.
+    n: [usize; 2],
+    /// The global node of the window's first column and row (−2 for the whole domain).
+    lo: [isize; 2],
     nxp: usize,
     nyp: usize,
     rows_per_stripe: usize,
+    /// The first stripe of the window and the number of its stripes.
+    first_stripe: usize,
     stripes: usize,
     buffers: Vec<Vec<Real>>,
-    /// The padded global lattices, channel-major.
+    /// The window of the padded global lattices, channel-major.
     pub padded: Vec<Real>,
     order: Vec<u32>,
     start: Vec<usize>,
@@ -92,16 +114,39 @@ pub fn point_weights(shape: Shape, grid: &Grid, x: Vector) -> PointWeights {
 }
 
 impl Scatter {
-    /// Scratch for `grid`.
+    /// Scratch for `grid`: the whole domain's padded lattices, or on a rank's block of a
+    /// decomposed domain the window of them around the block (see the module's
+    /// documentation).
     pub fn new(grid: &Grid) -> Self {
+        let n = [grid.domain[0], grid.domain[1]];
+        let window = |a: usize| -> (isize, isize) {
+            let whole = (-(PAD as isize), (n[a] + 1 + PAD) as isize);
+            match grid.part.block() {
+                None => whole,
+                Some((_, b)) => {
+                    let c = &b.cells[a];
+                    ((c.start as isize - REACH).max(whole.0), (c.end as isize + REACH + 1).min(whole.1))
+                }
+            }
+        };
+        let ((x0, x1), (y0, y1)) = (window(0), window(1));
         let rows_per_stripe = 4;
-        let stripes = grid.ny.div_ceil(rows_per_stripe);
-        let nxp = grid.nx + 1 + 2 * PAD;
-        let nyp = grid.ny + 1 + 2 * PAD;
+        // the stripes whose buffer rows [4 s − 2, 4 s + 6) meet the window's rows
+        let all = n[1].div_ceil(rows_per_stripe);
+        let reaches = |s: usize| {
+            let r0 = (s * rows_per_stripe) as isize - PAD as isize;
+            r0 < y1 && r0 + (rows_per_stripe + 2 * PAD) as isize > y0
+        };
+        let first_stripe = (0..all).find(|&s| reaches(s)).unwrap_or(all);
+        let stripes = (first_stripe..all).take_while(|&s| reaches(s)).count();
+        let (nxp, nyp) = ((x1 - x0) as usize, (y1 - y0) as usize);
         Self {
+            n,
+            lo: [x0, y0],
             nxp,
             nyp,
             rows_per_stripe,
+            first_stripe,
             stripes,
             buffers: vec![vec![0.0; CHANNELS * (rows_per_stripe + 2 * PAD) * nxp]; stripes],
             padded: vec![0.0; CHANNELS * nxp * nyp],
@@ -111,31 +156,41 @@ impl Scatter {
         }
     }
 
-    /// Value of channel `c` at lattice node (i, j) (both may be ghosts down to −2).
+    #[inline]
+    fn offset(&self, c: usize, i: isize, j: isize) -> usize {
+        c * self.nxp * self.nyp + (i - self.lo[0]) as usize + (j - self.lo[1]) as usize * self.nxp
+    }
+    /// Value of channel `c` at global lattice node (i, j) (ghosts down to −2; on a rank's
+    /// block, a node of its window).
     #[inline]
     pub fn at(&self, c: usize, i: isize, j: isize) -> Real {
-        self.padded[c * self.nxp * self.nyp + (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.nxp]
+        self.padded[self.offset(c, i, j)]
     }
-    /// Channel `c` on lattice row `j` (≥ 0), nodes i = 0..`len`.
+    /// Channel `c` on global lattice row `j`, `len` nodes from node `i0`.
     #[inline]
-    pub fn row(&self, c: usize, j: usize, len: usize) -> &[Real] {
-        let start = c * self.nxp * self.nyp + PAD + (j + PAD) * self.nxp;
+    pub fn row(&self, c: usize, i0: isize, j: isize, len: usize) -> &[Real] {
+        let start = self.offset(c, i0, j);
         &self.padded[start..start + len]
     }
     #[inline]
     fn at_mut(&mut self, c: usize, i: isize, j: isize) -> &mut Real {
-        &mut self.padded[c * self.nxp * self.nyp + (i + PAD as isize) as usize + (j + PAD as isize) as usize * self.nxp]
+        let k = self.offset(c, i, j);
+        &mut self.padded[k]
     }
 
-    /// Scatters mass, momentum, internal force and volume of all points.
+    /// Scatters mass, momentum, internal force and volume of all points. On a rank's
+    /// block of a decomposed domain: `pts` are its points and the ghost points within two
+    /// cells of its block, in id order, and every rank calls it (the fold exchanges the
+    /// ghost nodes' sums); the block's nodes get the serial bits, its halo nothing useful.
     pub fn run(&mut self, grid: &Grid, bc: &Boundaries, shape: Shape, pts: &PointsIn) {
         let n = pts.x.len();
-        // stable counting sort by stripe
+        // stable counting sort by stripe (the window's)
         let h = grid.h;
+        let (ny, first) = (self.n[1], self.first_stripe);
         let stripe_of = |x: &Vector| {
             // `as usize` truncates toward zero and saturates below at 0: ⌊·⌋ clamped at 0
-            let j = (((x.y - grid.origin.y) / h) as usize).min(grid.ny - 1);
-            j / self.rows_per_stripe
+            let j = (((x.y - grid.origin.y) / h) as usize).min(ny - 1);
+            j / self.rows_per_stripe - first
         };
         self.start.iter_mut().for_each(|s| *s = 0);
         for x in pts.x {
@@ -155,6 +210,7 @@ impl Scatter {
         let (order, start) = (&self.order, &self.start);
         let rps = self.rows_per_stripe as isize;
         let plane = rows * nxp;
+        let lo_x = self.lo[0];
         self.buffers.par_iter_mut().zip(self.dirty.par_iter_mut()).enumerate().for_each(|(s, (buf, dirty))| {
             // zero only the columns the last run wrote
             let (c0, c1) = *dirty;
@@ -168,12 +224,13 @@ impl Scatter {
             if pts_s.is_empty() {
                 return;
             }
-            let row0 = s as isize * rps - PAD as isize; // lattice row of buffer row 0
+            let row0 = (first + s) as isize * rps - PAD as isize; // lattice row of buffer row 0
+            let at = Place { plane, nxp, row0, lo_x, h };
             let (mut lo, mut hi) = (usize::MAX, 0);
             for &p in pts_s {
                 let (l, r) = match shape {
-                    Shape::Linear => scatter_point::<2>(buf, plane, nxp, row0, h, grid, shape, pts, p as usize),
-                    Shape::Quadratic => scatter_point::<3>(buf, plane, nxp, row0, h, grid, shape, pts, p as usize),
+                    Shape::Linear => scatter_point::<2>(buf, &at, grid, shape, pts, p as usize),
+                    Shape::Quadratic => scatter_point::<3>(buf, &at, grid, shape, pts, p as usize),
                 };
                 lo = lo.min(l);
                 hi = hi.max(r);
@@ -181,15 +238,15 @@ impl Scatter {
             *dirty = (lo, hi);
         });
         // reduce stripe buffers into the padded lattices, row by row in stripe order
-        let nyp = self.nyp;
+        let (nyp, lo_y) = (self.nyp, self.lo[1]);
         let (buffers, dirty) = (&self.buffers, &self.dirty);
         let stripes = self.stripes;
         self.padded.par_chunks_mut(nxp).enumerate().for_each(|(k, row)| {
             let (c, jp) = (k / nyp, k % nyp);
-            let j = jp as isize - PAD as isize;
+            let j = jp as isize + lo_y;
             row.iter_mut().for_each(|r| *r = 0.0);
             for (s, buf) in buffers.iter().enumerate().take(stripes) {
-                let row0 = s as isize * rps - PAD as isize;
+                let row0 = (first + s) as isize * rps - PAD as isize;
                 let (c0, c1) = dirty[s];
                 if j < row0 || j >= row0 + rows as isize || c1 <= c0 {
                     continue;
@@ -204,88 +261,168 @@ impl Scatter {
     }
 
     /// Folds ghost contributions into the domain: wrap on periodic sides, mirror at walls
-    /// (the normal momentum changes sign in its mirror image).
+    /// (the normal momentum changes sign in its mirror image), in the order of [`fold_plan`].
     fn fold(&mut self, grid: &Grid, bc: &Boundaries) {
-        let (px, py) = (bc.periodic(0), bc.periodic(1));
-        let (nx, ny) = (grid.nx as isize, grid.ny as isize);
-        // per channel: (nodes along x are faces?, nodes along y are faces?, normal axis for sign)
-        let layout = |c: usize| -> (bool, bool, Option<usize>) {
-            match c {
-                MASS_U | FORCE_U => (true, false, None),
-                MOM_U => (true, false, Some(0)),
-                MASS_V | FORCE_V => (false, true, None),
-                MOM_V => (false, true, Some(1)),
-                _ => (false, false, None),
+        match grid.part.block() {
+            None => fold_plan(self.n, [bc.periodic(0), bc.periodic(1)], |e| self.apply(&e, None)),
+            // (the block's boundaries have `Halo` sides at its cuts: the domain's axes)
+            Some((rg, _)) => self.fold_ranks(&grid.part, [rg.periodic[0], rg.periodic[1]]),
+        }
+    }
+
+    /// Adds a ghost node's sum (`value`, else this window's) to its target.
+    #[inline]
+    fn apply(&mut self, e: &Fold, value: Option<Real>) {
+        let val = value.unwrap_or_else(|| self.at(e.channel, e.ghost[0], e.ghost[1]));
+        if e.copy {
+            // face n of a periodic axis is face 0
+            *self.at_mut(e.channel, e.target[0], e.target[1]) += val;
+            if value.is_none() {
+                *self.at_mut(e.channel, e.ghost[0], e.ghost[1]) = self.at(e.channel, e.target[0], e.target[1]);
             }
+        } else if val != 0.0 {
+            *self.at_mut(e.channel, e.target[0], e.target[1]) += e.sign * val;
+        }
+    }
+
+    /// The fold on a rank's block: the steps of [`fold_plan`] whose target it owns, in
+    /// order, each ghost node's sum read from the window of the rank that holds it
+    /// complete ([`holder`]), sent in a first pass.
+    fn fold_ranks(&mut self, part: &Part, periodic: [bool; 2]) {
+        let (rg, _) = part.block().expect("a decomposed grid");
+        let (me, n) = (part.rank(), self.n);
+        let holder = |g: [isize; 2]| {
+            let c = std::array::from_fn(|a| g[a].clamp(0, n[a] as isize - 1));
+            rg.owner(Lattice::Cell, c).expect("a node of the domain")
         };
-        for c in 0..CHANNELS {
-            let (fx, fy, normal) = layout(c);
-            let (ni, nj) = (if fx { nx + 1 } else { nx }, if fy { ny + 1 } else { ny });
-            let pad = PAD as isize;
-            for jg in -pad..(ny + 1 + pad) {
-                let row_outside = jg < 0 || jg >= nj;
-                // a ghost row whole, else its ghost columns only (in the same order)
-                let (left, right) = if row_outside { (nx + 1 + pad, nx + 1 + pad) } else { (0, ni) };
-                for ig in (-pad..left).chain(right..(nx + 1 + pad)) {
-                    let val = self.at(c, ig, jg);
-                    if val == 0.0 {
-                        continue;
-                    }
-                    let (i, sx) = map_axis(ig, grid.nx, fx, px);
-                    let (j, sy) = map_axis(jg, grid.ny, fy, py);
-                    let sign = match normal {
-                        Some(0) if sx => -1.0,
-                        Some(1) if sy => -1.0,
-                        _ => 1.0,
-                    };
-                    *self.at_mut(c, ig, jg) = 0.0;
-                    *self.at_mut(c, i, j) += sign * val;
-                }
+        let owner = |e: &Fold| rg.owner(channel_lattice(e.channel), e.target).expect("a node of the domain");
+        let mut sends: BTreeMap<usize, Vec<Real>> = BTreeMap::new();
+        let mut receives: BTreeMap<usize, usize> = BTreeMap::new();
+        fold_plan(self.n, periodic, |e| {
+            let (from, to) = (holder(e.ghost), owner(&e));
+            if from == me && to != me {
+                sends.entry(to).or_default().push(self.at(e.channel, e.ghost[0], e.ghost[1]));
+            } else if to == me && from != me {
+                *receives.entry(from).or_default() += 1;
             }
-            // a periodic face lattice: node n is node 0
-            if fx && px {
-                for j in 0..nj {
-                    let v = self.at(c, nx, j);
-                    *self.at_mut(c, 0, j) += v;
-                    *self.at_mut(c, nx, j) = self.at(c, 0, j);
-                }
+        });
+        let bytes: Vec<(usize, Vec<u8>)> =
+            sends.iter().map(|(&r, v)| (r, v.iter().flat_map(|x| x.to_le_bytes()).collect())).collect();
+        let out: Vec<(usize, Tag, &[u8])> = bytes.iter().map(|(r, b)| (*r, FOLD_TAG, &b[..])).collect();
+        let from: Vec<(usize, Tag)> = receives.keys().map(|&r| (r, FOLD_TAG)).collect();
+        let got = part.comm().exchange(&out, &from);
+        let mut got: BTreeMap<usize, std::vec::IntoIter<Real>> = from
+            .iter()
+            .zip(got)
+            .map(|(&(r, _), b)| (r, multifield_core::parallel::f64_from_bytes(&b).into_iter()))
+            .collect();
+        fold_plan(self.n, periodic, |e| {
+            if owner(&e) != me {
+                return;
             }
-            if fy && py {
-                for i in 0..ni {
-                    let v = self.at(c, i, ny);
-                    *self.at_mut(c, i, 0) += v;
-                    *self.at_mut(c, i, ny) = self.at(c, i, 0);
-                }
+            let from = holder(e.ghost);
+            let value = (from != me).then(|| got.get_mut(&from).and_then(|v| v.next()).expect("the fold's message"));
+            self.apply(&e, value);
+        });
+    }
+}
+
+/// One step of the fold: channel `channel` of ghost node `ghost` added to domain node
+/// `target` with `sign`; or, `copy`, face n of a periodic axis (`ghost`) added to face 0
+/// (`target`) and set to the sum.
+struct Fold {
+    channel: usize,
+    ghost: [isize; 2],
+    target: [isize; 2],
+    sign: Real,
+    copy: bool,
+}
+
+/// The lattice of a channel.
+fn channel_lattice(c: usize) -> Lattice {
+    match c {
+        MASS_U | MOM_U | FORCE_U => Lattice::XFace,
+        MASS_V | MOM_V | FORCE_V => Lattice::YFace,
+        _ => Lattice::Cell,
+    }
+}
+
+/// Calls `f` with every step of the fold of a domain of `n` cells, in the serial order: per
+/// channel, the ghost rows whole and the ghost columns of the other rows, row by row; then
+/// the copies of face n of a periodic axis.
+fn fold_plan(n: [usize; 2], periodic: [bool; 2], mut f: impl FnMut(Fold)) {
+    let (nx, ny) = (n[0] as isize, n[1] as isize);
+    let pad = PAD as isize;
+    for c in 0..CHANNELS {
+        let lattice = channel_lattice(c);
+        let (fx, fy) = (lattice == Lattice::XFace, lattice == Lattice::YFace);
+        // the component normal to the side it is mirrored across changes sign
+        let normal = match c {
+            MOM_U => Some(0),
+            MOM_V => Some(1),
+            _ => None,
+        };
+        let (ni, nj) = (if fx { nx + 1 } else { nx }, if fy { ny + 1 } else { ny });
+        for jg in -pad..(ny + 1 + pad) {
+            let row_outside = jg < 0 || jg >= nj;
+            // a ghost row whole, else its ghost columns only (in the same order)
+            let (left, right) = if row_outside { (nx + 1 + pad, nx + 1 + pad) } else { (0, ni) };
+            for ig in (-pad..left).chain(right..(nx + 1 + pad)) {
+                let (i, sx) = map_axis(ig, n[0], fx, periodic[0]);
+                let (j, sy) = map_axis(jg, n[1], fy, periodic[1]);
+                let sign = match normal {
+                    Some(0) if sx => -1.0,
+                    Some(1) if sy => -1.0,
+                    _ => 1.0,
+                };
+                f(Fold { channel: c, ghost: [ig, jg], target: [i, j], sign, copy: false });
+            }
+        }
+        if fx && periodic[0] {
+            for j in 0..nj {
+                f(Fold { channel: c, ghost: [nx, j], target: [0, j], sign: 1.0, copy: true });
+            }
+        }
+        if fy && periodic[1] {
+            for i in 0..ni {
+                f(Fold { channel: c, ghost: [i, ny], target: [i, 0], sign: 1.0, copy: true });
             }
         }
     }
 }
 
-/// Scatters point `p` into the stripe buffer `buf` (channel planes of `plane` values, rows of
-/// `nxp`, lattice row `row0` at buffer row 0), with a shape of `NS` nodes. Every stencil lies
-/// in the buffer (two ghost columns and rows on each side): direct row-wise indexing.
-/// Returns the buffer columns [c0, c1) written.
-#[allow(clippy::too_many_arguments)]
+/// Where a stripe buffer lies: channel planes of `plane` values, rows of `nxp`, lattice row
+/// `row0` at buffer row 0 and lattice column `lo_x` at buffer column 0; the cell side `h`.
+#[derive(Clone, Copy)]
+struct Place {
+    plane: usize,
+    nxp: usize,
+    row0: isize,
+    lo_x: isize,
+    h: Real,
+}
+
+/// Scatters point `p` into the stripe buffer `buf` at `at`, with a shape of `NS` nodes.
+/// Every stencil lies in the buffer (two ghost columns and rows on each side): direct
+/// row-wise indexing. Returns the buffer columns [c0, c1) written.
 #[allow(clippy::needless_range_loop)] // indexes weights and buffer rows by the same node
 #[inline(always)]
 fn scatter_point<const NS: usize>(
     buf: &mut [Real],
-    plane: usize,
-    nxp: usize,
-    row0: isize,
-    h: Real,
+    at: &Place,
     grid: &Grid,
     shape: Shape,
     pts: &PointsIn,
     p: usize,
 ) -> (usize, usize) {
+    let Place { plane, nxp, row0, lo_x, h } = *at;
     let w = point_weights(shape, grid, pts.x[p]);
     let (m, v, vol) = (pts.m[p], pts.v[p], pts.vol[p]);
     let (cu, cv) = pts.affine.map_or((Vector::zeros(), Vector::zeros()), |(cu, cv)| (cu[p], cv[p]));
     let sigma = pts.stress.map(|s| s[p]);
-    let col = |i: isize| (i + PAD as isize) as usize;
+    let col = |i: isize| (i - lo_x) as usize;
     let brow = |j: isize| (j - row0) as usize * nxp;
-    let lay = Layout { plane, nxp, row0, h, xi: w.xi, m };
+    let lay = Layout { plane, nxp, row0, lo_x, h, xi: w.xi, m };
     // −V σ_k· ∇S with ∇S = (wx' wy, wx wy')/h: the factors V σ_k0/h, V σ_k1/h
     let force = |k: usize| sigma.map(|sg| (vol * sg[(k, 0)] / h, vol * sg[(k, 1)] / h));
     // x-faces: x at integer nodes, y at half nodes; y-faces: x at half nodes, y at integer nodes
@@ -319,6 +456,7 @@ struct Layout {
     plane: usize,
     nxp: usize,
     row0: isize,
+    lo_x: isize,
     h: Real,
     xi: Vector,
     m: Real,
@@ -347,7 +485,7 @@ fn scatter_lattice<const NS: usize, const FORCE: bool>(
     let mxd: [Real; NS] = std::array::from_fn(|a| mx[a] * c.x * dx[a]);
     for b in 0..NS {
         let j = wy.base + b as isize;
-        let o = (j - lay.row0) as usize * lay.nxp + (wx.base + PAD as isize) as usize;
+        let o = (j - lay.row0) as usize * lay.nxp + (wx.base - lay.lo_x) as usize;
         let dy = (j as Real + off.y - lay.xi.y) * h;
         let mom0 = vel + c.y * dy;
         let wyb = wy.w[b];

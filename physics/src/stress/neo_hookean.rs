@@ -95,6 +95,10 @@ impl StressModel for NeoHookean {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // a function of each point's own state
+        true
+    }
     fn kind(&self) -> StressKind {
         StressKind::Points { volumetric_only: false, velocity_gradient: false }
     }

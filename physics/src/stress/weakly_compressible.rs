@@ -110,6 +110,10 @@ impl StressModel for WeaklyCompressible {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // a function of each point's own state
+        true
+    }
     fn kind(&self) -> StressKind {
         StressKind::Points { volumetric_only: true, velocity_gradient: false }
     }
