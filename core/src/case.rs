@@ -64,6 +64,12 @@ pub struct Domain {
     /// entry (`representation`) switches a scene from resolved bodies to mass points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub point_cells: Option<[usize; DIM]>,
+    /// The rank grid of a run on several processes (`mpirun -np N`, issue 19): ranks along
+    /// x and y (and z), whose product must be N. Default: the grid of least halo surface
+    /// for the domain's shape. A run on one process ignores it (its results are the same
+    /// bits on any rank grid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ranks: Option<[usize; DIM]>,
 }
 
 /// Time control.
@@ -641,7 +647,8 @@ fn is_zero(x: &Real) -> bool {
 
 /// Entries (parent path, key) left out of the written case when they hold their default
 /// (so that cases written before them stay byte-identical), which `--set` may still set.
-const OMITTED_AT_DEFAULT: &[(&str, &str)] = &[("time", "contact_substeps"), ("domain", "point_cells")];
+const OMITTED_AT_DEFAULT: &[(&str, &str)] =
+    &[("time", "contact_substeps"), ("domain", "point_cells"), ("domain", "ranks")];
 
 fn is_false(b: &bool) -> bool {
     !*b
@@ -1266,6 +1273,9 @@ impl Case {
         if !d.size.iter().all(|&s| s > 0.0 && s.is_finite()) {
             let every = if DIM == 2 { "both sides" } else { "all three sides" };
             return bad("domain.size", format!("{:?}: {every} must be positive lengths", d.size));
+        }
+        if let Some(r) = d.ranks.filter(|r| r.contains(&0)) {
+            return bad("domain.ranks", format!("{r:?}: at least 1 rank along each axis"));
         }
         for (path, cells) in
             std::iter::once(("domain.cells", d.cells)).chain(d.point_cells.map(|c| ("domain.point_cells", c)))

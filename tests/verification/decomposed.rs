@@ -404,3 +404,23 @@ fn a_lagrangian_field_of_bodies_is_refused_on_ranks() {
         assert!(e.contains("`mpirun -np 1`"), "{e}");
     }
 }
+
+/// The rank grid given in the case (`domain.ranks`): 2 × 1 in place of the 1 × 2 of least
+/// surface, the serial bits; a grid of another rank count is refused by its key, saying
+/// what would fit; one process ignores it.
+#[test]
+fn the_rank_grid_given_in_the_case_is_used() {
+    let mut case = taylor_green("");
+    case.domain.ranks = Some([2, 1]);
+    check(&case, &[(2, Some(vec![2, 1]))]);
+    assert!(Simulation::new(&case).is_ok(), "one process ignores domain.ranks");
+    case.domain.ranks = Some([3, 1]);
+    let errors =
+        on_ranks(2, |comm| Simulation::with_comm(&case, comm).err().map(|e| e.to_string()).unwrap_or_default());
+    for e in errors {
+        assert!(e.contains("domain.ranks") && e.contains("the rank grid 3 × 1 has 3 ranks but the run has 2"), "{e}");
+    }
+    case.domain.ranks = Some([0, 2]);
+    let e = Simulation::new(&case).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("domain.ranks") && e.contains("at least 1 rank along each axis"), "{e}");
+}

@@ -37,8 +37,10 @@ impl Simulation {
         let ranks = comm.size();
         let part = if ranks > 1 {
             let periodic = case.boundaries.periodic_axes();
-            let rank_grid = crate::decomposition::RankGrid::new(cells, periodic, ranks, None)
-                .map_err(|m| Error::invalid("domain.cells", format!("a run on {ranks} ranks: {m}")))?;
+            // (the key that chose the grid names the refusal)
+            let key = if d.ranks.is_some() { "domain.ranks" } else { "domain.cells" };
+            let rank_grid = crate::decomposition::RankGrid::new(cells, periodic, ranks, d.ranks)
+                .map_err(|m| Error::invalid(key, format!("a run on {ranks} ranks: {m}")))?;
             crate::part::Part::of(comm, rank_grid)
         } else {
             crate::part::Part::whole()
