@@ -227,7 +227,6 @@ pub struct Body {
 #[derive(Clone, Copy, Default)]
 struct Sums {
     m: Real,
-    mx: Vector,
     p: Vector,
     vol: Real,
 }
@@ -306,6 +305,19 @@ impl Lagrangian {
         self.simd
     }
 
+    /// On a rank's block of a decomposed domain, keeps the points whose cell the block
+    /// owns (once: nothing when already done, or on one rank).
+    fn keep_own(&mut self, g: &Grid) {
+        let Some((rg, _)) = self.local.part.block() else { return };
+        let me = self.local.part.rank();
+        let x = &self.points.x;
+        let mine = |p: usize| rg.owner(Lattice::Cell, ranks::cell_of(g, x[p])) == Some(me);
+        if (0..x.len()).all(mine) {
+            return;
+        }
+        self.points = self.points.select(mine);
+    }
+
     /// Whether the field has point-stress models, and whether all are `volumetric_only`;
     /// sizes the models' point state.
     fn classify_stress(&mut self, ctx: &FrameContext) -> Result<(), String> {
@@ -340,48 +352,45 @@ impl Lagrangian {
         Ok(())
     }
 
-    /// Mass, centroid, momentum and volume of each body (index 0 = points of no body).
-    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
-    fn body_sums(&self) -> Vec<Sums> {
-        let mut s = vec![Sums::default(); self.bodies.len() + 1];
-        let p = &self.points;
-        for k in 0..p.len() {
-            let b = &mut s[p.body[k] as usize];
-            b.m += p.m[k];
-            b.mx += p.m[k] * p.x[k];
-            b.p += p.m[k] * p.v[k];
-            b.vol += p.vol0[k] * p.f[k].determinant();
+    /// `K` sums over the points of each body of `term(point)` (index 0: the points of no
+    /// body), every term added exactly (the reduction rule with a group of one point): the
+    /// same bits whatever the order of the points, the threads or the ranks that hold them.
+    fn per_body<const K: usize>(&self, term: impl Fn(usize) -> [Real; K]) -> Vec<[Real; K]> {
+        let mut sums = vec![ExactSums::<K>::new(); self.bodies.len() + 1];
+        for (k, &b) in self.points.body.iter().enumerate() {
+            sums[b as usize].add(term(k));
         }
-        s
+        let flat: Vec<_> = sums.into_iter().flat_map(|s| s.0).collect();
+        let all = self.local.part.reduce_each(&flat);
+        all.chunks_exact(K).map(|c| std::array::from_fn(|k| c[k])).collect()
+    }
+
+    /// Mass, momentum and volume of each body (index 0 = points of no body).
+    fn body_sums(&self) -> Vec<Sums> {
+        let p = &self.points;
+        let sums = self.per_body(|k| {
+            let (m, v) = (p.m[k], p.v[k]);
+            [m, m * v.x, m * v.y, p.vol0[k] * p.f[k].determinant()]
+        });
+        sums.iter().map(|s| Sums { m: s[0], p: Vector::new(s[1], s[2]), vol: s[3] }).collect()
     }
 
     /// Angular momentum about `centres` and moment of inertia, per body, of points at `x`.
-    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
     fn body_angular(&self, x: &[Vector], centres: &[Vector]) -> (Vec<Real>, Vec<Real>) {
-        let n = self.bodies.len() + 1;
-        let (mut l, mut i) = (vec![0.0; n], vec![0.0; n]);
         let p = &self.points;
-        for k in 0..p.len() {
-            let b = p.body[k] as usize;
-            let r = x[k] - centres[b];
-            l[b] += p.m[k] * cross(r, p.v[k]);
+        let sums = self.per_body(|k| {
+            let r = x[k] - centres[p.body[k] as usize];
             // a point stands for a square of side a: its own inertia m a²/6
-            i[b] += p.m[k] * (r.norm_squared() + p.vol0[k] / 6.0);
-        }
-        (l, i)
+            [p.m[k] * cross(r, p.v[k]), p.m[k] * (r.norm_squared() + p.vol0[k] / 6.0)]
+        });
+        sums.iter().map(|s| (s[0], s[1])).unzip()
     }
 
     /// Mass-weighted centroid of each body for points at `x`.
-    #[allow(clippy::needless_range_loop)] // indexes several point arrays at once
     fn centres(&self, x: &[Vector]) -> Vec<Vector> {
-        let n = self.bodies.len() + 1;
-        let (mut c, mut m) = (vec![Vector::zeros(); n], vec![0.0; n]);
-        for k in 0..self.points.len() {
-            let b = self.points.body[k] as usize;
-            c[b] += self.points.m[k] * x[k];
-            m[b] += self.points.m[k];
-        }
-        c.iter().zip(&m).map(|(c, m)| if *m > 0.0 { c / *m } else { Vector::zeros() }).collect()
+        let m = &self.points.m;
+        let sums = self.per_body(|k| [m[k], m[k] * x[k].x, m[k] * x[k].y]);
+        sums.iter().map(|s| if s[0] > 0.0 { Vector::new(s[1], s[2]) / s[0] } else { Vector::zeros() }).collect()
     }
 
     /// Refreshes the bodies' mass, centroid, velocity and angular velocity from the points.
@@ -504,25 +513,35 @@ impl Lagrangian {
     /// A rigid body's points move with the body and are not wrapped across a periodic side
     /// (its centroid and arms would break): the step that takes one across is an error,
     /// not a body that silently leaves the domain.
+    /// An error (on every rank) when a rigid body's point has left the domain across a
+    /// periodic side.
     fn bodies_inside_periodic_sides(&self, g: &Grid, bc: &Boundaries) -> Result<(), String> {
         let (lo, hi) = (g.origin, g.origin + g.size());
         let pts = &self.points;
-        for (axis, periodic) in [(0, bc.periodic(0)), (1, bc.periodic(1))] {
-            if !periodic {
-                continue;
-            }
+        // (a rank's boundaries have `Halo` sides at its cuts: the domain's axes)
+        let periodic = |a: usize| g.part.block().map_or(bc.periodic(a), |(rg, _)| rg.periodic[a]);
+        let mut found = None;
+        for axis in (0..2).filter(|&a| periodic(a)) {
             let out =
                 (0..pts.len()).find(|&k| pts.body[k] > 0 && !(lo[axis] <= pts.x[k][axis] && pts.x[k][axis] < hi[axis]));
             if let Some(k) = out {
                 let name = &self.bodies[pts.body[k] as usize - 1].state.name;
                 let (side, at) = if pts.x[k][axis] < lo[axis] { ("low", lo[axis]) } else { ("high", hi[axis]) };
                 let a = ["x", "y"][axis];
-                return Err(format!(
+                found = Some(format!(
                     "rigid body `{name}` reached the periodic {side} {a} side ({a} = {at}): rigid bodies do not \
                      cross periodic sides yet; lengthen the domain along {a}, start the body farther from the \
                      side, or end the run earlier"
                 ));
+                break;
             }
+        }
+        if g.part.any(found.is_some()) {
+            return Err(found.unwrap_or_else(|| {
+                "a rigid body reached a periodic side of the domain (another rank names it): rigid bodies do not \
+                 cross periodic sides yet"
+                    .into()
+            }));
         }
         Ok(())
     }
@@ -918,14 +937,6 @@ impl Frame for Lagrangian {
         }
         let g = ctx.grid;
         self.local = g.clone();
-        if !self.local.part.is_whole() && matches!(ctx.region, Region::Bodies(_)) {
-            return Err(format!(
-                "a Lagrangian field of bodies does not run on several ranks yet, and this run has {}: run the case \
-                 on one rank (without mpirun, or `mpirun -np 1`). Decomposed so far (issue 19): Lagrangian fields \
-                 of material (FLIP, MPM) on the staggered grid",
-                self.local.part.ranks()
-            ));
-        }
         // seeded over the whole domain in the serial order (the ids); a rank keeps its own
         let domain = Grid::from_cells(g.domain, g.h, g.origin);
         let n = self.points_per_cell;
@@ -975,12 +986,6 @@ impl Frame for Lagrangian {
         if self.points.is_empty() {
             return Err("the region holds no material point: enlarge it or refine the grid".into());
         }
-        if let Some((rg, _)) = self.local.part.block() {
-            let me = self.local.part.rank();
-            let x = &self.points.x;
-            let mine = |p: usize| rg.owner(Lattice::Cell, ranks::cell_of(g, x[p])) == Some(me);
-            self.points = self.points.select(mine);
-        }
         if let Region::Bodies(specs) = ctx.region {
             let mut held = vec![false; specs.len() + 1];
             for &b in &self.points.body {
@@ -994,6 +999,8 @@ impl Frame for Lagrangian {
                     ));
                 }
             }
+            // (each body's points counted before a rank keeps its own)
+            self.keep_own(g);
             self.bodies = specs
                 .iter()
                 .map(|spec| Body {
@@ -1015,6 +1022,7 @@ impl Frame for Lagrangian {
                 .collect();
             self.measure_bodies();
         }
+        self.keep_own(g);
         if self.transfer == Transfer::Apic {
             // initial affine velocity from the initial field's gradient (central differences)
             let d = 1e-6 * g.h;
@@ -1237,16 +1245,15 @@ impl Frame for Lagrangian {
         if let Some(x_start) = x_start {
             self.update_deformation_musl(g, bc, dt, &x_start);
         }
-        if !g.part.is_whole() {
-            // (a field of bodies is refused on ranks at `initialize`)
-            ranks::migrate(&mut self.points, g)?;
-        }
         if !self.bodies.is_empty() {
             let apic = self.transfer == Transfer::Apic;
             self.rigid_projection(dt, ctx.gravity, ctx.body_forces, rigid, apic, None);
             if rigid {
-                return self.bodies_inside_periodic_sides(g, bc);
+                self.bodies_inside_periodic_sides(g, bc)?;
             }
+        }
+        if !g.part.is_whole() {
+            ranks::migrate(&mut self.points, g)?;
         }
         Ok(())
     }

@@ -6,6 +6,7 @@
 
 mod check;
 mod common;
+mod dkt;
 mod refusals;
 mod restart;
 mod taylor_green;

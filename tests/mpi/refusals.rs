@@ -36,7 +36,7 @@ fn what_is_not_decomposed_is_refused_before_step_0() {
     assert!(
         err.contains(
             "fields.fluid.frame: the `lagrangian` frame does not run on several ranks yet, and this run has 2"
-        ) && err.contains("Lagrangian fields of material on the staggered grid"),
+        ) && err.contains("Lagrangian fields (material or resolved bodies) on the staggered grid"),
         "{err}"
     );
     assert_eq!(err.matches("does not run on several ranks").count(), 1, "rank 0 alone prints: {err}");

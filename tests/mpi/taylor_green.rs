@@ -7,58 +7,7 @@
 //! byte). `tests/verification/decomposed.rs` checks the fields themselves on in-process
 //! ranks.
 
-use super::common::{mpirun, scratch, text};
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-/// Runs `case` (a path under the repository) with `sets` serially and under `mpirun -np 1`
-/// to `4`, 1 thread each, and asserts that every rank count writes the serial run's
-/// `diagnostics.csv` (a row for each of `steps` steps) and `snapshots` byte for byte. Returns
-/// the output directories by rank count (empty when mpirun is missing).
-fn serial_files_on_ranks(t: &str, case: &str, sets: &[&str], steps: usize, snapshot_files: usize) -> Vec<PathBuf> {
-    let dir = scratch(t);
-    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join(case).display().to_string();
-    let args = |out: &Path| {
-        let mut a: Vec<String> = ["run", &case, "--out", &out.display().to_string(), "--quiet", "--threads", "1"]
-            .map(str::to_string)
-            .to_vec();
-        for s in sets {
-            a.extend(["--set".to_string(), s.to_string()]);
-        }
-        a
-    };
-    let serial = dir.join("serial");
-    let o = Command::new(env!("CARGO_BIN_EXE_multifield")).args(args(&serial)).output().unwrap();
-    assert!(o.status.success(), "{:?}", text(&o));
-    let reference = std::fs::read(serial.join("diagnostics.csv")).unwrap();
-    // a header and a row a step
-    assert_eq!(String::from_utf8_lossy(&reference).lines().count(), steps + 1);
-    let mut snapshots: Vec<String> = std::fs::read_dir(serial.join("snapshots"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    snapshots.sort();
-    assert_eq!(snapshots.len(), snapshot_files, "{snapshots:?}");
-    let mut outs = Vec::new();
-    for np in 1..=4 {
-        let out = dir.join(format!("np{np}"));
-        let a = args(&out);
-        let Some(o) = mpirun(t, np, &a.iter().map(String::as_str).collect::<Vec<_>>()) else { return Vec::new() };
-        let (stdout, err) = text(&o);
-        assert!(o.status.success(), "np {np}: {stdout}\n{err}");
-        let done = format!("completed: {steps} steps");
-        assert_eq!(stdout.matches(&done).count(), 1, "np {np}: rank 0 alone reports: {stdout}");
-        let got = std::fs::read(out.join("diagnostics.csv")).unwrap();
-        assert!(got == reference, "np {np}: diagnostics.csv differs from the serial run's");
-        for file in &snapshots {
-            let (a, b) =
-                (std::fs::read(serial.join("snapshots").join(file)), std::fs::read(out.join("snapshots").join(file)));
-            assert!(a.unwrap() == b.unwrap_or_default(), "np {np}: snapshots/{file} differs from the serial run's");
-        }
-        outs.push(out);
-    }
-    outs
-}
+use super::common::serial_files_on_ranks;
 
 #[test]
 fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
@@ -71,7 +20,9 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
         "output.snapshots=Some((interval: 0.25, faces: true))",
     ];
     // t = 0, 0.25, 0.5, 0.75 and the last step's (t = 0.79), and the XDMF
-    for (k, out) in serial_files_on_ranks(t, "examples/taylor_green.ron", &sets, 20, 6).iter().enumerate() {
+    for (k, out) in
+        serial_files_on_ranks(t, "examples/taylor_green.ron", &sets, |_| Vec::new(), 20, 6).iter().enumerate()
+    {
         let np = k + 1;
         let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
         assert!(summary.contains("\"status\": \"completed\""), "np {np}: {summary}");
@@ -123,7 +74,7 @@ fn taylor_green_on_material_points_on_one_to_four_ranks_writes_the_serial_files(
         "output.charts=false",
         "output.snapshots=Some((interval: 0.25))",
     ];
-    let outs = serial_files_on_ranks(t, "examples/taylor_green_flip.ron", &sets, 20, 6);
+    let outs = serial_files_on_ranks(t, "examples/taylor_green_flip.ron", &sets, |_| Vec::new(), 20, 6);
     for (np, out) in outs.iter().enumerate().map(|(k, o)| (k + 1, o)).skip(1) {
         let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
         let s: serde_json::Value = serde_json::from_str(&summary).unwrap();

@@ -12,7 +12,7 @@
 use multifield::snapshot::Snapshot;
 use multifield_core::case::{Case, SnapshotSpec};
 use multifield_core::grid::{Grid, Lattice};
-use multifield_core::math::{Real, AXES, DIM};
+use multifield_core::math::{Real, Vector, AXES, DIM};
 use multifield_core::parallel::{fake, Comm};
 use multifield_core::simulation::{Simulation, StepDiagnostics};
 use multifield_frames::lagrangian::Lagrangian;
@@ -48,6 +48,18 @@ fn bits(d: &StepDiagnostics) -> Vec<u64> {
     );
     v.push(d.pressure_iterations as u64);
     v
+}
+
+/// Every body's state (position, velocity, rotation, force, torque), as bits.
+fn body_bits(sim: &Simulation) -> Vec<u64> {
+    let mut out = Vec::new();
+    for f in &sim.fields {
+        for b in f.frame.body_states() {
+            out.extend([b.position.x, b.position.y, b.velocity.x, b.velocity.y].map(Real::to_bits));
+            out.extend([b.angular_velocity, b.force.x, b.force.y, b.torque, b.mass, b.inertia].map(Real::to_bits));
+        }
+    }
+    out
 }
 
 /// The arrays compared at the end: θ, u, v, p.
@@ -115,7 +127,13 @@ fn run_on(sim: &mut Simulation) -> RankRun {
     // the initial state's snapshot (computed from the case at step 0) and the last one's
     let mut snapshot: Vec<(String, Vec<u64>)> =
         snapshot_bits(sim).into_iter().map(|(k, v)| (format!("t = 0: {k}"), v)).collect();
-    let diagnostics = (0..STEPS).map(|_| bits(&sim.step().unwrap())).collect();
+    let diagnostics = (0..STEPS)
+        .map(|_| {
+            let mut b = bits(&sim.step().unwrap());
+            b.extend(body_bits(sim));
+            b
+        })
+        .collect();
     let owned = arrays(sim)
         .iter()
         .map(|(lattice, a)| {
@@ -387,22 +405,34 @@ fn points_turning_across_four_ranks_are_conserved_over_a_thousand_steps() {
     );
 }
 
-/// A Lagrangian field of bodies (bodies spanning ranks are not decomposed yet) is refused
-/// on ranks before step 0, by its key, with what to do.
+/// Resolved rigid bodies (`dkt_seed`: two disks under gravity in a channel, the `no_slip`
+/// exchange, `repulsion` contact) at 32 cells per unit (3.2 per radius), the disks on the
+/// cut x = 1 of 2 × 1 and 2 × 2 ranks: their mass, momentum, angular momentum and centroid
+/// are exact sums over every rank's points; contact runs on every rank. The bodies' states
+/// at every step (position, velocity, rotation, force, torque) are the serial bits.
 #[test]
-fn a_lagrangian_field_of_bodies_is_refused_on_ranks() {
+fn dkt_on_ranks_gives_the_serial_bits() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/dkt_seed.ron");
+    for (ranks, p) in [(2, [2, 1]), (4, [2, 2])] {
+        let sets = ["domain.cells=(64, 256)".to_string(), format!("domain.ranks=Some(({}, {}))", p[0], p[1])];
+        let case = Case::load(&path, &sets).unwrap();
+        let serial = check(&case, &[(ranks, Some(p.to_vec()))]);
+        // the disks fall
+        assert!(serial.fields[1].frame.body_states().iter().all(|b| b.velocity.y < 0.0));
+    }
+}
+
+/// Deformable bodies (`colliding_disks`: neo-Hookean, periodic, each disk across the
+/// periodic wrap) at 64² on 2 × 2 ranks.
+#[test]
+fn colliding_disks_on_ranks_give_the_serial_bits() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/colliding_disks.ron");
     let case = Case::load(&path, &["domain.cells=(64, 64)".into()]).unwrap();
-    // (every rank refuses alike, before any collective of the run)
-    let errors =
-        on_ranks(2, |comm| Simulation::with_comm(&case, comm).err().map(|e| e.to_string()).unwrap_or_default());
-    for e in &errors {
-        assert!(
-            e.contains("fields.") && e.contains("a Lagrangian field of bodies does not run on several ranks yet"),
-            "{e}"
-        );
-        assert!(e.contains("`mpirun -np 1`"), "{e}");
-    }
+    let serial = check(&case, &[(4, Some(vec![2, 2]))]);
+    // the lower disk moves at its initial (0.1, 0.1) (they meet later)
+    let b = serial.fields[0].frame.body_states()[0];
+    let t = serial.time;
+    assert!((b.position - Vector::new(0.2 + 0.1 * t, 0.2 + 0.1 * t)).norm() < 1e-6, "{:?} at t = {t}", b.position);
 }
 
 /// The rank grid given in the case (`domain.ranks`): 2 × 1 in place of the 1 × 2 of least

@@ -392,9 +392,10 @@ fn refuse_undecomposed(
             format!(
                 "{what} does not run on several ranks yet, and this run has {ranks}: run the case on one rank \
                  (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): in 2D, \
-                 Eulerian fields and Lagrangian fields of material on the staggered grid (not of bodies), with \
-                 `newtonian`, `linear_elastic`, `neo_hookean` or `weakly_compressible` stress, the `constant` \
-                 exchange and the shipped pressure solvers (docs/design/mpi.md)"
+                 Eulerian fields and Lagrangian fields (material or resolved bodies) on the staggered grid, with \
+                 `newtonian`, `linear_elastic`, `neo_hookean`, `weakly_compressible` or `rigid` stress, the \
+                 `constant` and `no_slip` exchanges, the `repulsion` and `dem` contact models and the shipped \
+                 pressure solvers (docs/design/mpi.md)"
             ),
         ))
     };

@@ -146,7 +146,8 @@ impl Simulation {
             let (bodies, resolved, _) = self.contact_bodies();
             let ctx = ContactContext {
                 grid: &self.grid,
-                boundaries: &self.boundaries,
+                // the domain's: contact is replicated on every rank (docs/design/mpi.md §5)
+                boundaries: &self.case.boundaries,
                 gravity: self.gravity,
                 fluid_density: self.fluid_density(),
                 fluid_viscosity: self.fluid_viscosity(),
@@ -547,7 +548,8 @@ impl Simulation {
         };
         let ctx = ContactContext {
             grid: &self.grid,
-            boundaries: &self.boundaries,
+            // the domain's: contact is replicated on every rank (docs/design/mpi.md §5)
+            boundaries: &self.case.boundaries,
             gravity: self.gravity,
             fluid_density,
             fluid_viscosity,

@@ -650,6 +650,11 @@ impl ContactModel for Dem {
     fn model(&self) -> &'static str {
         "dem"
     }
+    fn decomposed(&self) -> bool {
+        // replicated: every rank holds every body's state and computes every force (the
+        // same inputs, the same bits), with the domain's boundaries
+        true
+    }
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }

@@ -35,6 +35,10 @@ impl ExchangeModel for NoSlip {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // face by face
+        true
+    }
     fn no_slip(&self) -> bool {
         true
     }

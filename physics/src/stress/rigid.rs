@@ -35,6 +35,10 @@ impl StressModel for Rigid {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    fn decomposed(&self) -> bool {
+        // a function of each point's own state
+        true
+    }
     fn kind(&self) -> StressKind {
         StressKind::Rigid
     }
