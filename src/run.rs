@@ -252,9 +252,9 @@ pub struct Communication {
 }
 
 impl RankTraffic {
-    /// From bytes, messages, exchanges, reductions and gathers, in that order.
+    /// From bytes, messages, exchanges, reductions, gathers and gathered bytes, in that order.
     fn of(v: &[Real]) -> Self {
-        Self { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4] }
+        Self { bytes: v[0], messages: v[1], exchanges: v[2], reductions: v[3], gathers: v[4], gathered_bytes: v[5] }
     }
 }
 
@@ -279,8 +279,11 @@ pub struct RankTraffic {
     pub exchanges: Real,
     /// Exact-sum reductions (and agreements).
     pub reductions: Real,
-    /// Gathers (maxima).
+    /// Gathers (maxima; the residual of the multigrid V-cycle, which runs whole on every
+    /// rank; points for output).
     pub gathers: Real,
+    /// Bytes it contributed to those gathers.
+    pub gathered_bytes: Real,
 }
 
 /// Runs `case` and writes its output into `output_dir` (created if needed).
@@ -530,7 +533,7 @@ fn run_simulation(
         // every rank reaches this point after the same steps: gather what each sent
         let steps = (driver.sim.steps - sim_steps_at_start).max(1) as Real;
         let figures = |t: crate::core::parallel::Traffic| {
-            [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers].map(|v| v as Real / steps)
+            [t.bytes, t.messages, t.exchanges, t.reductions, t.gathers, t.gathered_bytes].map(|v| v as Real / steps)
         };
         let per_step = |t| RankTraffic::of(&figures(t));
         let phases: Vec<PhaseTraffic> =

@@ -8,9 +8,15 @@ medians of the repeats, run in interleaved order; with the ranks' communication 
     cargo build --release --features mpi
     python3 benches/mpi/scaling.py                       # TGV 1024², Jacobi PCG, 10 steps
     python3 benches/mpi/scaling.py --cells 512 --steps 20 --repeat 3 --ranks 2
+    python3 benches/mpi/scaling.py --case dkt --cells 240 --steps 20   # DKT, 24 cells a diameter
+    python3 benches/mpi/scaling.py --case flip --cells 512 --steps 10  # the vortex on material points
 
 The case is examples/taylor_green.ron at --cells² with `preconditioner: "jacobi"` (the
-multigrid preconditioner is not distributed yet), no output but diagnostics.csv and
+multigrid preconditioner is not distributed yet), or with `--case dkt`
+examples/dkt_seed.ron (two resolved disks of diameter 0.2 in a 2 × 8 channel) at --cells
+× 4 --cells with its own solver (the multigrid-preconditioned PCG, whose V-cycle runs on
+the gathered residual on every rank), or with `--case flip` examples/taylor_green_flip.ron
+(APIC on material points, 4 a cell) at --cells² with the Jacobi PCG; no output but diagnostics.csv, bodies.csv and
 summary.json. MULTIFIELD_BIN names the binary (default target/release/multifield, which
 must be built with --features mpi for the ranks); MULTIFIELD_MPIRUN the launcher.
 """
@@ -26,11 +32,19 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def run(binary, mpirun, ranks, threads, cells, steps, out):
-    args = [binary, "run", os.path.join(ROOT, "examples", "taylor_green.ron"), "--out", out, "--quiet",
+CASES = {
+    "taylor_green": ("taylor_green.ron", lambda c: [f"domain.cells=({c}, {c})", 'pressure.params.preconditioner="jacobi"']),
+    "dkt": ("dkt_seed.ron", lambda c: [f"domain.cells=({c}, {4 * c})", "output.snapshots=None"]),
+    "flip": ("taylor_green_flip.ron",
+             lambda c: [f"domain.cells=({c}, {c})", 'pressure.params.preconditioner="jacobi"', "output.snapshots=None"]),
+}
+
+
+def run(binary, mpirun, case, ranks, threads, cells, steps, out):
+    file, sets = CASES[case]
+    args = [binary, "run", os.path.join(ROOT, "examples", file), "--out", out, "--quiet",
             "--threads", str(threads)]
-    for s in [f"domain.cells=({cells}, {cells})", 'pressure.params.preconditioner="jacobi"',
-              f"time.max_steps={steps}", "output.interval=0", "output.charts=false"]:
+    for s in sets(cells) + [f"time.max_steps={steps}", "output.interval=0", "output.charts=false"]:
         args += ["--set", s]
     if ranks:
         args = [mpirun, "-np", str(ranks), "--oversubscribe"] + args
@@ -43,11 +57,15 @@ def run(binary, mpirun, ranks, threads, cells, steps, out):
         s = json.load(f)
     with open(os.path.join(out, "diagnostics.csv"), "rb") as f:
         diagnostics = f.read()
+    if os.path.exists(os.path.join(out, "bodies.csv")):
+        with open(os.path.join(out, "bodies.csv"), "rb") as f:
+            diagnostics += f.read()
     return s["wall_seconds"] / s["steps"], s.get("communication"), diagnostics, s["pressure_iterations_total"]
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", choices=sorted(CASES), default="taylor_green")
     ap.add_argument("--cells", type=int, default=1024)
     ap.add_argument("--steps", type=int, default=10)
     ap.add_argument("--repeat", type=int, default=3)
@@ -64,15 +82,18 @@ def main():
         for k in range(args.repeat):
             for name, ranks, threads in configs:
                 out = os.path.join(tmp, f"{ranks}_{threads}_{k}")
-                t, c, d, it = run(binary, mpirun, ranks, threads, args.cells, args.steps, out)
+                t, c, d, it = run(binary, mpirun, args.case, ranks, threads, args.cells, args.steps, out)
                 times[name].append(t)
                 comm[name], diags[name], iters[name] = c, d, it
     base = statistics.median(times[configs[0][0]])
-    print(f"Taylor–Green {args.cells}², Jacobi PCG, {args.steps} steps, medians of {args.repeat} "
+    what = {"taylor_green": f"Taylor–Green {args.cells}², Jacobi PCG",
+            "flip": f"Taylor–Green on material points {args.cells}², Jacobi PCG",
+            "dkt": f"DKT {args.cells} × {4 * args.cells}, multigrid PCG"}[args.case]
+    print(f"{what}, {args.steps} steps, medians of {args.repeat} "
           f"({iters[configs[0][0]]} pressure iterations in all); load {os.getloadavg()[0]:.2f} at the end")
-    print("| run | ms per step | speed-up over 1 thread | diagnostics as 1 thread | "
-          "bytes sent per rank per step | exchanges | reductions |")
-    print("|---|---:|---:|---|---:|---:|---:|")
+    print("| run | ms per step | speed-up over 1 thread | diagnostics (and bodies) as 1 thread | "
+          "bytes sent per rank per step | exchanges | reductions | gathers | bytes gathered |")
+    print("|---|---:|---:|---|---:|---:|---:|---:|---:|")
     for name, ranks, threads in configs:
         m = statistics.median(times[name])
         same = "yes" if diags[name] == diags[configs[0][0]] else "NO"
@@ -80,18 +101,19 @@ def main():
         if c:
             per = c["per_step"]
             traffic = (f"{max(r['bytes'] for r in per):,.0f} | {per[0]['exchanges']:.1f} | "
-                       f"{per[0]['reductions']:.1f}")
+                       f"{per[0]['reductions']:.1f} | {per[0]['gathers']:.1f} | "
+                       f"{max(r['gathered_bytes'] for r in per):,.0f}")
         else:
-            traffic = "– | – | –"
+            traffic = "– | – | – | – | –"
         print(f"| {name} | {1e3 * m:.1f} | {base / m:.2f} | {same} | {traffic} |")
     name = configs[-1][0]
     if comm[name]:
         print(f"\nrank 0's traffic per step by phase ({name}):\n")
-        print("| phase | bytes | messages | exchanges | reductions | gathers |")
-        print("|---|---:|---:|---:|---:|---:|")
+        print("| phase | bytes | messages | exchanges | reductions | gathers | bytes gathered |")
+        print("|---|---:|---:|---:|---:|---:|---:|")
         for p in comm[name]["rank0_phases"]:
             print(f"| {p['phase']} | {p['bytes']:,.0f} | {p['messages']:.1f} | {p['exchanges']:.1f} | "
-                  f"{p['reductions']:.1f} | {p['gathers']:.1f} |")
+                  f"{p['reductions']:.1f} | {p['gathers']:.1f} | {p['gathered_bytes']:,.0f} |")
 
 
 if __name__ == "__main__":

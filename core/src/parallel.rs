@@ -119,8 +119,10 @@ pub struct Traffic {
     pub reductions: u64,
     /// Words those reductions summed (8 bytes each).
     pub reduced_words: u64,
-    /// Gathers (calls of [`Comm::gather_all`]: maxima, minima).
+    /// Gathers (calls of [`Comm::gather_all`]: maxima, minima, gathered residuals, points).
     pub gathers: u64,
+    /// Bytes this rank contributed to those gathers.
+    pub gathered_bytes: u64,
 }
 
 impl Traffic {
@@ -133,6 +135,7 @@ impl Traffic {
             reductions: self.reductions - before.reductions,
             reduced_words: self.reduced_words - before.reduced_words,
             gathers: self.gathers - before.gathers,
+            gathered_bytes: self.gathered_bytes - before.gathered_bytes,
         }
     }
 }
@@ -145,6 +148,7 @@ impl std::ops::AddAssign for Traffic {
         self.reductions += o.reductions;
         self.reduced_words += o.reduced_words;
         self.gathers += o.gathers;
+        self.gathered_bytes += o.gathered_bytes;
     }
 }
 
@@ -212,7 +216,10 @@ impl Comm for Counted {
         self.inner.sum_words(words)
     }
     fn gather_all(&self, mine: &[u8]) -> Vec<Vec<u8>> {
-        self.count(|t| t.gathers += 1);
+        self.count(|t| {
+            t.gathers += 1;
+            t.gathered_bytes += mine.len() as u64;
+        });
         self.inner.gather_all(mine)
     }
     fn barrier(&self) {
@@ -363,9 +370,17 @@ mod tests {
             ranks.into_iter().map(|h| h.join().unwrap()).collect()
         });
         for t in traffic {
-            // one message to the neighbour along x: H = 2 columns of the 16 rows, 8 bytes each
-            let expected =
-                Traffic { messages: 1, bytes: 2 * 16 * 8, exchanges: 1, reductions: 1, reduced_words: 3, gathers: 1 };
+            // one message to the neighbour along x: H = 2 columns of the 16 rows, 8 bytes
+            // each; the maximum gathers one value of 8 bytes from each rank
+            let expected = Traffic {
+                messages: 1,
+                bytes: 2 * 16 * 8,
+                exchanges: 1,
+                reductions: 1,
+                reduced_words: 3,
+                gathers: 1,
+                gathered_bytes: 8,
+            };
             assert_eq!(t, expected);
         }
     }

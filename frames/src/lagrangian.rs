@@ -305,6 +305,16 @@ impl Lagrangian {
         self.simd
     }
 
+    /// The field's points: on a rank's block of a decomposed domain, every rank's in id
+    /// order (a collective: every rank calls it).
+    fn all_points(&self) -> Cow<'_, Points> {
+        if self.local.part.is_whole() {
+            Cow::Borrowed(&self.points)
+        } else {
+            Cow::Owned(ranks::gathered(&self.points, &self.local.part))
+        }
+    }
+
     /// On a rank's block of a decomposed domain, keeps the points whose cell the block
     /// owns (once: nothing when already done, or on one rank).
     fn keep_own(&mut self, g: &Grid) {
@@ -1265,13 +1275,7 @@ impl Frame for Lagrangian {
     /// On a rank's block of a decomposed domain, every rank's points in id order (a
     /// collective: every rank calls it).
     fn points(&self) -> Option<PointSet> {
-        let all;
-        let p = if self.local.part.is_whole() {
-            &self.points
-        } else {
-            all = ranks::gathered(&self.points, &self.local.part);
-            &all
-        };
+        let p = &*self.all_points();
         Some(PointSet {
             position: p.x.clone(),
             velocity: p.v.clone(),
@@ -1317,15 +1321,8 @@ impl Frame for Lagrangian {
     /// volumes and start positions are scratch, rebuilt every step.
     fn save_state(&self) -> Result<Vec<u8>, String> {
         // on a rank's block, every rank's points in id order: the serial bytes
-        let all;
-        let points = if self.local.part.is_whole() {
-            &self.points
-        } else {
-            all = ranks::gathered(&self.points, &self.local.part);
-            &all
-        };
         state::encode(&LagrangianState {
-            points: Cow::Borrowed(points),
+            points: self.all_points(),
             bodies: self.bodies.iter().map(|b| Cow::Borrowed(&b.state)).collect(),
         })
     }
