@@ -559,7 +559,7 @@ impl Lagrangian {
     /// Σ over the points of `term(p)` (`K` sums in one pass) by the reduction rule of
     /// docs/design/mpi.md §3 with a group of one point: every point's terms added exactly,
     /// so the sums depend on the set of points only (not on their order, the thread count
-    /// or, later, the rank that holds them).
+    /// or the rank that holds them).
     pub(crate) fn point_sums<const K: usize>(
         part: &Part,
         n: usize,
