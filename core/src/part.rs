@@ -102,21 +102,6 @@ impl Part {
         }
     }
 
-    /// [`Part::reduce`] of any number of sums (one collective), in their order.
-    pub fn reduce_each(&self, sums: &[ExactSum]) -> Vec<f64> {
-        match &self.0 {
-            None => sums.iter().map(ExactSum::round).collect(),
-            Some(r) => {
-                let mut words: Vec<i64> = sums.iter().flat_map(|s| s.words()).collect();
-                r.comm.sum_words(&mut words);
-                words
-                    .chunks_exact(EXPORTED_WORDS)
-                    .map(|w| ExactSum::from_words(w.try_into().expect("the words of a sum")).round())
-                    .collect()
-            }
-        }
-    }
-
     /// Stage 3 of the reduction rule across the ranks: every rank's sums added as integers
     /// (one collective for the `K` sums), rounded once. The same bits on every rank, and as
     /// the serial sum of the same groups.

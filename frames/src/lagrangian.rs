@@ -363,16 +363,32 @@ impl Lagrangian {
     }
 
     /// `K` sums over the points of each body of `term(point)` (index 0: the points of no
-    /// body), every term added exactly (the reduction rule with a group of one point): the
-    /// same bits whatever the order of the points, the threads or the ranks that hold them.
+    /// body), each added in the points' order. On a rank's block of a decomposed domain
+    /// every rank's terms are gathered and added in id order: the serial sums' bits,
+    /// whichever ranks hold a body's points (every rank calls it).
     fn per_body<const K: usize>(&self, term: impl Fn(usize) -> [Real; K]) -> Vec<[Real; K]> {
-        let mut sums = vec![ExactSums::<K>::new(); self.bodies.len() + 1];
-        for (k, &b) in self.points.body.iter().enumerate() {
-            sums[b as usize].add(term(k));
+        let mut sums = vec![[0.0; K]; self.bodies.len() + 1];
+        let mut add = |b: usize, t: &[Real]| sums[b].iter_mut().zip(t).for_each(|(s, v)| *s += v);
+        let p = &self.points;
+        if self.local.part.is_whole() {
+            for (k, &b) in p.body.iter().enumerate() {
+                add(b as usize, &term(k));
+            }
+        } else {
+            // (id, body, the K terms) of every point
+            let mut mine = Vec::with_capacity(p.len() * (K + 2));
+            for (k, &b) in p.body.iter().enumerate() {
+                mine.extend([Real::from_bits(p.id[k]), Real::from_bits(b as u64)]);
+                mine.extend(term(k));
+            }
+            let all = self.local.part.comm().gather_all_f64(&mine);
+            let mut records: Vec<&[Real]> = all.iter().flat_map(|m| m.chunks_exact(K + 2)).collect();
+            records.sort_unstable_by_key(|r| r[0].to_bits());
+            for r in records {
+                add(r[1].to_bits() as usize, &r[2..]);
+            }
         }
-        let flat: Vec<_> = sums.into_iter().flat_map(|s| s.0).collect();
-        let all = self.local.part.reduce_each(&flat);
-        all.chunks_exact(K).map(|c| std::array::from_fn(|k| c[k])).collect()
+        sums
     }
 
     /// Mass, momentum and volume of each body (index 0 = points of no body).
