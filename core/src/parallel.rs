@@ -36,6 +36,12 @@ pub trait Comm: Send + Sync {
     /// [`Counted`]; nothing otherwise).
     fn phase(&self, _name: &'static str) {}
 
+    /// [`Comm::exchange`] of `f64` values (as their little-endian bytes).
+    fn exchange_f64(&self, sends: &[(usize, Tag, &[f64])], receives: &[(usize, Tag)]) -> Vec<Vec<f64>> {
+        let bytes: Vec<Vec<u8>> = sends.iter().map(|s| s.2.iter().flat_map(|v| v.to_le_bytes()).collect()).collect();
+        let sends: Vec<(usize, Tag, &[u8])> = sends.iter().zip(&bytes).map(|(s, b)| (s.0, s.1, &b[..])).collect();
+        self.exchange(&sends, receives).iter().map(|b| f64_from_bytes(b)).collect()
+    }
     /// Every rank's `mine`, by rank.
     fn gather_all_f64(&self, mine: &[f64]) -> Vec<Vec<f64>> {
         let bytes: Vec<u8> = mine.iter().flat_map(|v| v.to_le_bytes()).collect();

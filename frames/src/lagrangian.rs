@@ -212,6 +212,10 @@ pub struct Lagrangian {
     /// On a rank's block: its points and the neighbours' within reach, for the scatter.
     #[serde(skip)]
     cloud: ranks::Cloud,
+    /// The face mass below which `to_grid` leaves a face's velocity zero (1e-12 of the
+    /// largest point mass of every rank), for the MUSL update of the same step.
+    #[serde(skip)]
+    tiny: Real,
 }
 
 /// A body of a Lagrangian field: its definition and its state.
@@ -290,6 +294,7 @@ impl Lagrangian {
             simd: Simd::available(),
             local: Grid::default(),
             cloud: ranks::Cloud::default(),
+            tiny: 0.0,
         }
     }
 
@@ -618,7 +623,8 @@ impl Lagrangian {
     fn update_deformation_musl(&mut self, g: &Grid, bc: &Boundaries, dt: Real, x_start: &[Vector]) {
         let shape = self.shape;
         let volumetric_only = self.volumetric_only;
-        let tiny = 1e-12 * part_max(&self.local.part, self.points.m.iter().cloned().fold(0.0, Real::max));
+        // (the points' masses and set are those of this step's `to_grid`)
+        let tiny = self.tiny;
         let pts = &mut self.points;
         let scatter = self.scatter.get_or_insert_with(|| Scatter::new(g));
         let view = PointsIn {
@@ -1119,6 +1125,7 @@ impl Frame for Lagrangian {
         let s = &mut *ctx.state;
         let area = g.cell_volume();
         let tiny = 1e-12 * part_max(&self.local.part, pts.m.iter().cloned().fold(0.0, Real::max));
+        self.tiny = tiny;
         // the storage's rows and columns in the domain's numbering
         let (i0, j0) = (g.start[0], g.start[1]);
         for j in 0..g.ny {
@@ -1305,9 +1312,7 @@ impl Frame for Lagrangian {
     }
 
     fn max_speed(&self) -> Real {
-        let mut max = [self.points.v.par_iter().map(|v| v.norm()).reduce(|| 0.0, Real::max)];
-        self.local.part.max(&mut max);
-        max[0]
+        part_max(&self.local.part, self.points.v.par_iter().map(|v| v.norm()).reduce(|| 0.0, Real::max))
     }
     fn strain_energy(&self, stress: &[Box<dyn StressModel>]) -> Real {
         Lagrangian::strain_energy(self, stress)

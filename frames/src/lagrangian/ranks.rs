@@ -9,7 +9,7 @@ use super::scatter::PointsIn;
 use super::Points;
 use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Matrix, Real, Vector};
-use multifield_core::parallel::{f64_from_bytes, Tag};
+use multifield_core::parallel::Tag;
 use multifield_core::part::Part;
 use std::ops::Range;
 
@@ -59,10 +59,9 @@ pub fn neighbours(part: &Part) -> Vec<usize> {
 /// Sends `messages` (one per neighbour, in the order of `peers`) and returns the
 /// neighbours' messages to this rank, in the same order.
 fn swap(part: &Part, peers: &[usize], tag: Tag, messages: &[Vec<Real>]) -> Vec<Vec<Real>> {
-    let bytes: Vec<Vec<u8>> = messages.iter().map(|m| m.iter().flat_map(|v| v.to_le_bytes()).collect()).collect();
-    let sends: Vec<(usize, Tag, &[u8])> = peers.iter().zip(&bytes).map(|(&r, b)| (r, tag, &b[..])).collect();
+    let sends: Vec<(usize, Tag, &[Real])> = peers.iter().zip(messages).map(|(&r, m)| (r, tag, &m[..])).collect();
     let receives: Vec<(usize, Tag)> = peers.iter().map(|&r| (r, tag)).collect();
-    part.comm().exchange(&sends, &receives).iter().map(|b| f64_from_bytes(b)).collect()
+    part.comm().exchange_f64(&sends, &receives)
 }
 
 impl Points {

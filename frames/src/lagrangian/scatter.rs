@@ -306,16 +306,11 @@ impl Scatter {
                 *receives.entry(from).or_default() += 1;
             }
         });
-        let bytes: Vec<(usize, Vec<u8>)> =
-            sends.iter().map(|(&r, v)| (r, v.iter().flat_map(|x| x.to_le_bytes()).collect())).collect();
-        let out: Vec<(usize, Tag, &[u8])> = bytes.iter().map(|(r, b)| (*r, FOLD_TAG, &b[..])).collect();
+        let out: Vec<(usize, Tag, &[Real])> = sends.iter().map(|(&r, v)| (r, FOLD_TAG, &v[..])).collect();
         let from: Vec<(usize, Tag)> = receives.keys().map(|&r| (r, FOLD_TAG)).collect();
-        let got = part.comm().exchange(&out, &from);
-        let mut got: BTreeMap<usize, std::vec::IntoIter<Real>> = from
-            .iter()
-            .zip(got)
-            .map(|(&(r, _), b)| (r, multifield_core::parallel::f64_from_bytes(&b).into_iter()))
-            .collect();
+        let got = part.comm().exchange_f64(&out, &from);
+        let mut got: BTreeMap<usize, std::vec::IntoIter<Real>> =
+            from.iter().zip(got).map(|(&(r, _), v)| (r, v.into_iter())).collect();
         fold_plan(self.n, periodic, |e| {
             if owner(&e) != me {
                 return;
