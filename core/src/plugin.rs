@@ -7,7 +7,7 @@ use crate::boundary::Boundaries;
 use crate::case::{InitialVelocity, Region, Representation};
 use crate::field::FieldState;
 use crate::grid::{FaceArrays, Grid};
-use crate::math::{Matrix, Real, Vector};
+use crate::math::{Matrix, Real, Vector, DIM};
 use crate::poisson::{PoissonProblem, SolveStats};
 use serde::{Deserialize, Serialize};
 use std::any::Any;
@@ -499,6 +499,10 @@ pub struct ExchangeContext<'a> {
     pub b: &'a FieldState,
     /// Material densities of the two fields.
     pub density: [Real; 2],
+    /// Whether the grid's storage wraps around along each axis: the axis is periodic and
+    /// this rank holds all of it (a rank whose block is cut along a periodic axis reads
+    /// across the wrap through its halo instead). On one rank: the domain's periodic axes.
+    pub periodic: [bool; DIM],
 }
 
 /// Momentum exchange between two fields: the coefficient K of

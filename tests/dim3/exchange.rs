@@ -117,7 +117,7 @@ fn a_drag_law_reads_the_slip_of_the_three_components() {
     let (d, mu) = (0.01, 1e-3);
     let params = serde_json::json!({"diameter": d, "viscosity": mu});
     let model = build_exchange("schiller_naumann", &params, "exchange.0").unwrap();
-    let ctx = ExchangeContext { grid: &g, a: &a, b: &b, density: [1000.0, 2500.0] };
+    let ctx = ExchangeContext { grid: &g, a: &a, b: &b, density: [1000.0, 2500.0], periodic: [false; 3] };
     let mut k = FaceArrays::zeros(&g);
     model.coefficients(&ctx, &mut k);
     let law = Drag::<SchillerNaumann>::new(d, mu);

@@ -37,6 +37,7 @@ impl Simulation {
                 a: &self.fields[a].state,
                 b: &self.fields[b].state,
                 density: [self.fields[a].density, self.fields[b].density],
+                periodic: self.boundaries.periodic_axes(),
             };
             if e.model.no_slip() {
                 for a in AXES {

@@ -224,28 +224,41 @@ pub fn drag_coefficient(
     }
 }
 
+/// The cells on either side of face `i` along an axis of `n` cells (`n` > 0): `i − 1` and
+/// `i`, wrapped where the storage wraps (`periodic`: faces 0 and n, the same face, both
+/// take cells n − 1 and 0), else clamped to the storage at its ends.
+#[inline]
+fn sides(i: usize, n: usize, periodic: bool) -> [usize; 2] {
+    if periodic {
+        [(i + n - 1) % n, i % n]
+    } else {
+        [i.saturating_sub(1), i.min(n - 1)]
+    }
+}
+
 /// Slip speed |u_a − u_b| on x-face `(i, j)`: its normal component and the tangential one
-/// averaged from the four nearest y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), columns
-/// clamped to the domain (`g.nx`, `g.ny` > 0).
+/// averaged from the four nearest y-faces (i−1, j), (i, j), (i−1, j+1), (i, j+1), the
+/// columns wrapped across a periodic side and clamped at the others ([`sides`]; `g.nx`,
+/// `g.ny` > 0).
 #[cfg(feature = "dim2")]
 #[inline]
 fn xface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
     let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
     let dv = |f: usize| a.v[f] - b.v[f];
-    let (c0, c1) = (i.saturating_sub(1), i.min(g.nx - 1));
+    let [c0, c1] = sides(i, g.nx, ctx.periodic[0]);
     let t = 0.25 * (dv(g.yface(c0, j)) + dv(g.yface(c1, j)) + dv(g.yface(c0, j + 1)) + dv(g.yface(c1, j + 1)));
     let f = g.xface(i, j);
     (a.u[f] - b.u[f]).hypot(t)
 }
 
 /// Slip speed on y-face `(i, j)`, the tangential part from the x-faces (i, j−1), (i+1, j−1),
-/// (i, j), (i+1, j), rows clamped to the domain (as [`xface_slip`]).
+/// (i, j), (i+1, j), the rows wrapped or clamped as [`xface_slip`]'s columns.
 #[cfg(feature = "dim2")]
 #[inline]
 fn yface_slip(ctx: &ExchangeContext, g: &Grid, i: usize, j: usize) -> Real {
     let (a, b) = (&ctx.a.velocity, &ctx.b.velocity);
     let du = |f: usize| a.u[f] - b.u[f];
-    let (r0, r1) = (j.saturating_sub(1), j.min(g.ny - 1));
+    let [r0, r1] = sides(j, g.ny, ctx.periodic[1]);
     let t = 0.25 * (du(g.xface(i, r0)) + du(g.xface(i + 1, r0)) + du(g.xface(i, r1)) + du(g.xface(i + 1, r1)));
     let f = g.yface(i, j);
     (a.v[f] - b.v[f]).hypot(t)
@@ -276,7 +289,7 @@ pub fn face_slip_speeds(ctx: &ExchangeContext, sx: &mut Vec<Real>, sy: &mut Vec<
 
 /// Slip speed |u_a − u_b| on the face `at` normal to axis `a` (3D): its normal component
 /// and each other component `c` averaged from the four nearest `c`-faces (the cells on
-/// either side along `a`, clamped to the domain, and the two `c`-faces bounding the cell
+/// either side along `a`, wrapped or clamped by [`sides`], and the two `c`-faces bounding the cell
 /// along `c`), summed in storage order, the components in axis order (the z one last).
 #[cfg(feature = "dim3")]
 #[inline]
@@ -291,7 +304,7 @@ fn face_slip(ctx: &ExchangeContext, g: &Grid, a: usize, at: multifield_core::mat
         let (p, q) = (a.min(c), a.max(c));
         let offset = |axis: usize, o: usize| {
             if axis == a {
-                [at[a].saturating_sub(1), at[a].min(n[a] - 1)][o]
+                sides(at[a], n[a], ctx.periodic[a])[o]
             } else {
                 at[c] + o
             }
@@ -512,6 +525,10 @@ impl<C: DragCorrelation> ExchangeModel for Drag<C> {
     fn params(&self) -> serde_json::Value {
         params_value(self)
     }
+    /// Each face's K from the velocities on and around it (the halo across a rank's cut).
+    fn decomposed(&self) -> bool {
+        true
+    }
     fn drag_law(&self) -> Option<DragLaw> {
         Some(law(C::NAME, self.diameter, self.viscosity, C::VALID_RE, self.added_mass, self.rotation))
     }
@@ -572,7 +589,7 @@ mod tests {
                 (*t, *m) = (0.3 * next(), 1e-3 * next());
             }
         }
-        let ctx = ExchangeContext { grid: &g, a: &a, b: &b, density: [1.0, 1.1] };
+        let ctx = ExchangeContext { grid: &g, a: &a, b: &b, density: [1.0, 1.1], periodic: [false; 2] };
         let mut k = FaceArrays { u: vec![Real::NAN; g.n_xfaces()], v: vec![Real::NAN; g.n_yfaces()] };
         let law = super::super::cylinder::cd_re;
         let (c, d, mu) = (2.0 / std::f64::consts::PI, 0.02, 0.01);
@@ -605,6 +622,34 @@ mod tests {
             }
         }
         assert!(computed > 20 && computed < g.n_xfaces() + g.n_yfaces() - 20, "{computed}");
+    }
+
+    #[test]
+    fn on_a_periodic_side_the_slip_averages_across_the_wrap() {
+        use multifield_core::field::FieldState;
+        use multifield_core::math::Vector;
+        // 4 × 3 cells; fluid at rest, the particles' v = 1 + column + 10 row on every y-face
+        // and u = 0.5 on every x-face
+        let g = Grid::new(4, 3, 0.1, Vector::zeros());
+        let (a, mut b) = (FieldState::new(&g), FieldState::new(&g));
+        for j in 0..=3 {
+            for i in 0..4 {
+                b.velocity.v[g.yface(i, j)] = 1.0 + i as Real + 10.0 * j as Real;
+            }
+        }
+        b.velocity.u.fill(0.5);
+        let at = |periodic| {
+            let ctx = ExchangeContext { grid: &g, a: &a, b: &b, density: [1.0, 1.1], periodic };
+            let (mut sx, mut sy) = (Vec::new(), Vec::new());
+            face_slip_speeds(&ctx, &mut sx, &mut sy);
+            [sx[g.xface(0, 1)], sx[g.xface(4, 1)], sx[g.xface(2, 1)]]
+        };
+        // row 1: the y-faces of rows 1 and 2 around x-face (i, 1); columns 3 and 0 across the
+        // wrap: mean v = 1 + 1.5 + 15 = 17.5; clamped at a wall: column 0 alone (16) on the
+        // left, column 3 alone (19) on the right; inside (i = 2), columns 1 and 2: 17.5
+        let slip = |v: Real| 0.5f64.hypot(v);
+        assert_eq!(at([true, false]), [slip(17.5), slip(17.5), slip(17.5)]);
+        assert_eq!(at([false, false]), [slip(16.0), slip(19.0), slip(17.5)]);
     }
 
     /// The law of docs/plugins.md: one correlation, nothing else.
