@@ -22,11 +22,20 @@
 //!
 //! **Validity.** The point model assumes d ≲ h and a Reynolds number in its drag law's
 //! range; [`Frame::warnings`] names every point that left either, with the ratio.
+//!
+//! **On ranks** (docs/design/mpi.md §6) every rank holds every point (a body's state is a
+//! few dozen numbers) and computes every footprint on the domain's grid. A rank sums onto
+//! the nodes it owns and takes its halo from its neighbours; at grid-to-particles each
+//! footprint node's values (the velocity increment, the fluid's velocity, the vorticity)
+//! come from the rank that owns the node, gathered once a step, and every rank then moves
+//! every point with the serial arithmetic: the points stay the same on every rank, and the
+//! one-process bits. A point changes rank by moving; nothing migrates.
 
 use multifield_core::boundary::Boundaries;
 use multifield_core::case::{BodyShape, Motion, Region};
+use multifield_core::field::FieldState;
 use multifield_core::geometry::disk_cell_fractions;
-use multifield_core::grid::Grid;
+use multifield_core::grid::{Grid, Lattice};
 use multifield_core::math::{Matrix, Real, Vector};
 use multifield_core::plugin::{BodyState, Frame, FrameContext, InitContext};
 use multifield_core::quantity::{vorticity_at, PointSet};
@@ -52,6 +61,14 @@ pub struct MassPoint {
     /// meets the walls, and the frame only keeps the centres in the domain).
     #[serde(skip)]
     contact_walls: bool,
+    /// The domain's grid, on which the footprints are numbered (a rank's block is the
+    /// phases' `ctx.grid`; on one rank the two are the same).
+    #[serde(skip)]
+    domain: Grid,
+    /// Whether the domain is periodic along each axis (a rank's own boundaries have `Halo`
+    /// sides where it is cut).
+    #[serde(skip)]
+    periodic: [bool; 2],
 }
 
 /// One body as a mass point.
@@ -74,6 +91,123 @@ pub struct PointBody {
     /// Whether the footprint reaches a face on the domain's sides (one a wall may fix):
     /// only then does the gather look for fixed faces.
     edge: bool,
+    /// What grid-to-particles reads at each x-face of the footprint: the velocity increment
+    /// u − u_old and the partner fluid's u (0 without one), `None` where the velocity is
+    /// fixed by a wall.
+    xval: Vec<Option<[Real; 2]>>,
+    /// The same at each y-face.
+    yval: Vec<Option<[Real; 2]>>,
+    /// The partner fluid's vorticity at each cell of the footprint (with a drag law's
+    /// `rotation` only).
+    vort: Vec<Real>,
+}
+
+impl PointBody {
+    /// Reads [`PointBody::xval`], `yval`, `vort` from the whole domain's grid state `s`
+    /// and the partner's (one rank).
+    fn sample(&mut self, g: &Grid, bc: &Boundaries, s: &FieldState, partner: Option<&FieldState>, rotation: bool) {
+        let nx = g.nx;
+        let edge = self.edge;
+        self.xval.clear();
+        for &(f, _) in &self.xfaces {
+            let fixed = edge && bc.xface_fixed(g, f % (nx + 1));
+            self.xval.push(
+                (!fixed).then(|| [s.velocity.u[f] - s.velocity_old.u[f], partner.map_or(0.0, |pt| pt.velocity.u[f])]),
+            );
+        }
+        self.yval.clear();
+        for &(f, _) in &self.yfaces {
+            let fixed = edge && bc.yface_fixed(g, f / nx);
+            self.yval.push(
+                (!fixed).then(|| [s.velocity.v[f] - s.velocity_old.v[f], partner.map_or(0.0, |pt| pt.velocity.v[f])]),
+            );
+        }
+        self.vort.clear();
+        if let Some(pt) = partner.filter(|_| rotation) {
+            for &(c, _) in &self.cells {
+                self.vort.push(MassPoint::vorticity(g, bc, &pt.velocity.u, &pt.velocity.v, c));
+            }
+        }
+    }
+
+    /// The domain's nodes of the footprint in the order grid-to-particles reads them: the
+    /// x-faces, the y-faces, and (`cells`) the cells.
+    fn nodes<'a>(&'a self, b: &'a Block, cells: bool) -> impl Iterator<Item = (Lattice, [usize; 2])> + 'a {
+        let x = self.xfaces.iter().map(|&(f, _)| (Lattice::XFace, f));
+        let y = self.yfaces.iter().map(|&(f, _)| (Lattice::YFace, f));
+        let c = self.cells.iter().filter(move |_| cells).map(|&(c, _)| (Lattice::Cell, c));
+        x.chain(y).chain(c).map(|(lattice, k)| (lattice, b.node(lattice, k)))
+    }
+}
+
+/// A rank's block in the domain's numbering of the footprints.
+struct Block<'a> {
+    /// The rank's storage (its `Grid`).
+    grid: &'a Grid,
+    /// The owned cells along each axis, as the domain's indices.
+    cells: [std::ops::Range<usize>; 2],
+    /// Whether each axis's last block is this one (it owns face n of an axis that is not
+    /// periodic).
+    last: [bool; 2],
+    /// The low side's padding along each axis.
+    pad: [usize; 2],
+    /// Whether the rank holds all of an axis with no padding (its storage is the domain's
+    /// along it, face n included).
+    whole: [bool; 2],
+    /// The domain's cells along each axis.
+    n: [usize; 2],
+    /// The domain is periodic along each axis.
+    periodic: [bool; 2],
+}
+
+impl<'a> Block<'a> {
+    fn of(grid: &'a Grid, periodic: [bool; 2]) -> Option<Self> {
+        let (_, block) = grid.part.block()?;
+        let pads = [grid.part.pads(0), grid.part.pads(1)];
+        let n = [grid.domain[0], grid.domain[1]];
+        Some(Self {
+            grid,
+            cells: [block.cells[0].clone(), block.cells[1].clone()],
+            last: [block.last[0], block.last[1]],
+            pad: [pads[0][0], pads[1][0]],
+            whole: std::array::from_fn(|a| pads[a] == [0, 0] && block.cells[a] == (0..n[a])),
+            n,
+            periodic,
+        })
+    }
+
+    /// The domain's node (column, row) of a footprint's index on `lattice`.
+    fn node(&self, lattice: Lattice, k: usize) -> [usize; 2] {
+        let row = self.n[0] + (lattice == Lattice::XFace) as usize;
+        [k % row, k / row]
+    }
+
+    /// The storage index of the domain's node `at` when this rank owns it, as the sums onto
+    /// the grid need it: face n of a periodic axis is nobody's (its halo copy of face 0
+    /// arrives with the halo) unless the rank holds the whole axis.
+    fn owned(&self, lattice: Lattice, at: [usize; 2]) -> Option<usize> {
+        let mut l = [0; 2];
+        for a in 0..2 {
+            l[a] = if self.whole[a] {
+                at[a]
+            } else {
+                let face_n = lattice.axis() == Some(a) && self.last[a] && !self.periodic[a];
+                let end = self.cells[a].end + face_n as usize;
+                if !(self.cells[a].start..end).contains(&at[a]) {
+                    return None;
+                }
+                at[a] - self.cells[a].start + self.pad[a]
+            };
+        }
+        Some(self.grid.index(lattice, l))
+    }
+
+    /// [`Block::owned`] of the node a read of `at` takes its value from: face n of a
+    /// periodic axis is face 0 (the same face, the same value after the boundary rules).
+    fn read(&self, lattice: Lattice, at: [usize; 2]) -> Option<usize> {
+        let wrapped = std::array::from_fn(|a| if self.periodic[a] { at[a] % self.n[a] } else { at[a] });
+        self.owned(lattice, wrapped)
+    }
 }
 
 impl MassPoint {
@@ -116,6 +250,73 @@ impl MassPoint {
                 }
             }
         }
+    }
+
+    /// [`PointBody::sample`] on ranks: every rank puts the values of the footprint nodes it
+    /// owns, point by point and node by node in the footprints' order, in one message to
+    /// every rank; each rank then reads each node's values from its owner's message, in the
+    /// same order.
+    fn sample_on_ranks(
+        &mut self,
+        b: &Block,
+        bc: &Boundaries,
+        s: &FieldState,
+        partner: Option<&FieldState>,
+        rotation: bool,
+    ) {
+        let g = b.grid;
+        let rg = g.part.block().expect("a rank's block").0;
+        // x-faces and y-faces: [fixed, u − u_old, the partner's u]; cells: the vorticity
+        let face = |lattice: Lattice, l: usize, out: &mut Vec<Real>| {
+            let (u, old, fixed) = match lattice {
+                Lattice::XFace => (&s.velocity.u, &s.velocity_old.u, bc.xface_fixed(g, l % (g.nx + 1))),
+                _ => (&s.velocity.v, &s.velocity_old.v, bc.yface_fixed(g, l / g.nx)),
+            };
+            let pu =
+                partner.map_or(0.0, |pt| if lattice == Lattice::XFace { pt.velocity.u[l] } else { pt.velocity.v[l] });
+            out.extend([fixed as u8 as Real, u[l] - old[l], pu]);
+        };
+        let cells = rotation && partner.is_some();
+        let mut mine = Vec::new();
+        for p in &self.points {
+            for (lattice, at) in p.nodes(b, cells) {
+                if let Some(l) = b.read(lattice, at) {
+                    match (lattice, partner) {
+                        (Lattice::Cell, Some(pt)) => {
+                            mine.push(Self::vorticity(g, bc, &pt.velocity.u, &pt.velocity.v, l))
+                        }
+                        _ => face(lattice, l, &mut mine),
+                    }
+                }
+            }
+        }
+        let all = g.part.comm().gather_all_f64(&mine);
+        let mut next = vec![0; all.len()];
+        let mut take = |lattice: Lattice, at: [usize; 2], n: usize| {
+            let r = rg.owner(lattice, [at[0] as isize, at[1] as isize]).expect("a footprint's node is in the domain");
+            let v = &all[r][next[r]..next[r] + n];
+            next[r] += n;
+            v
+        };
+        for p in &mut self.points {
+            let mut xval = std::mem::take(&mut p.xval);
+            let mut yval = std::mem::take(&mut p.yval);
+            xval.clear();
+            yval.clear();
+            p.vort.clear();
+            for (lattice, at) in p.nodes(b, cells).collect::<Vec<_>>() {
+                match lattice {
+                    Lattice::Cell => p.vort.push(take(lattice, at, 1)[0]),
+                    _ => {
+                        let v = take(lattice, at, 3);
+                        let value = (v[0] == 0.0).then_some([v[1], v[2]]);
+                        if lattice == Lattice::XFace { &mut xval } else { &mut yval }.push(value);
+                    }
+                }
+            }
+            (p.xval, p.yval) = (xval, yval);
+        }
+        debug_assert!(next.iter().zip(&all).all(|(n, a)| *n == a.len()), "every rank's values read once");
     }
 
     /// Vorticity ∂v/∂x − ∂u/∂y of face velocities `(u, v)` at the centre of cell `c`
@@ -180,6 +381,10 @@ impl Frame for MassPoint {
     fn representation(&self) -> multifield_core::case::Representation {
         multifield_core::case::Representation::MassPoint
     }
+    /// Every rank holds every point (see the module's documentation).
+    fn decomposed(&self) -> bool {
+        true
+    }
 
     fn initialize(&mut self, ctx: &InitContext) -> Result<(), String> {
         let Region::Bodies(specs) = ctx.region else {
@@ -187,6 +392,10 @@ impl Frame for MassPoint {
         };
         self.points.clear();
         self.contact_walls = ctx.contact.is_some_and(|(_, walls)| walls);
+        let g = ctx.grid;
+        self.domain = Grid::from_cells(g.domain, g.h, g.origin);
+        self.periodic =
+            std::array::from_fn(|a| g.part.block().map_or(ctx.boundaries.periodic(a), |(rg, _)| rg.periodic[a]));
         for spec in specs {
             let BodyShape::Disk { center, radius } = spec.shape else {
                 return Err(format!("body `{}` is not a disk; a mass point stands for a disk", spec.name));
@@ -220,6 +429,9 @@ impl Frame for MassPoint {
                 xfaces: Vec::new(),
                 yfaces: Vec::new(),
                 edge: true,
+                xval: Vec::new(),
+                yval: Vec::new(),
+                vort: Vec::new(),
             });
         }
         Ok(())
@@ -228,7 +440,8 @@ impl Frame for MassPoint {
     fn to_grid(&mut self, ctx: &mut FrameContext) -> Result<(), String> {
         let g = ctx.grid;
         let bc = ctx.boundaries;
-        let periodic = [bc.periodic(0), bc.periodic(1)];
+        let (d, periodic) = (&self.domain, self.periodic);
+        let block = Block::of(g, periodic);
         let s = &mut *ctx.state;
         // the grid-wide passes elementwise in parallel (each value is the serial one)
         const BLOCK: usize = 4096;
@@ -243,19 +456,27 @@ impl Frame for MassPoint {
         }
         // each point's footprint (the exact areas: most of the work) in parallel; the sums
         // onto the grid after, point by point in order (bit-identical whatever the threads)
+        // (on the domain's grid: on ranks every rank has every point's footprint)
         self.points.par_iter_mut().with_min_len(64).for_each(|p| {
             let (x, r) = (p.state.position, p.state.radius);
             p.cells.clear();
-            disk_cell_fractions(g, [x.x, x.y], r, periodic, &mut p.cells);
-            Self::footprint_faces(p, g, periodic);
+            disk_cell_fractions(d, [x.x, x.y], r, periodic, &mut p.cells);
+            Self::footprint_faces(p, d, periodic);
         });
         // (each array split into as many blocks as threads, each block summing the points'
-        // entries that fall in it, in point order: the bits of one serial pass)
+        // entries that fall in it, in point order: the bits of one serial pass; a rank sums
+        // the entries on the nodes it owns, in the same order)
         let points = &self.points;
+        let at = |lattice: Lattice, k: usize| match &block {
+            None => Some(k),
+            Some(b) => b.owned(lattice, b.node(lattice, k)),
+        };
         scatter(&mut s.theta, None, |add| {
             for p in points {
                 for &(c, t) in &p.cells {
-                    add(c, t, 0.0);
+                    if let Some(c) = at(Lattice::Cell, c) {
+                        add(c, t, 0.0);
+                    }
                 }
             }
         });
@@ -263,7 +484,9 @@ impl Frame for MassPoint {
             for p in points {
                 let (scale, u) = (p.density * area, p.state.velocity.x);
                 for &(f, w) in &p.xfaces {
-                    add(f, scale * w, scale * w * u);
+                    if let Some(f) = at(Lattice::XFace, f) {
+                        add(f, scale * w, scale * w * u);
+                    }
                 }
             }
         });
@@ -271,7 +494,9 @@ impl Frame for MassPoint {
             for p in points {
                 let (scale, u) = (p.density * area, p.state.velocity.y);
                 for &(f, w) in &p.yfaces {
-                    add(f, scale * w, scale * w * u);
+                    if let Some(f) = at(Lattice::YFace, f) {
+                        add(f, scale * w, scale * w * u);
+                    }
                 }
             }
         });
@@ -283,6 +508,16 @@ impl Frame for MassPoint {
             });
         }
         bc.enforce(g, &mut s.velocity);
+        // the halo as the owners'
+        if block.is_some() {
+            g.exchange(&mut [
+                (Lattice::Cell, &mut s.theta),
+                (Lattice::XFace, &mut s.mass_face.u),
+                (Lattice::YFace, &mut s.mass_face.v),
+                (Lattice::XFace, &mut s.velocity.u),
+                (Lattice::YFace, &mut s.velocity.v),
+            ]);
+        }
         for (old, u) in [(&mut s.velocity_old.u, &s.velocity.u), (&mut s.velocity_old.v, &s.velocity.v)] {
             old.par_chunks_mut(BLOCK).zip(u.par_chunks(BLOCK)).for_each(|(o, u)| o.copy_from_slice(u));
         }
@@ -294,37 +529,41 @@ impl Frame for MassPoint {
         let bc = ctx.boundaries;
         let s = &*ctx.state;
         let dt = ctx.dt;
-        let nx = g.nx;
         if let Some(p) = &ctx.partner {
             self.law = Some((p.law.model, p.law.valid_re));
         }
+        let rotation = ctx.partner.as_ref().is_some_and(|pt| pt.law.rotation);
+        let partner = ctx.partner.as_ref().map(|pt| pt.state);
+        // what each point reads at its footprint: from the grid on one rank, from the
+        // nodes' owners on ranks
+        match Block::of(g, self.periodic) {
+            None => self.points.par_iter_mut().with_min_len(64).for_each(|p| p.sample(g, bc, s, partner, rotation)),
+            Some(b) => self.sample_on_ranks(&b, bc, s, partner, rotation),
+        }
         let lo = g.origin;
         let hi = g.origin + g.size();
-        // each point reads the grid and writes only itself: in parallel
+        let periodic = self.periodic;
+        // each point writes only itself: in parallel
         let contact_walls = self.contact_walls;
         self.points.par_iter_mut().with_min_len(64).enumerate().for_each(|(k, p)| {
             let st = &mut p.state;
             let (m, r) = (st.mass, st.radius);
             // mass-weighted velocity increment and fluid velocity over the footprint
             let (mut du, mut wsum, mut uf) = (Vector::zeros(), Vector::zeros(), Vector::zeros());
-            for &(f, w) in &p.xfaces {
-                if p.edge && bc.xface_fixed(g, f % (nx + 1)) {
-                    continue;
-                }
-                du.x += w * (s.velocity.u[f] - s.velocity_old.u[f]);
+            for (&(_, w), v) in p.xfaces.iter().zip(&p.xval) {
+                let Some([dv, u]) = v else { continue };
+                du.x += w * dv;
                 wsum.x += w;
-                if let Some(pt) = &ctx.partner {
-                    uf.x += w * pt.state.velocity.u[f];
+                if ctx.partner.is_some() {
+                    uf.x += w * u;
                 }
             }
-            for &(f, w) in &p.yfaces {
-                if p.edge && bc.yface_fixed(g, f / nx) {
-                    continue;
-                }
-                du.y += w * (s.velocity.v[f] - s.velocity_old.v[f]);
+            for (&(_, w), v) in p.yfaces.iter().zip(&p.yval) {
+                let Some([dv, u]) = v else { continue };
+                du.y += w * dv;
                 wsum.y += w;
-                if let Some(pt) = &ctx.partner {
-                    uf.y += w * pt.state.velocity.v[f];
+                if ctx.partner.is_some() {
+                    uf.y += w * u;
                 }
             }
             let mut gained = Vector::zeros();
@@ -346,8 +585,8 @@ impl Frame for MassPoint {
             let (c, omega_f) = match &ctx.partner {
                 Some(pt) if pt.law.rotation && !p.cells.is_empty() => {
                     let (mut wsum, mut vort) = (0.0, 0.0);
-                    for &(cell, t) in &p.cells {
-                        vort += t * Self::vorticity(g, bc, &pt.state.velocity.u, &pt.state.velocity.v, cell);
+                    for (&(_, t), w) in p.cells.iter().zip(&p.vort) {
+                        vort += t * w;
                         wsum += t;
                     }
                     (4.0 * PI * pt.law.viscosity * r * r, 0.5 * vort / wsum)
@@ -383,7 +622,7 @@ impl Frame for MassPoint {
                 // sub-stepped contact: where the sub-steps put the centre (docs/method.md §5)
                 x += contact.shift;
             }
-            for (axis, periodic) in [(0, bc.periodic(0)), (1, bc.periodic(1))] {
+            for (axis, periodic) in [(0, periodic[0]), (1, periodic[1])] {
                 let len = hi[axis] - lo[axis];
                 if periodic {
                     if x[axis] < lo[axis] || x[axis] >= hi[axis] {
@@ -427,7 +666,7 @@ impl Frame for MassPoint {
             if d > grid.h {
                 let mut cells = Vec::new();
                 disk_cell_fractions(
-                    grid,
+                    &self.domain,
                     [p.state.position.x, p.state.position.y],
                     p.state.radius,
                     [true, true],

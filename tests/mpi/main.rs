@@ -7,6 +7,7 @@
 mod check;
 mod common;
 mod dkt;
+mod mass_points;
 mod refusals;
 mod restart;
 mod taylor_green;

@@ -454,3 +454,48 @@ fn the_rank_grid_given_in_the_case_is_used() {
     let e = Simulation::new(&case).err().map(|e| e.to_string()).unwrap_or_default();
     assert!(e.contains("domain.ranks") && e.contains("at least 1 rank along each axis"), "{e}");
 }
+
+/// Mass points (issue 19): every rank holds every point; each sums onto the nodes it owns
+/// and reads each footprint node's values from its owner. The `fluidized_bed` example as
+/// mass points (200 disks, d = h on 20 × 60 cells, the 2D cylinder drag law with Di
+/// Felice's voidage, `dem` contact in sub-steps, an inflow and an outflow) on 1 × 2 and
+/// 1 × 3 ranks, and on 64 × 192 cells on 2 × 2 ranks, with walls and with the sides
+/// periodic (the footprints, the drag's slip and the points' wrap across the cut there):
+/// every step's diagnostics and bodies, and the snapshots, are the serial bits.
+#[test]
+fn mass_points_on_ranks_give_the_serial_bits() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fluidized_bed.ron");
+    let points = "fields.disks.representation=MassPoint".to_string();
+    let case = Case::load(&path, std::slice::from_ref(&points)).unwrap();
+    let serial = check(&case, &[(2, Some(vec![1, 2])), (3, Some(vec![1, 3]))]);
+    assert_eq!(serial.grid.n(), [20, 60]);
+    // the inflow drags the disks up: the hydrodynamic force on the bed points up
+    let up = serial.fields[1].frame.body_states().iter().map(|b| b.force.y).sum::<Real>();
+    assert!(up > 0.0, "{up}");
+    // (x-cuts fall on multiples of 32 cells: at 64 across, d = 3.2 h, some 12 cells a
+    // footprint)
+    let square = [points, "domain.ranks=Some((2, 2))".into(), "domain.point_cells=Some((64, 192))".into()];
+    let case = Case::load(&path, &square).unwrap();
+    check(&case, &[(4, Some(vec![2, 2]))]);
+    let mut periodic = square.to_vec();
+    periodic.extend(["boundaries.left=Periodic".into(), "boundaries.right=Periodic".into()]);
+    let case = Case::load(&path, &periodic).unwrap();
+    check(&case, &[(4, Some(vec![2, 2]))]);
+}
+
+/// A mass point much larger than a cell (`sedimentation` as a mass point: d = 8 h, its
+/// volume spread over some 60 cells across the cut x = 1 of 2 × 1 and 2 × 2 ranks; the
+/// cylinder law with added mass and the fluid's rotation, whose vorticity each footprint
+/// cell's owner computes): the serial bits.
+#[test]
+fn a_mass_point_across_ranks_gives_the_serial_bits() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sedimentation.ron");
+    for (ranks, p) in [(2, [2, 1]), (4, [2, 2])] {
+        let sets =
+            ["fields.disks.representation=MassPoint".to_string(), format!("domain.ranks=Some(({}, {}))", p[0], p[1])];
+        let case = Case::load(&path, &sets).unwrap();
+        let serial = check(&case, &[(ranks, Some(p.to_vec()))]);
+        let b = serial.fields[1].frame.body_states()[0];
+        assert!(b.velocity.y < 0.0, "the disk falls: {:?}", b.velocity);
+    }
+}

@@ -208,7 +208,14 @@ impl Simulation {
             let theta: Vec<Real> = match spec.representation {
                 // (mass points are refused in 3D by the case's validation)
                 #[cfg(feature = "dim2")]
-                Representation::MassPoint => mass_point_fraction(&spec.region, &grid, boundaries.periodic_axes()),
+                Representation::MassPoint => {
+                    // on the domain's grid, then the rank's storage (halo included)
+                    let domain = Grid::from_cells(grid.domain, grid.h, grid.origin);
+                    let theta = mass_point_fraction(&spec.region, &domain, case.boundaries.periodic_axes());
+                    let mut local = vec![0.0; grid.n_cells()];
+                    grid.part.scatter(Lattice::Cell, grid.n(), &theta, &mut local);
+                    local
+                }
                 _ => region_fraction(&spec.region, &grid).into_iter().map(|t| t * spec.volume_fraction).collect(),
             };
             // bodies under a direct forcing take no volume on the grid: the fluid fills them
@@ -392,10 +399,10 @@ fn refuse_undecomposed(
             format!(
                 "{what} does not run on several ranks yet, and this run has {ranks}: run the case on one rank \
                  (without mpirun, or `mpirun -np 1`), or change the plugin. Decomposed so far (issue 19): in 2D, \
-                 Eulerian fields and Lagrangian fields (material or resolved bodies) on the staggered grid, with \
-                 `newtonian`, `linear_elastic`, `neo_hookean`, `weakly_compressible` or `rigid` stress, the \
-                 `constant` and `no_slip` exchanges, the `repulsion` and `dem` contact models and the shipped \
-                 pressure solvers (docs/design/mpi.md)"
+                 Eulerian fields, Lagrangian fields (material or resolved bodies) on the staggered grid and mass \
+                 points, with `newtonian`, `linear_elastic`, `neo_hookean`, `weakly_compressible` or `rigid` \
+                 stress, the `constant` and `no_slip` exchanges and the drag laws, the `repulsion` and `dem` \
+                 contact models and the shipped pressure solvers (docs/design/mpi.md)"
             ),
         ))
     };
