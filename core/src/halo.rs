@@ -22,8 +22,9 @@
 
 use crate::decomposition::{Block, HALO};
 use crate::grid::Lattice;
-use crate::math::{Index, Real, AXES, DIM};
+use crate::math::{Index, AXES, DIM};
 use crate::parallel::{Comm, Tag};
+use crate::part::Word;
 use std::ops::Range;
 
 /// Which sides of a block's storage are padded (see the module's documentation).
@@ -149,8 +150,14 @@ fn slab(block: &Block, layout: Layout, lattice: Lattice, axis: usize, along: Ran
 
 /// Fills the halo of every array (each a lattice's storage on `block` in `layout`, see the
 /// module's documentation) with its owners' values. Every rank of `comm` calls it with the
-/// same layout and lattices in the same order.
-pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, layout: Layout, arrays: &mut [(Lattice, &mut [Real])]) {
+/// same layout and lattices in the same order (of one word type: `f64`, or `f32` for the
+/// multigrid's levels).
+pub fn exchange<C: Comm + ?Sized, T: Word>(
+    comm: &C,
+    block: &Block,
+    layout: Layout,
+    arrays: &mut [(Lattice, &mut [T])],
+) {
     for &(lattice, ref a) in arrays.iter() {
         let s = storage_shape(block, layout, lattice);
         assert_eq!(a.len(), s.iter().product::<usize>(), "an array of {lattice:?} on block {block:?}");
@@ -170,9 +177,7 @@ pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, layout: Layout, array
                 let along =
                     if up { own.end - HALO..own.end } else { own.start..own.start + high_width(*lattice, axis) };
                 let s = storage_shape(block, layout, *lattice);
-                for_each(s, &slab(block, layout, *lattice, axis, along), |i| {
-                    bytes.extend_from_slice(&a[i].to_le_bytes())
-                });
+                for_each(s, &slab(block, layout, *lattice, axis, along), |i| a[i].put(&mut bytes));
             }
             bytes
         };
@@ -195,7 +200,7 @@ pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, layout: Layout, array
                 continue;
             }
             let bytes = got.next().expect("one message a neighbour");
-            let mut values = bytes.chunks_exact(8).map(|c| Real::from_le_bytes(c.try_into().expect("8 bytes")));
+            let mut values = bytes.chunks_exact(T::SIZE).map(T::get);
             for (lattice, a) in arrays.iter_mut() {
                 let own = owned(block, layout, *lattice)[axis].clone();
                 let along = if from_low { 0..own.start } else { own.end..own.end + high_width(*lattice, axis) };
@@ -213,6 +218,7 @@ pub fn exchange<C: Comm + ?Sized>(comm: &C, block: &Block, layout: Layout, array
 mod tests {
     use super::*;
     use crate::decomposition::{wrap, RankGrid};
+    use crate::math::Real;
     use crate::parallel::fake;
 
     const LATTICES: [Lattice; 3] = [Lattice::Cell, Lattice::XFace, Lattice::YFace];

@@ -83,7 +83,7 @@ impl Part {
     /// Fills the halo of every array (a lattice's storage on this part) with its owners'
     /// values. Every rank calls it with the same lattices in the same order; nothing to do
     /// for the whole domain.
-    pub fn exchange(&self, arrays: &mut [(Lattice, &mut [Real])]) {
+    pub fn exchange<T: Word>(&self, arrays: &mut [(Lattice, &mut [T])]) {
         if let Some(r) = &self.0 {
             halo::exchange(&*r.comm, &r.block, Layout::Local, arrays);
         }

@@ -7,6 +7,7 @@
 mod check;
 mod common;
 mod dkt;
+mod exchange_box;
 mod mass_points;
 mod refusals;
 mod restart;

@@ -38,7 +38,11 @@
 use super::cholesky::SparseLlt;
 use super::stencil::{Stencil, PARALLEL_CELLS};
 use multifield_core::exact::{reduce, row_sums, GROUP};
+#[cfg(feature = "dim2")]
+use multifield_core::grid::Lattice;
 use multifield_core::math::{Index, Real, DIM, SIDES};
+#[cfg(feature = "dim2")]
+use multifield_core::part::Part;
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -49,7 +53,7 @@ use serde::{Deserialize, Serialize};
 #[cfg(feature = "dim2")]
 mod plane;
 #[cfg(feature = "dim2")]
-use plane::{sweep, Level, Op32};
+use plane::{relax_colour, sweep, Level, Op32};
 #[cfg(feature = "dim3")]
 mod volume;
 #[cfg(feature = "dim3")]
@@ -155,6 +159,20 @@ pub struct Hierarchy {
     /// Operators, finest first.
     ops: Vec<Stencil>,
     cycle: Cycle,
+    /// The finest level on a rank's block ([`Hierarchy::setup_block`]).
+    #[cfg(feature = "dim2")]
+    block: BlockLevel,
+}
+
+/// The finest level of the V-cycle on a rank's block (docs/design/mpi.md §4): its f32
+/// operator and transfers on the block's storage (its cells and the halo), each owned
+/// cell's arithmetic the serial one.
+#[cfg(feature = "dim2")]
+#[derive(Debug, Default)]
+struct BlockLevel {
+    op: Op32,
+    level: Level,
+    key: Option<(Index, [bool; DIM])>,
 }
 
 /// What a V-cycle writes: transfers and scratch of every level but the coarsest, and the
@@ -243,6 +261,70 @@ impl Hierarchy {
     /// z = M r: one V-cycle from z = 0 (a symmetric positive definite approximation of A⁻¹).
     pub fn precondition(&mut self, r: &[Real], z: &mut [Real]) {
         self.cycle.run(&self.ops, r, z);
+    }
+
+    /// Sets up the finest level on a rank's block from `local`, the block's operator (its
+    /// halo couplings the owners'), once [`Hierarchy::setup`] has the whole domain's
+    /// hierarchy. Returns whether the block can carry it: the domain has a coarser level,
+    /// and the block's storage is even and at least 4 cells along each axis (its cuts on
+    /// even cells; docs/design/mpi.md §2 aligns them so).
+    #[cfg(feature = "dim2")]
+    pub fn setup_block(&mut self, local: &Stencil) -> bool {
+        let n = local.n();
+        if self.cycle.levels.is_empty() || n.iter().any(|&k| k % 2 != 0 || k < 4) {
+            return false;
+        }
+        let b = &mut self.block;
+        if b.key != Some((n, local.periodic)) {
+            b.level = Level::new(n, local.periodic);
+            b.key = Some((n, local.periodic));
+        }
+        b.op.assign(local);
+        b.level.update_weights(local);
+        true
+    }
+
+    /// z = M r on a rank's block (after [`Hierarchy::setup_block`]): the serial V-cycle's
+    /// bits on the owned cells. The finest level on the block: each red-black sweep colour
+    /// by colour with the halo exchanged before each colour, and the residual restricted to
+    /// the block's coarse cells; those are gathered and the coarser levels run whole on
+    /// every rank (the whole domain's hierarchy); the block's coarse cells and their halo
+    /// are read back for the prolongation and the last sweeps.
+    #[cfg(feature = "dim2")]
+    pub fn precondition_block(&mut self, part: &Part, r: &[F], z: &mut [F]) {
+        let sweeps = self.cycle.sweeps;
+        let b = &mut self.block;
+        let exchange = |z: &mut [F]| part.exchange(&mut [(Lattice::Cell, z)]);
+        for k in 0..sweeps {
+            if k > 0 {
+                exchange(z);
+            }
+            relax_colour(&b.op, r, z, 0, k == 0);
+            exchange(z);
+            relax_colour(&b.op, r, z, 1, false);
+        }
+        exchange(z);
+        b.level.restrict_residual(&b.op, z, r);
+        let Cycle { levels, ops, coarse, coarse_x, .. } = &mut self.cycle;
+        let (whole, rest) = levels.split_first_mut().expect("a coarser level (setup_block)");
+        let coarse_n = [self.ops[1].nx, self.ops[1].ny];
+        let local_n = [b.op.nx() / 2, b.level.bc.len() / (b.op.nx() / 2)];
+        coarse_cells(part, coarse_n, local_n, Some((&b.level.bc, &mut whole.bc)), None);
+        let singular = self.ops[0].is_singular();
+        if singular {
+            // as `cycle` does at the finest level
+            let mean = (sum32(&whole.bc, coarse_n[0], GROUP / 2) / whole.bc.len() as Real) as F;
+            whole.bc.iter_mut().for_each(|v| *v -= mean);
+        }
+        cycle(&ops[1..], rest, coarse, coarse_x, singular, sweeps, GROUP / 2, &whole.bc, &mut whole.xc);
+        coarse_cells(part, coarse_n, local_n, None, Some((&whole.xc, &mut b.level.xc)));
+        b.level.prolong_add(z);
+        for _ in 0..sweeps {
+            exchange(z);
+            relax_colour(&b.op, r, z, 1, false);
+            exchange(z);
+            relax_colour(&b.op, r, z, 0, false);
+        }
     }
 
     /// The finest operator and the preconditioner in f32 (`z = M r`, one V-cycle from 0),
@@ -334,6 +416,50 @@ fn cycle(
     level.prolong_add(x);
     for _ in 0..sweeps {
         sweep(op, b, x, 1, false);
+    }
+}
+
+/// Between a rank's coarse storage (`local_n` cells: its block's coarse cells and, on the
+/// sides it shares with another rank, one halo cell) and the whole coarse level
+/// (`whole_n` cells): `gather` puts every rank's owned coarse cells of `local` into
+/// `whole`; `read` fills every cell of `local` from `whole` (the halo across a periodic
+/// wrap wrapped).
+#[cfg(feature = "dim2")]
+fn coarse_cells(
+    part: &Part,
+    whole_n: [usize; 2],
+    local_n: [usize; 2],
+    gather: Option<(&[F], &mut [F])>,
+    read: Option<(&[F], &mut [F])>,
+) {
+    use multifield_core::part::Word;
+    let (rg, block) = part.block().expect("a rank's block");
+    let pad = [part.pads(0)[0] / 2, part.pads(1)[0] / 2];
+    let owned = |cells: &[std::ops::Range<usize>]| [0, 1].map(|a| cells[a].start / 2..cells[a].end / 2);
+    if let Some((local, whole)) = gather {
+        let mine_at = owned(&block.cells);
+        let mut mine = Vec::new();
+        for j in mine_at[1].clone() {
+            for i in mine_at[0].clone() {
+                local[(i - mine_at[0].start + pad[0]) + (j - mine_at[1].start + pad[1]) * local_n[0]].put(&mut mine);
+            }
+        }
+        for (rank, bytes) in part.comm().gather_all(&mine).iter().enumerate() {
+            let at = owned(&rg.block(rank).cells);
+            let mut words = bytes.chunks_exact(F::SIZE);
+            for j in at[1].clone() {
+                for i in at[0].clone() {
+                    whole[i + j * whole_n[0]] = F::get(words.next().expect("a rank's coarse cells"));
+                }
+            }
+        }
+    }
+    if let Some((whole, local)) = read {
+        let start = [0, 1].map(|a| (block.cells[a].start / 2) as isize - pad[a] as isize);
+        let at = |a: usize, l: usize| (start[a] + l as isize).rem_euclid(whole_n[a] as isize) as usize;
+        for (l, v) in local.iter_mut().enumerate() {
+            *v = whole[at(0, l % local_n[0]) + at(1, l / local_n[0]) * whole_n[0]];
+        }
     }
 }
 

@@ -350,11 +350,31 @@ impl PressureSolver for Pcg {
                 let (op, precondition) = self.multigrid.split32();
                 return pcg_multigrid(problem, x, tol, cap, op, precondition, &mut self.scratch);
             }
-            // a rank's block: the V-cycle on the whole domain, on every rank (the residual
-            // gathered, the correction's block taken back); the CG on the block
+            // a rank's block: the whole domain's hierarchy on every rank; the finest level on
+            // the block and the coarser ones whole (the restricted residual gathered), or,
+            // where the cuts do not fall on even cells, the V-cycle whole on every rank (the
+            // residual gathered, the correction's block taken back); the CG on the block
             self.multigrid.setup(&problem.gathered()).map_err(Error::Model)?;
             self.stencil.assign(problem);
-            let (g, mg) = (&problem.grid, &mut self.multigrid);
+            let g = &problem.grid;
+            #[cfg(feature = "dim2")]
+            if g.part.block().is_some_and(|(rg, _)| rg.levels >= 1) {
+                // the halo's couplings and diagonal the owners' (the transfers' weights and the
+                // residual restricted from the cells next to the block read them)
+                let st = &mut self.stencil;
+                g.exchange(&mut [
+                    (Lattice::XFace, &mut st.ax),
+                    (Lattice::YFace, &mut st.ay),
+                    (Lattice::Cell, &mut st.diag),
+                    (Lattice::Cell, &mut st.inv_diag),
+                ]);
+                if self.multigrid.setup_block(&self.stencil) {
+                    let (part, mg) = (&g.part, &mut self.multigrid);
+                    let precondition = |r: &[F], z: &mut [F]| mg.precondition_block(part, r, z);
+                    return pcg_multigrid(problem, x, tol, cap, &self.stencil, precondition, &mut self.scratch);
+                }
+            }
+            let mg = &mut self.multigrid;
             let shape = g.shape(Lattice::Cell);
             let (mut whole_r, mut whole_z) = (Vec::new(), Vec::new());
             let precondition = |r: &[F], z: &mut [F]| {

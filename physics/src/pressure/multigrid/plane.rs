@@ -67,14 +67,16 @@ impl Op32 {
         {
             *o = (b - d * xc) + (a_s * xs + a_n * xn);
         }
+        // every cell adds its west neighbour, then its east one (cell 0 too: a rank's block,
+        // where the domain's column 0 may be inside, adds them in that order)
+        let (w, e) = self.west_east();
         for (o, (a, x)) in out[1..].iter_mut().zip(aw[1..nx].iter().zip(&xc[..nx - 1])) {
             *o += a * x;
         }
+        out[0] += aw[0] * xc[w];
         for (o, (a, x)) in out[..nx - 1].iter_mut().zip(aw[1..nx].iter().zip(&xc[1..])) {
             *o += a * x;
         }
-        let (w, e) = self.west_east();
-        out[0] += aw[0] * xc[w];
         out[nx - 1] += aw[nx] * xc[e];
     }
 }
@@ -277,6 +279,23 @@ pub(super) fn sweep(op: &Op32, b: &[F], x: &mut [F], first: usize, zero: bool) {
     });
 }
 
+/// Gauss–Seidel on the cells of `colour` of every row (the first half of a [`sweep`],
+/// each cell's arithmetic [`relax_row`]'s), rows in parallel for big levels: a rank's block
+/// relaxes a colour, then takes the halo of its neighbours before the other colour
+/// (docs/design/mpi.md §4). `zero`: x starts at 0.
+pub(super) fn relax_colour(op: &Op32, b: &[F], x: &mut [F], colour: usize, zero: bool) {
+    assert!(x.len() == op.len() && b.len() == op.len() && op.nx >= 2);
+    let ptr = Shared(x.as_mut_ptr());
+    // SAFETY: a row writes the cells of `colour` in it and reads the other colour only
+    // (its own row's and its neighbours'), which nobody writes in this pass.
+    let row = |j: usize| unsafe { relax_row(op, b, ptr, colour, j, zero) };
+    if op.len() >= PARALLEL_CELLS {
+        (0..op.ny).into_par_iter().with_min_len(BLOCK_ROWS).for_each(row);
+    } else {
+        (0..op.ny).for_each(row);
+    }
+}
+
 /// Fine rows restricted along x kept by a block of coarse rows (at least the 4 children
 /// of one coarse row plus the 2 it shares with the next one).
 const SLOTS: usize = 6;
@@ -315,7 +334,8 @@ pub(super) struct Level {
     /// Coarse parents along x and y of each fine column and row.
     px: Vec<[usize; 2]>,
     py: Vec<[usize; 2]>,
-    /// Fine children of each coarse column and row.
+    /// Fine children of each coarse column and row (ascending; in position order across a
+    /// periodic wrap, [`wrapped_children`]).
     kx: Vec<[(usize, usize); 4]>,
     ky: Vec<[(usize, usize); 4]>,
     /// Interpolation weight of the own parent per fine cell along x and y; the other
@@ -324,6 +344,13 @@ pub(super) struct Level {
     wy: Vec<F>,
     /// Periodic along (x, y).
     periodic: [bool; 2],
+}
+
+/// On a periodic axis of n fine cells, the four (fine index, parent slot) children of each
+/// coarse index c in the order of their positions, 2c − 1, 2c, 2c + 1, 2c + 2, wrapped: the
+/// order in which a rank's block, whose cut the wrap may be, adds them.
+fn wrapped_children(n: usize) -> Vec<[(usize, usize); 4]> {
+    (0..n / 2).map(|c| [((2 * c + n - 1) % n, 1), (2 * c, 0), (2 * c + 1, 0), ((2 * c + 2) % n, 1)]).collect()
 }
 
 impl Level {
@@ -338,7 +365,7 @@ impl Level {
             bc: vec![0.0; nx * ny / 4],
             xc: vec![0.0; nx * ny / 4],
             kx: children(&px),
-            ky: children(&py),
+            ky: if periodic[1] { wrapped_children(ny) } else { children(&py) },
             px,
             py,
             wx: vec![1.0; nx * ny],
@@ -416,6 +443,12 @@ impl Level {
                 }
             }
             for ic in [0, ncx - 1] {
+                if px_ {
+                    // across the wrap as inside (a rank's block, whose cut this may be, adds them so)
+                    let (l, r) = ((ic + 1) % ncx, (ic + ncx - 1) % ncx);
+                    (u0[ic], u1[ic]) = ((tr0[r] + po0[ic]) + tl0[l], (tr1[r] + po1[ic]) + tl1[l]);
+                    continue;
+                }
                 let (mut s0, mut s1) = (po0[ic], po1[ic]);
                 for &(i, sx) in &kx[ic] {
                     if sx == 1 {
