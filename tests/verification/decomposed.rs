@@ -2,7 +2,7 @@
 //! Taylor–Green vortex at 64² on 1, 2, 3 and 4 ranks (as threads of this process with the
 //! in-process `fake` communicator; `tests/mpi` runs the same under `mpirun`), 20 steps of
 //! the Eulerian frame with Crank–Nicolson viscosity and the PCG (Jacobi, and the multigrid
-//! V-cycle on the gathered residual).
+//! V-cycle with its finest level on the blocks).
 //! Every step's diagnostics on every rank, and at the end every owned node of θ, u, v and
 //! p and every array of the snapshot gathered from the ranks (the cell quantities of the
 //! mixture and of each field: pressure, velocity, vorticity, θ, … and the face
@@ -247,8 +247,9 @@ fn two_field_exchange_box_on_ranks_gives_the_serial_bits() {
     assert!(serial.last.kinetic_energy < 0.99 * serial.initial_energy);
 }
 
-/// The default pressure solver, PCG with the multigrid V-cycle (on the gathered residual,
-/// whole on every rank), on the vortex: 2 × 2 and 1 × 3 ranks.
+/// The default pressure solver, PCG with the multigrid V-cycle (its finest level relaxed and
+/// restricted on each block, the coarser levels whole on every rank), on the vortex:
+/// 1 × 3 and 2 × 2 ranks (the periodic wraps cuts along y, and along x on 2 × 2).
 #[test]
 fn multigrid_pcg_on_ranks_gives_the_serial_bits() {
     let case = taylor_green("");

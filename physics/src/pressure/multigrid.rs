@@ -309,7 +309,7 @@ impl Hierarchy {
         let (whole, rest) = levels.split_first_mut().expect("a coarser level (setup_block)");
         let coarse_n = [self.ops[1].nx, self.ops[1].ny];
         let local_n = [b.op.nx() / 2, b.level.bc.len() / (b.op.nx() / 2)];
-        coarse_cells(part, coarse_n, local_n, Some((&b.level.bc, &mut whole.bc)), None);
+        gather_coarse(part, coarse_n, local_n, &b.level.bc, &mut whole.bc);
         let singular = self.ops[0].is_singular();
         if singular {
             // as `cycle` does at the finest level
@@ -317,7 +317,7 @@ impl Hierarchy {
             whole.bc.iter_mut().for_each(|v| *v -= mean);
         }
         cycle(&ops[1..], rest, coarse, coarse_x, singular, sweeps, GROUP / 2, &whole.bc, &mut whole.xc);
-        coarse_cells(part, coarse_n, local_n, None, Some((&whole.xc, &mut b.level.xc)));
+        read_coarse(part, coarse_n, local_n, &whole.xc, &mut b.level.xc);
         b.level.prolong_add(z);
         for _ in 0..sweeps {
             exchange(z);
@@ -419,47 +419,55 @@ fn cycle(
     }
 }
 
-/// Between a rank's coarse storage (`local_n` cells: its block's coarse cells and, on the
-/// sides it shares with another rank, one halo cell) and the whole coarse level
-/// (`whole_n` cells): `gather` puts every rank's owned coarse cells of `local` into
-/// `whole`; `read` fills every cell of `local` from `whole` (the halo across a periodic
-/// wrap wrapped).
+/// A rank's coarse storage: `local_n` cells, its block's coarse cells and, on the sides it
+/// shares with another rank, one halo cell (half the fine halo); the first coarse cell's
+/// place in the domain along each axis, before a periodic wrap.
 #[cfg(feature = "dim2")]
-fn coarse_cells(
-    part: &Part,
-    whole_n: [usize; 2],
-    local_n: [usize; 2],
-    gather: Option<(&[F], &mut [F])>,
-    read: Option<(&[F], &mut [F])>,
-) {
+fn coarse_start(part: &Part) -> [isize; 2] {
+    let block = part.block().expect("a rank's block").1;
+    [0, 1].map(|a| (block.cells[a].start / 2) as isize - (part.pads(a)[0] / 2) as isize)
+}
+
+/// The coarse cells a block owns, along each axis.
+#[cfg(feature = "dim2")]
+fn coarse_owned(cells: &[std::ops::Range<usize>]) -> [std::ops::Range<usize>; 2] {
+    [0, 1].map(|a| cells[a].start / 2..cells[a].end / 2)
+}
+
+/// Every rank's owned coarse cells of its coarse storage `local` (`local_n` cells) into
+/// the whole coarse level `whole` (`whole_n` cells), on every rank.
+#[cfg(feature = "dim2")]
+fn gather_coarse(part: &Part, whole_n: [usize; 2], local_n: [usize; 2], local: &[F], whole: &mut [F]) {
     use multifield_core::part::Word;
     let (rg, block) = part.block().expect("a rank's block");
-    let pad = [part.pads(0)[0] / 2, part.pads(1)[0] / 2];
-    let owned = |cells: &[std::ops::Range<usize>]| [0, 1].map(|a| cells[a].start / 2..cells[a].end / 2);
-    if let Some((local, whole)) = gather {
-        let mine_at = owned(&block.cells);
-        let mut mine = Vec::new();
-        for j in mine_at[1].clone() {
-            for i in mine_at[0].clone() {
-                local[(i - mine_at[0].start + pad[0]) + (j - mine_at[1].start + pad[1]) * local_n[0]].put(&mut mine);
-            }
+    let start = coarse_start(part);
+    let mut mine = Vec::new();
+    let own = coarse_owned(&block.cells);
+    for j in own[1].clone() {
+        for i in own[0].clone() {
+            let l = (i as isize - start[0]) as usize + (j as isize - start[1]) as usize * local_n[0];
+            local[l].put(&mut mine);
         }
-        for (rank, bytes) in part.comm().gather_all(&mine).iter().enumerate() {
-            let at = owned(&rg.block(rank).cells);
-            let mut words = bytes.chunks_exact(F::SIZE);
-            for j in at[1].clone() {
-                for i in at[0].clone() {
-                    whole[i + j * whole_n[0]] = F::get(words.next().expect("a rank's coarse cells"));
-                }
+    }
+    for (rank, bytes) in part.comm().gather_all(&mine).iter().enumerate() {
+        let at = coarse_owned(&rg.block(rank).cells);
+        let mut words = bytes.chunks_exact(F::SIZE);
+        for j in at[1].clone() {
+            for i in at[0].clone() {
+                whole[i + j * whole_n[0]] = F::get(words.next().expect("a rank's coarse cells"));
             }
         }
     }
-    if let Some((whole, local)) = read {
-        let start = [0, 1].map(|a| (block.cells[a].start / 2) as isize - pad[a] as isize);
-        let at = |a: usize, l: usize| (start[a] + l as isize).rem_euclid(whole_n[a] as isize) as usize;
-        for (l, v) in local.iter_mut().enumerate() {
-            *v = whole[at(0, l % local_n[0]) + at(1, l / local_n[0]) * whole_n[0]];
-        }
+}
+
+/// Every cell of a rank's coarse storage `local` (`local_n` cells) from the whole coarse
+/// level `whole` (`whole_n` cells; the halo across a periodic wrap wrapped).
+#[cfg(feature = "dim2")]
+fn read_coarse(part: &Part, whole_n: [usize; 2], local_n: [usize; 2], whole: &[F], local: &mut [F]) {
+    let start = coarse_start(part);
+    let at = |a: usize, l: usize| (start[a] + l as isize).rem_euclid(whole_n[a] as isize) as usize;
+    for (l, v) in local.iter_mut().enumerate() {
+        *v = whole[at(0, l % local_n[0]) + at(1, l / local_n[0]) * whole_n[0]];
     }
 }
 

@@ -336,7 +336,7 @@ impl PressureSolver for Pcg {
         "pcg"
     }
     fn decomposed(&self) -> bool {
-        // (the multigrid V-cycle runs on the gathered residual, whole, on every rank)
+        // (the multigrid V-cycle's finest level on the block, the coarser ones whole)
         true
     }
     fn params(&self) -> serde_json::Value {
