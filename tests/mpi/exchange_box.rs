@@ -4,30 +4,14 @@
 //! (rank grids 1 × 2, 1 × 3, 2 × 2): the serial `diagnostics.csv` and snapshots (each
 //! field's θ and velocity) byte for byte.
 
-use super::common::{scratch, serial_files_on_ranks};
-
-const CASE: &str = r#"(
-    name: "exchange_box",
-    domain: (size: (1.0, 1.0), cells: (64, 64)),
-    boundaries: (left: Periodic, right: Periodic, bottom: Periodic, top: Periodic),
-    time: (end: 1.0, cfl: 0.4, max_dt: 0.002),
-    fields: [
-        (name: "a", density: 1.0, frame: (model: "eulerian"), region: Disk(center: (0.5, 0.5), radius: 0.3),
-         volume_fraction: 0.5, velocity: Uniform((1.0, 0.5))),
-        (name: "b", density: 2.0, frame: (model: "eulerian"), region: Rest, velocity: Uniform((-1.0, 0.0))),
-    ],
-    exchange: [(between: ("a", "b"), model: "constant", params: (coefficient: 50.0))],
-    pressure: Some((model: "pcg", params: (tolerance: 1e-10))),
-)"#;
+use super::common::serial_files_on_ranks;
 
 #[test]
 fn two_fields_exchanging_on_one_to_four_ranks_write_the_serial_files() {
     let t = "two_fields_exchanging_on_one_to_four_ranks_write_the_serial_files";
-    let case = scratch(&format!("{t}_case")).join("exchange_box.ron");
-    std::fs::write(&case, CASE).unwrap();
     let sets =
         ["time.max_steps=20", "output.interval=0", "output.charts=false", "output.snapshots=Some((interval: 0.01))"];
-    let outs = serial_files_on_ranks(t, &case.display().to_string(), &sets, |_| Vec::new(), 20, 6);
+    let outs = serial_files_on_ranks(t, "tests/cases/exchange_box.ron", &sets, |_| Vec::new(), 20, 6);
     // (without mpirun, nothing ran)
     if let Some(np4) = outs.last() {
         // the exchange dissipates the slip: the kinetic energy falls every step

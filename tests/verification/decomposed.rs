@@ -229,19 +229,8 @@ fn lid_driven_cavity_on_ranks_gives_the_serial_bits() {
 /// `Rest` taking what the other leaves), periodic, at 64² on 2 × 2 ranks.
 #[test]
 fn two_field_exchange_box_on_ranks_gives_the_serial_bits() {
-    let text = r#"(
-        name: "exchange_box_ranks", domain: (size: (1.0, 1.0), cells: (64, 64)),
-        boundaries: (left: Periodic, right: Periodic, bottom: Periodic, top: Periodic),
-        time: (end: 1.0, cfl: 0.4, max_dt: 0.002),
-        fields: [
-            (name: "a", density: 1.0, frame: (model: "eulerian"), region: Disk(center: (0.5, 0.5), radius: 0.3),
-             volume_fraction: 0.5, velocity: Uniform((1.0, 0.5))),
-            (name: "b", density: 2.0, frame: (model: "eulerian"), region: Rest, velocity: Uniform((-1.0, 0.0))),
-        ],
-        exchange: [(between: ("a", "b"), model: "constant", params: (coefficient: 50.0))],
-        pressure: Some((model: "pcg", params: (tolerance: 1e-10, preconditioner: "jacobi"))),
-    )"#;
-    let case = Case::from_ron(text, Path::new("exchange_box_ranks.ron")).unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/cases/exchange_box.ron");
+    let case = Case::load(&path, &[]).unwrap();
     let serial = check(&case, &[(4, Some(vec![2, 2]))]);
     // the exchange has slowed the slip: momentum conserved, kinetic energy dissipated
     assert!(serial.last.kinetic_energy < 0.99 * serial.initial_energy);
