@@ -132,7 +132,7 @@ impl PointBody {
 
     /// The domain's nodes of the footprint in the order grid-to-particles reads them: the
     /// x-faces, the y-faces, and (`cells`) the cells.
-    fn nodes<'a>(&'a self, b: &'a Block, cells: bool) -> impl Iterator<Item = (Lattice, [usize; 2])> + 'a {
+    fn nodes<'a>(&'a self, b: &'a RankBlock, cells: bool) -> impl Iterator<Item = (Lattice, [usize; 2])> + 'a {
         let x = self.xfaces.iter().map(|&(f, _)| (Lattice::XFace, f));
         let y = self.yfaces.iter().map(|&(f, _)| (Lattice::YFace, f));
         let c = self.cells.iter().filter(move |_| cells).map(|&(c, _)| (Lattice::Cell, c));
@@ -141,7 +141,7 @@ impl PointBody {
 }
 
 /// A rank's block in the domain's numbering of the footprints.
-struct Block<'a> {
+struct RankBlock<'a> {
     /// The rank's storage (its `Grid`).
     grid: &'a Grid,
     /// The owned cells along each axis, as the domain's indices.
@@ -160,7 +160,7 @@ struct Block<'a> {
     periodic: [bool; 2],
 }
 
-impl<'a> Block<'a> {
+impl<'a> RankBlock<'a> {
     fn of(grid: &'a Grid, periodic: [bool; 2]) -> Option<Self> {
         let (_, block) = grid.part.block()?;
         let pads = [grid.part.pads(0), grid.part.pads(1)];
@@ -202,7 +202,7 @@ impl<'a> Block<'a> {
         Some(self.grid.index(lattice, l))
     }
 
-    /// [`Block::owned`] of the node a read of `at` takes its value from: face n of a
+    /// [`RankBlock::owned`] of the node a read of `at` takes its value from: face n of a
     /// periodic axis is face 0 (the same face, the same value after the boundary rules).
     fn read(&self, lattice: Lattice, at: [usize; 2]) -> Option<usize> {
         let wrapped = std::array::from_fn(|a| if self.periodic[a] { at[a] % self.n[a] } else { at[a] });
@@ -258,7 +258,7 @@ impl MassPoint {
     /// same order.
     fn sample_on_ranks(
         &mut self,
-        b: &Block,
+        b: &RankBlock,
         bc: &Boundaries,
         s: &FieldState,
         partner: Option<&FieldState>,
@@ -441,7 +441,7 @@ impl Frame for MassPoint {
         let g = ctx.grid;
         let bc = ctx.boundaries;
         let (d, periodic) = (&self.domain, self.periodic);
-        let block = Block::of(g, periodic);
+        let block = RankBlock::of(g, periodic);
         let s = &mut *ctx.state;
         // the grid-wide passes elementwise in parallel (each value is the serial one)
         const BLOCK: usize = 4096;
@@ -536,7 +536,7 @@ impl Frame for MassPoint {
         let partner = ctx.partner.as_ref().map(|pt| pt.state);
         // what each point reads at its footprint: from the grid on one rank, from the
         // nodes' owners on ranks
-        match Block::of(g, self.periodic) {
+        match RankBlock::of(g, self.periodic) {
             None => self.points.par_iter_mut().with_min_len(64).for_each(|p| p.sample(g, bc, s, partner, rotation)),
             Some(b) => self.sample_on_ranks(&b, bc, s, partner, rotation),
         }
