@@ -234,6 +234,19 @@ impl RankGrid {
         c
     }
 
+    /// The rank grid of the domain coarsened 2:1 along every axis (the next multigrid
+    /// level's): the cuts halved, one alignment level fewer; `None` when the cuts are not
+    /// all even (`levels` is 0).
+    pub fn coarsened(&self) -> Option<Self> {
+        (self.levels >= 1 && self.n.iter().all(|&k| k % 2 == 0)).then(|| Self {
+            n: self.n.map(|k| k / 2),
+            periodic: self.periodic,
+            p: self.p,
+            cuts: self.cuts.clone().map(|c| c.into_iter().map(|k| k / 2).collect()),
+            levels: self.levels - 1,
+        })
+    }
+
     /// The halo surface per rank that chose this grid (see the module's documentation).
     pub fn surface(&self) -> usize {
         surface(&self.cuts)

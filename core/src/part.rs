@@ -44,6 +44,15 @@ impl Part {
         Self(Some(Arc::new(Ranked { comm, grid, block })))
     }
 
+    /// This rank's part of the domain coarsened 2:1 ([`RankGrid::coarsened`]: the next
+    /// multigrid level's blocks), `None` for the whole domain or where the cuts are odd.
+    pub fn coarsened(&self) -> Option<Self> {
+        let r = self.0.as_ref()?;
+        let grid = r.grid.coarsened()?;
+        let block = grid.block(r.block.rank);
+        Some(Self(Some(Arc::new(Ranked { comm: r.comm.clone(), grid, block }))))
+    }
+
     /// Whether this is the whole domain on one rank.
     pub fn is_whole(&self) -> bool {
         self.0.is_none()

@@ -258,6 +258,40 @@ impl Hierarchy {
         self.cycle.coarse.factor(self.ops.last().expect("at least one level"))
     }
 
+    /// [`Hierarchy::setup`] for a decomposed domain of `n` cells whose finest level the
+    /// ranks' blocks hold ([`Hierarchy::setup_block`]): the whole second level's operator
+    /// `level1` is given (gathered from the blocks), the coarser ones follow from it. The
+    /// whole finest level is not assembled (only its size and sides are kept).
+    #[cfg(feature = "dim2")]
+    pub fn setup_from_second(
+        &mut self,
+        n: Index,
+        periodic: [bool; DIM],
+        dirichlet: [bool; SIDES],
+        level1: &Stencil,
+    ) -> std::result::Result<(), String> {
+        if self.key != Some((n, periodic, dirichlet)) {
+            self.build(n, periodic, dirichlet);
+        }
+        if self.ops.len() < 2 || self.ops[1].n() != level1.n() {
+            return Err(format!("a second level of {:?} cells for a domain of {n:?}", level1.n()));
+        }
+        let second = &mut self.ops[1];
+        for (to, from) in
+            [(&mut second.ax, &level1.ax), (&mut second.ay, &level1.ay), (&mut second.extra, &level1.extra)]
+        {
+            to.copy_from_slice(from);
+        }
+        second.update_diagonal();
+        for l in 2..self.ops.len() {
+            let (fine, coarse) = self.ops.split_at_mut(l);
+            self.cycle.levels[l - 1].update_weights(&fine[l - 1]);
+            self.cycle.ops[l - 1].assign(&fine[l - 1]);
+            coarse[0].coarsen_from(&fine[l - 1]);
+        }
+        self.cycle.coarse.factor(self.ops.last().expect("at least one level"))
+    }
+
     /// z = M r: one V-cycle from z = 0 (a symmetric positive definite approximation of A⁻¹).
     pub fn precondition(&mut self, r: &[Real], z: &mut [Real]) {
         self.cycle.run(&self.ops, r, z);

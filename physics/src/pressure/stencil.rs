@@ -329,7 +329,7 @@ impl Stencil {
         self.update_diagonal();
     }
 
-    fn update_diagonal(&mut self) {
+    pub(crate) fn update_diagonal(&mut self) {
         let (nx, ax, ay, extra) = (self.nx, &self.ax, &self.ay, &self.extra);
         #[cfg(feature = "dim3")]
         let (ny, az) = (self.ny, &self.az);
