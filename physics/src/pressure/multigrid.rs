@@ -249,13 +249,7 @@ impl Hierarchy {
         }
         self.ops[0].assign(problem);
         self.cycle.has_dead = self.ops[0].diag.iter().any(|&d| d <= 0.0);
-        for l in 1..self.ops.len() {
-            let (fine, coarse) = self.ops.split_at_mut(l);
-            self.cycle.levels[l - 1].update_weights(&fine[l - 1]);
-            self.cycle.ops[l - 1].assign(&fine[l - 1]);
-            coarse[0].coarsen_from(&fine[l - 1]);
-        }
-        self.cycle.coarse.factor(self.ops.last().expect("at least one level"))
+        self.coarsen_below(0)
     }
 
     /// [`Hierarchy::setup`] for a decomposed domain of `n` cells whose finest level the
@@ -283,7 +277,13 @@ impl Hierarchy {
             to.copy_from_slice(from);
         }
         second.update_diagonal();
-        for l in 2..self.ops.len() {
+        self.coarsen_below(1)
+    }
+
+    /// The transfers from level `first` down and the operators below it, each from the one
+    /// above, and the coarsest level factored.
+    fn coarsen_below(&mut self, first: usize) -> std::result::Result<(), String> {
+        for l in first + 1..self.ops.len() {
             let (fine, coarse) = self.ops.split_at_mut(l);
             self.cycle.levels[l - 1].update_weights(&fine[l - 1]);
             self.cycle.ops[l - 1].assign(&fine[l - 1]);
@@ -298,8 +298,8 @@ impl Hierarchy {
     }
 
     /// Sets up the finest level on a rank's block from `local`, the block's operator (its
-    /// halo couplings the owners'), once [`Hierarchy::setup`] has the whole domain's
-    /// hierarchy. Returns whether the block can carry it: the domain has a coarser level,
+    /// halo couplings the owners'), once [`Hierarchy::setup_from_second`] has the coarser
+    /// levels. Returns whether the block can carry it: the domain has a coarser level,
     /// and the block's storage is even and at least 4 cells along each axis (its cuts on
     /// even cells; docs/design/mpi.md §2 aligns them so).
     #[cfg(feature = "dim2")]
