@@ -368,30 +368,55 @@ impl Lagrangian {
     }
 
     /// `K` sums over the points of each body of `term(point)` (index 0: the points of no
-    /// body), each added in the points' order. On a rank's block of a decomposed domain
-    /// every rank's terms are gathered and added in id order: the serial sums' bits,
-    /// whichever ranks hold a body's points (every rank calls it).
+    /// body), each added in the points' order. On a rank's block of a decomposed domain a
+    /// body whose points are all on one rank takes that rank's sums (its points in id
+    /// order, as serially); for a body whose points several ranks hold, every rank's terms
+    /// of it are gathered and added in id order: the serial sums' bits, whichever ranks
+    /// hold a body's points (every rank calls it).
     fn per_body<const K: usize>(&self, term: impl Fn(usize) -> [Real; K]) -> Vec<[Real; K]> {
-        let mut sums = vec![[0.0; K]; self.bodies.len() + 1];
-        let mut add = |b: usize, t: &[Real]| sums[b].iter_mut().zip(t).for_each(|(s, v)| *s += v);
+        let n = self.bodies.len() + 1;
+        let mut sums = vec![[0.0; K]; n];
+        let add = |sums: &mut [[Real; K]], b: usize, t: &[Real]| sums[b].iter_mut().zip(t).for_each(|(s, v)| *s += v);
         let p = &self.points;
+        for (k, &b) in p.body.iter().enumerate() {
+            add(&mut sums, b as usize, &term(k));
+        }
         if self.local.part.is_whole() {
-            for (k, &b) in p.body.iter().enumerate() {
-                add(b as usize, &term(k));
+            return sums;
+        }
+        // every rank's count of points and sums, by body
+        let mut count = vec![0usize; n];
+        p.body.iter().for_each(|&b| count[b as usize] += 1);
+        let mut mine = Vec::with_capacity(n * (K + 1));
+        for (c, s) in count.iter().zip(&sums) {
+            mine.push(*c as Real);
+            mine.extend(s);
+        }
+        let comm = self.local.part.comm();
+        let all = comm.gather_all_f64(&mine);
+        let held = |b: usize| all.iter().filter(|m| m[b * (K + 1)] > 0.0).count();
+        let spanning: Vec<bool> = (0..n).map(|b| held(b) > 1).collect();
+        for (b, s) in sums.iter_mut().enumerate() {
+            // the one rank's sums (zeros when no rank holds the body's points)
+            if let Some(m) = all.iter().find(|m| m[b * (K + 1)] > 0.0).filter(|_| !spanning[b]) {
+                s.copy_from_slice(&m[b * (K + 1) + 1..(b + 1) * (K + 1)]);
             }
-        } else {
-            // (id, body, the K terms) of every point
-            let mut mine = Vec::with_capacity(p.len() * (K + 2));
-            for (k, &b) in p.body.iter().enumerate() {
-                mine.extend([Real::from_bits(p.id[k]), Real::from_bits(b as u64)]);
-                mine.extend(term(k));
-            }
-            let all = self.local.part.comm().gather_all_f64(&mine);
-            let mut records: Vec<&[Real]> = all.iter().flat_map(|m| m.chunks_exact(K + 2)).collect();
-            records.sort_unstable_by_key(|r| r[0].to_bits());
-            for r in records {
-                add(r[1].to_bits() as usize, &r[2..]);
-            }
+        }
+        if !spanning.contains(&true) {
+            return sums;
+        }
+        // the bodies several ranks hold: (id, body, the K terms) of each of their points
+        let mut mine = Vec::new();
+        for (k, &b) in p.body.iter().enumerate().filter(|(_, &b)| spanning[b as usize]) {
+            mine.extend([Real::from_bits(p.id[k]), Real::from_bits(b as u64)]);
+            mine.extend(term(k));
+        }
+        let all = comm.gather_all_f64(&mine);
+        let mut records: Vec<&[Real]> = all.iter().flat_map(|m| m.chunks_exact(K + 2)).collect();
+        records.sort_unstable_by_key(|r| r[0].to_bits());
+        spanning.iter().enumerate().filter(|(_, &s)| s).for_each(|(b, _)| sums[b] = [0.0; K]);
+        for r in records {
+            add(&mut sums, r[1].to_bits() as usize, &r[2..]);
         }
         sums
     }

@@ -489,3 +489,18 @@ fn a_mass_point_across_ranks_gives_the_serial_bits() {
         assert!(b.velocity.y < 0.0, "the disk falls: {:?}", b.velocity);
     }
 }
+
+/// Many resolved bodies (`fluidized_bed`: 200 rigid disks, `no_slip`, `dem` contact in
+/// sub-steps, inflow and outflow, 80 × 240 cells) on 1 × 2 ranks, where every disk is on
+/// one rank (the bed below the cut y = 3: each body's sums are its rank's), and on 2 × 2,
+/// where the cut x = 0.8 crosses disks (their terms gathered from both ranks): the serial
+/// bits.
+#[test]
+fn many_bodies_on_ranks_give_the_serial_bits() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fluidized_bed.ron");
+    for (ranks, p) in [(2, [1, 2]), (4, [2, 2])] {
+        let sets = [format!("domain.ranks=Some(({}, {}))", p[0], p[1]), "monitors=[]".to_string()];
+        let case = Case::load(&path, &sets).unwrap();
+        check(&case, &[(ranks, Some(p.to_vec()))]);
+    }
+}
