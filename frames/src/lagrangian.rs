@@ -567,10 +567,8 @@ impl Lagrangian {
     }
 
     /// A rigid body's points move with the body and are not wrapped across a periodic side
-    /// (its centroid and arms would break): the step that takes one across is an error,
-    /// not a body that silently leaves the domain.
-    /// An error (on every rank) when a rigid body's point has left the domain across a
-    /// periodic side.
+    /// (its centroid and arms would break): the step that takes one across is an error on
+    /// every rank, not a body that silently leaves the domain.
     fn bodies_inside_periodic_sides(&self, g: &Grid, bc: &Boundaries) -> Result<(), String> {
         let (lo, hi) = (g.origin, g.origin + g.size());
         let pts = &self.points;

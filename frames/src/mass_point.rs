@@ -33,6 +33,7 @@
 
 use multifield_core::boundary::Boundaries;
 use multifield_core::case::{BodyShape, Motion, Region};
+use multifield_core::decomposition::Block;
 use multifield_core::field::FieldState;
 use multifield_core::geometry::disk_cell_fractions;
 use multifield_core::grid::{Grid, Lattice};
@@ -144,59 +145,46 @@ impl PointBody {
 struct RankBlock<'a> {
     /// The rank's storage (its `Grid`).
     grid: &'a Grid,
-    /// The owned cells along each axis, as the domain's indices.
-    cells: [std::ops::Range<usize>; 2],
-    /// Whether each axis's last block is this one (it owns face n of an axis that is not
-    /// periodic).
-    last: [bool; 2],
+    /// Its block of the rank grid (owned nodes, the domain's cells and periodic axes).
+    block: &'a Block,
     /// The low side's padding along each axis.
     pad: [usize; 2],
     /// Whether the rank holds all of an axis with no padding (its storage is the domain's
     /// along it, face n included).
     whole: [bool; 2],
-    /// The domain's cells along each axis.
-    n: [usize; 2],
-    /// The domain is periodic along each axis.
-    periodic: [bool; 2],
 }
 
 impl<'a> RankBlock<'a> {
-    fn of(grid: &'a Grid, periodic: [bool; 2]) -> Option<Self> {
+    fn of(grid: &'a Grid) -> Option<Self> {
         let (_, block) = grid.part.block()?;
         let pads = [grid.part.pads(0), grid.part.pads(1)];
-        let n = [grid.domain[0], grid.domain[1]];
         Some(Self {
             grid,
-            cells: [block.cells[0].clone(), block.cells[1].clone()],
-            last: [block.last[0], block.last[1]],
+            block,
             pad: [pads[0][0], pads[1][0]],
-            whole: std::array::from_fn(|a| pads[a] == [0, 0] && block.cells[a] == (0..n[a])),
-            n,
-            periodic,
+            whole: std::array::from_fn(|a| pads[a] == [0, 0] && block.cells[a] == (0..block.n[a])),
         })
     }
 
     /// The domain's node (column, row) of a footprint's index on `lattice`.
     fn node(&self, lattice: Lattice, k: usize) -> [usize; 2] {
-        let row = self.n[0] + (lattice == Lattice::XFace) as usize;
+        let row = self.block.n[0] + (lattice == Lattice::XFace) as usize;
         [k % row, k / row]
     }
 
-    /// The storage index of the domain's node `at` when this rank owns it, as the sums onto
-    /// the grid need it: face n of a periodic axis is nobody's (its halo copy of face 0
-    /// arrives with the halo) unless the rank holds the whole axis.
+    /// The storage index of the domain's node `at` when this rank owns it
+    /// ([`Block::owned_global`]), as the sums onto the grid need it: face n of a periodic
+    /// axis is nobody's (its halo copy of face 0 arrives with the halo) unless the rank
+    /// holds the whole axis.
     fn owned(&self, lattice: Lattice, at: [usize; 2]) -> Option<usize> {
         let mut l = [0; 2];
         for a in 0..2 {
             l[a] = if self.whole[a] {
                 at[a]
+            } else if self.block.owned_global(lattice, a).contains(&at[a]) {
+                at[a] - self.block.cells[a].start + self.pad[a]
             } else {
-                let face_n = lattice.axis() == Some(a) && self.last[a] && !self.periodic[a];
-                let end = self.cells[a].end + face_n as usize;
-                if !(self.cells[a].start..end).contains(&at[a]) {
-                    return None;
-                }
-                at[a] - self.cells[a].start + self.pad[a]
+                return None;
             };
         }
         Some(self.grid.index(lattice, l))
@@ -205,7 +193,8 @@ impl<'a> RankBlock<'a> {
     /// [`RankBlock::owned`] of the node a read of `at` takes its value from: face n of a
     /// periodic axis is face 0 (the same face, the same value after the boundary rules).
     fn read(&self, lattice: Lattice, at: [usize; 2]) -> Option<usize> {
-        let wrapped = std::array::from_fn(|a| if self.periodic[a] { at[a] % self.n[a] } else { at[a] });
+        let b = self.block;
+        let wrapped = std::array::from_fn(|a| if b.periodic[a] { at[a] % b.n[a] } else { at[a] });
         self.owned(lattice, wrapped)
     }
 }
@@ -441,7 +430,7 @@ impl Frame for MassPoint {
         let g = ctx.grid;
         let bc = ctx.boundaries;
         let (d, periodic) = (&self.domain, self.periodic);
-        let block = RankBlock::of(g, periodic);
+        let block = RankBlock::of(g);
         let s = &mut *ctx.state;
         // the grid-wide passes elementwise in parallel (each value is the serial one)
         const BLOCK: usize = 4096;
@@ -536,7 +525,7 @@ impl Frame for MassPoint {
         let partner = ctx.partner.as_ref().map(|pt| pt.state);
         // what each point reads at its footprint: from the grid on one rank, from the
         // nodes' owners on ranks
-        match RankBlock::of(g, self.periodic) {
+        match RankBlock::of(g) {
             None => self.points.par_iter_mut().with_min_len(64).for_each(|p| p.sample(g, bc, s, partner, rotation)),
             Some(b) => self.sample_on_ranks(&b, bc, s, partner, rotation),
         }
