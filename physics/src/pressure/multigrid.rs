@@ -38,11 +38,7 @@
 use super::cholesky::SparseLlt;
 use super::stencil::{Stencil, PARALLEL_CELLS};
 use multifield_core::exact::{reduce, row_sums, GROUP};
-#[cfg(feature = "dim2")]
-use multifield_core::grid::Lattice;
 use multifield_core::math::{Index, Real, DIM, SIDES};
-#[cfg(feature = "dim2")]
-use multifield_core::part::Part;
 use multifield_core::plugin::PressureSolver;
 use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
@@ -51,9 +47,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 #[cfg(feature = "dim2")]
+mod blocks;
+#[cfg(feature = "dim2")]
 mod plane;
 #[cfg(feature = "dim2")]
-use plane::{relax_colour, sweep, Level, Op32};
+use plane::{sweep, Level, Op32};
 #[cfg(feature = "dim3")]
 mod volume;
 #[cfg(feature = "dim3")]
@@ -159,20 +157,10 @@ pub struct Hierarchy {
     /// Operators, finest first.
     ops: Vec<Stencil>,
     cycle: Cycle,
-    /// The finest level on a rank's block ([`Hierarchy::setup_block`]).
+    /// The levels on a rank's blocks, finest first (a decomposed domain: [`blocks`]); the
+    /// levels above are then the domain's below them.
     #[cfg(feature = "dim2")]
-    block: BlockLevel,
-}
-
-/// The finest level of the V-cycle on a rank's block (docs/design/mpi.md §4): its f32
-/// operator and transfers on the block's storage (its cells and the halo), each owned
-/// cell's arithmetic the serial one.
-#[cfg(feature = "dim2")]
-#[derive(Debug, Default)]
-struct BlockLevel {
-    op: Op32,
-    level: Level,
-    key: Option<(Index, [bool; DIM])>,
+    blocks: Vec<blocks::BlockLevel>,
 }
 
 /// What a V-cycle writes: transfers and scratch of every level but the coarsest, and the
@@ -252,34 +240,6 @@ impl Hierarchy {
         self.coarsen_below(0)
     }
 
-    /// [`Hierarchy::setup`] for a decomposed domain of `n` cells whose finest level the
-    /// ranks' blocks hold ([`Hierarchy::setup_block`]): the whole second level's operator
-    /// `level1` is given (gathered from the blocks), the coarser ones follow from it. The
-    /// whole finest level is not assembled (only its size and sides are kept).
-    #[cfg(feature = "dim2")]
-    pub fn setup_from_second(
-        &mut self,
-        n: Index,
-        periodic: [bool; DIM],
-        dirichlet: [bool; SIDES],
-        level1: &Stencil,
-    ) -> std::result::Result<(), String> {
-        if self.key != Some((n, periodic, dirichlet)) {
-            self.build(n, periodic, dirichlet);
-        }
-        if self.ops.len() < 2 || self.ops[1].n() != level1.n() {
-            return Err(format!("a second level of {:?} cells for a domain of {n:?}", level1.n()));
-        }
-        let second = &mut self.ops[1];
-        for (to, from) in
-            [(&mut second.ax, &level1.ax), (&mut second.ay, &level1.ay), (&mut second.extra, &level1.extra)]
-        {
-            to.copy_from_slice(from);
-        }
-        second.update_diagonal();
-        self.coarsen_below(1)
-    }
-
     /// The transfers from level `first` down and the operators below it, each from the one
     /// above, and the coarsest level factored.
     fn coarsen_below(&mut self, first: usize) -> std::result::Result<(), String> {
@@ -295,70 +255,6 @@ impl Hierarchy {
     /// z = M r: one V-cycle from z = 0 (a symmetric positive definite approximation of A⁻¹).
     pub fn precondition(&mut self, r: &[Real], z: &mut [Real]) {
         self.cycle.run(&self.ops, r, z);
-    }
-
-    /// Sets up the finest level on a rank's block from `local`, the block's operator (its
-    /// halo couplings the owners'), once [`Hierarchy::setup_from_second`] has the coarser
-    /// levels. Returns whether the block can carry it: the domain has a coarser level,
-    /// and the block's storage is even and at least 4 cells along each axis (its cuts on
-    /// even cells; docs/design/mpi.md §2 aligns them so).
-    #[cfg(feature = "dim2")]
-    pub fn setup_block(&mut self, local: &Stencil) -> bool {
-        let n = local.n();
-        if self.cycle.levels.is_empty() || n.iter().any(|&k| k % 2 != 0 || k < 4) {
-            return false;
-        }
-        let b = &mut self.block;
-        if b.key != Some((n, local.periodic)) {
-            b.level = Level::new(n, local.periodic);
-            b.key = Some((n, local.periodic));
-        }
-        b.op.assign(local);
-        b.level.update_weights(local);
-        true
-    }
-
-    /// z = M r on a rank's block (after [`Hierarchy::setup_block`]): the serial V-cycle's
-    /// bits on the owned cells. The finest level on the block: each red-black sweep colour
-    /// by colour with the halo exchanged before each colour, and the residual restricted to
-    /// the block's coarse cells; those are gathered and the coarser levels run whole on
-    /// every rank (the whole domain's hierarchy); the block's coarse cells and their halo
-    /// are read back for the prolongation and the last sweeps.
-    #[cfg(feature = "dim2")]
-    pub fn precondition_block(&mut self, part: &Part, r: &[F], z: &mut [F]) {
-        let sweeps = self.cycle.sweeps;
-        let b = &mut self.block;
-        let exchange = |z: &mut [F]| part.exchange(&mut [(Lattice::Cell, z)]);
-        for k in 0..sweeps {
-            if k > 0 {
-                exchange(z);
-            }
-            relax_colour(&b.op, r, z, 0, k == 0);
-            exchange(z);
-            relax_colour(&b.op, r, z, 1, false);
-        }
-        exchange(z);
-        b.level.restrict_residual(&b.op, z, r);
-        let Cycle { levels, ops, coarse, coarse_x, .. } = &mut self.cycle;
-        let (whole, rest) = levels.split_first_mut().expect("a coarser level (setup_block)");
-        let coarse_n = [self.ops[1].nx, self.ops[1].ny];
-        let local_n = [b.op.nx() / 2, b.level.bc.len() / (b.op.nx() / 2)];
-        gather_coarse(part, coarse_n, local_n, &b.level.bc, &mut whole.bc);
-        let singular = self.ops[0].is_singular();
-        if singular {
-            // as `cycle` does at the finest level
-            let mean = (sum32(&whole.bc, coarse_n[0], GROUP / 2) / whole.bc.len() as Real) as F;
-            whole.bc.iter_mut().for_each(|v| *v -= mean);
-        }
-        cycle(&ops[1..], rest, coarse, coarse_x, singular, sweeps, GROUP / 2, &whole.bc, &mut whole.xc);
-        read_coarse(part, coarse_n, local_n, &whole.xc, &mut b.level.xc);
-        b.level.prolong_add(z);
-        for _ in 0..sweeps {
-            exchange(z);
-            relax_colour(&b.op, r, z, 1, false);
-            exchange(z);
-            relax_colour(&b.op, r, z, 0, false);
-        }
     }
 
     /// The finest operator and the preconditioner in f32 (`z = M r`, one V-cycle from 0),
@@ -450,58 +346,6 @@ fn cycle(
     level.prolong_add(x);
     for _ in 0..sweeps {
         sweep(op, b, x, 1, false);
-    }
-}
-
-/// A rank's coarse storage: `local_n` cells, its block's coarse cells and, on the sides it
-/// shares with another rank, one halo cell (half the fine halo); the first coarse cell's
-/// place in the domain along each axis, before a periodic wrap.
-#[cfg(feature = "dim2")]
-fn coarse_start(part: &Part) -> [isize; 2] {
-    let block = part.block().expect("a rank's block").1;
-    [0, 1].map(|a| (block.cells[a].start / 2) as isize - (part.pads(a)[0] / 2) as isize)
-}
-
-/// The coarse cells a block owns, along each axis.
-#[cfg(feature = "dim2")]
-fn coarse_owned(cells: &[std::ops::Range<usize>]) -> [std::ops::Range<usize>; 2] {
-    [0, 1].map(|a| cells[a].start / 2..cells[a].end / 2)
-}
-
-/// Every rank's owned coarse cells of its coarse storage `local` (`local_n` cells) into
-/// the whole coarse level `whole` (`whole_n` cells), on every rank.
-#[cfg(feature = "dim2")]
-fn gather_coarse(part: &Part, whole_n: [usize; 2], local_n: [usize; 2], local: &[F], whole: &mut [F]) {
-    use multifield_core::part::Word;
-    let (rg, block) = part.block().expect("a rank's block");
-    let start = coarse_start(part);
-    let mut mine = Vec::new();
-    let own = coarse_owned(&block.cells);
-    for j in own[1].clone() {
-        for i in own[0].clone() {
-            let l = (i as isize - start[0]) as usize + (j as isize - start[1]) as usize * local_n[0];
-            local[l].put(&mut mine);
-        }
-    }
-    for (rank, bytes) in part.comm().gather_all(&mine).iter().enumerate() {
-        let at = coarse_owned(&rg.block(rank).cells);
-        let mut words = bytes.chunks_exact(F::SIZE);
-        for j in at[1].clone() {
-            for i in at[0].clone() {
-                whole[i + j * whole_n[0]] = F::get(words.next().expect("a rank's coarse cells"));
-            }
-        }
-    }
-}
-
-/// Every cell of a rank's coarse storage `local` (`local_n` cells) from the whole coarse
-/// level `whole` (`whole_n` cells; the halo across a periodic wrap wrapped).
-#[cfg(feature = "dim2")]
-fn read_coarse(part: &Part, whole_n: [usize; 2], local_n: [usize; 2], whole: &[F], local: &mut [F]) {
-    let start = coarse_start(part);
-    let at = |a: usize, l: usize| (start[a] + l as isize).rem_euclid(whole_n[a] as isize) as usize;
-    for (l, v) in local.iter_mut().enumerate() {
-        *v = whole[at(0, l % local_n[0]) + at(1, l / local_n[0]) * whole_n[0]];
     }
 }
 

@@ -149,46 +149,6 @@ fn pcg_multigrid(
     })
 }
 
-/// The whole second multigrid level's operator, from the blocks: each rank coarsens its
-/// block's operator `fine` (its halo couplings the owners'; the cuts fall on even cells, so
-/// a coarse cell's four children are one rank's), and every rank's owned coarse couplings
-/// are gathered (`coarse` is the coarsened part). The serial `Stencil::coarsen_from` of
-/// the whole operator, to the bit.
-#[cfg(feature = "dim2")]
-fn second_level(
-    fine: &Stencil,
-    part: &multifield_core::part::Part,
-    coarse: &multifield_core::part::Part,
-    periodic: [bool; 2],
-    dirichlet: [bool; 4],
-) -> Stencil {
-    use multifield_core::halo::{storage_shape, Layout};
-    let mut local = Stencil::default();
-    local.resize(fine.n().map(|k| k / 2), fine.periodic, fine.dirichlet);
-    local.coarsen_from(fine);
-    // the block's coarse storage has one halo cell a cut; the coarse part's, two
-    let block = coarse.block().expect("a rank's block").1;
-    let offset = [0, 1].map(|a| coarse.pads(a)[0] - part.pads(a)[0] / 2);
-    let widen = |lattice: Lattice, from: &[Real]| {
-        let to_shape = storage_shape(block, Layout::Local, lattice);
-        let along = |a: usize| (lattice.axis() == Some(a)) as usize;
-        let from_x = local.nx + along(0);
-        let mut to = vec![0.0; to_shape.iter().product()];
-        for (j, row) in from.chunks(from_x).enumerate() {
-            let at = offset[0] + (j + offset[1]) * to_shape[0];
-            to[at..at + from_x].copy_from_slice(row);
-        }
-        coarse.gather(lattice, to_shape, &to)
-    };
-    let mut whole = Stencil::default();
-    let n = coarse.block().expect("a rank's block").0.n;
-    whole.resize(n, periodic, dirichlet);
-    whole.ax = widen(Lattice::XFace, &local.ax);
-    whole.ay = widen(Lattice::YFace, &local.ay);
-    whole.extra = widen(Lattice::Cell, &local.extra);
-    whole
-}
-
 /// r · z with z in f32, by the reduction rule (row groups of 32 cells in eight lanes) over
 /// the owned cells of `grid` (every rank's).
 fn dot_mixed(grid: &Grid, r: &[Real], z: &[F]) -> Real {
@@ -390,15 +350,15 @@ impl PressureSolver for Pcg {
                 let (op, precondition) = self.multigrid.split32();
                 return pcg_multigrid(problem, x, tol, cap, op, precondition, &mut self.scratch);
             }
-            // a rank's block: the finest level on the block and the coarser ones whole on
-            // every rank (the second level's operator and the restricted residual gathered),
-            // or, where the cuts do not fall on even cells, the whole hierarchy from the
-            // gathered problem and the V-cycle whole on every rank (the residual gathered, the
-            // correction's block taken back); the CG on the block
+            // a rank's block: the finer levels on the blocks and the coarser ones whole on
+            // every rank (multigrid::blocks), or, where the cuts do not fall on even cells,
+            // the whole hierarchy from the gathered problem and the V-cycle whole on every
+            // rank (the residual gathered, the correction's block taken back); the CG on
+            // the block
             self.stencil.assign(problem);
             let g = &problem.grid;
             #[cfg(feature = "dim2")]
-            if let Some(coarse) = g.part.coarsened().filter(|_| g.domain.iter().all(|&k| k % 2 == 0 && k >= 4)) {
+            if g.part.coarsened().is_some() {
                 // the halo's couplings and diagonal the owners' (the transfers' weights, the
                 // residual restricted from the cells next to the block and the coarse
                 // operator's faces at the cuts read them)
@@ -409,16 +369,12 @@ impl PressureSolver for Pcg {
                     (Lattice::Cell, &mut st.diag),
                     (Lattice::Cell, &mut st.inv_diag),
                 ]);
-                let (rg, _) = g.part.block().expect("a rank's block");
                 let mut dirichlet = problem.dirichlet.map(|d| d as u8 as Real);
                 g.part.max(&mut dirichlet);
-                let second = second_level(&self.stencil, &g.part, &coarse, rg.periodic, dirichlet.map(|d| d > 0.0));
-                self.multigrid
-                    .setup_from_second(g.domain, rg.periodic, dirichlet.map(|d| d > 0.0), &second)
-                    .map_err(Error::Model)?;
-                if self.multigrid.setup_block(&self.stencil) {
-                    let (part, mg) = (&g.part, &mut self.multigrid);
-                    let precondition = |r: &[F], z: &mut [F]| mg.precondition_block(part, r, z);
+                let dirichlet = dirichlet.map(|d| d > 0.0);
+                if self.multigrid.setup_blocks(&self.stencil, &g.part, g.domain, dirichlet).map_err(Error::Model)? {
+                    let mg = &mut self.multigrid;
+                    let precondition = |r: &[F], z: &mut [F]| mg.precondition_block(r, z);
                     return pcg_multigrid(problem, x, tol, cap, &self.stencil, precondition, &mut self.scratch);
                 }
             }
