@@ -42,29 +42,36 @@ fn taylor_green_on_one_to_four_ranks_writes_the_serial_diagnostics() {
         assert!(per.iter().all(|r| r["bytes"].as_f64().unwrap() > 0.0), "{summary}");
         if np == 2 {
             // 1 × 2 ranks, each block 64 × 32 cells with a halo of H = 2 rows on both sides
-            // (periodic along y, the other rank on each); x periodic within the block. An
-            // exchange of cells sends 2 messages of 2 rows of 64 values; of x-faces, rows of
-            // 65; of y-faces, 2 rows up and 3 (H + 1) down.
-            let cells = 2.0 * (2.0 * 64.0 * 8.0);
-            let faces = 2.0 * (2.0 * 65.0 * 8.0) + (2.0 + 3.0) * 64.0 * 8.0;
+            // (periodic along y, the other rank on each); x periodic within the block. On
+            // multigrid level l (64/2^l cells along x) an exchange of cells sends 2 messages
+            // of 2 rows of 64/2^l values; of x-faces, rows of 64/2^l + 1; of y-faces, 2 rows
+            // up and 3 (H + 1) down; 8 bytes a value, 4 in the V-cycle.
+            let cells = |l: i32, word: f64| 2.0 * (2.0 * 64.0 / 2f64.powi(l) * word);
+            let faces = |l: i32| {
+                let nx = 64.0 / 2f64.powi(l);
+                2.0 * (2.0 * (nx + 1.0) * 8.0) + (2.0 + 3.0) * nx * 8.0
+            };
             let phase = |name: &str| {
                 let p = c["rank0_phases"].as_array().unwrap().iter().find(|p| p["phase"] == name);
                 p.unwrap_or_else(|| panic!("no phase {name}: {summary}"))["bytes"].as_f64().unwrap()
             };
             // θ's two Heun stages
-            assert_eq!(phase("8 advection"), 2.0 * cells, "{summary}");
+            assert_eq!(phase("8 advection"), 2.0 * cells(0, 8.0), "{summary}");
             // u* before the constraint, x before the PCG, p in each PCG iteration, the
-            // pressure for the gradient, the corrected u; the operator's halo couplings (x-
-            // and y-faces) and diagonal and its inverse (cells) once a solve; and each
-            // V-cycle (one an iteration) exchanges its finest level's f32 cells 4ν = 8 times
-            // (before each colour of the ν = 2 sweeps but the first, before the
-            // restriction), half a cell exchange's bytes each
+            // pressure for the gradient, the corrected u. The multigrid levels on the blocks:
+            // 0 to 3 (64 × 32 cells a block down to 8 × 4; the cuts are multiples of 16, so
+            // even down to level 3; level 4's 4 × 4 cells are gathered). Once a solve, each
+            // block level's operator has its halo couplings (x- and y-faces), diagonal and
+            // inverse (cells) exchanged. Each V-cycle (one an iteration) exchanges each
+            // block level's f32 cells 4ν = 8 times (before each colour of the ν = 2 sweeps
+            // but the first, before the restriction), and on levels 1 to 3 the right-hand
+            // side and the correction once more each
             let iterations = s["pressure_iterations_total"].as_f64().unwrap() / 20.0;
-            let operator = faces + 2.0 * cells;
-            let v_cycles = iterations * 8.0 * cells / 2.0;
+            let operators: f64 = (0..4).map(|l| faces(l) + 2.0 * cells(l, 8.0)).sum();
+            let v_cycle: f64 = (0..4).map(|l| if l == 0 { 8.0 } else { 10.0 } * cells(l, 4.0)).sum();
             assert_eq!(
                 phase("5 pressure"),
-                2.0 * faces + (2.0 + iterations) * cells + operator + v_cycles,
+                2.0 * faces(0) + (2.0 + iterations) * cells(0, 8.0) + operators + iterations * v_cycle,
                 "{summary}"
             );
         }
