@@ -40,7 +40,8 @@ use super::stencil::{Stencil, PARALLEL_CELLS};
 use multifield_core::exact::{reduce, row_sums, GROUP};
 use multifield_core::math::{Index, Real, DIM, SIDES};
 use multifield_core::plugin::PressureSolver;
-use multifield_core::poisson::{dot, sum, PoissonProblem, SolveStats};
+use multifield_core::grid::Lattice;
+use multifield_core::poisson::{PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::{Error, Result};
 use rayon::prelude::*;
@@ -364,6 +365,10 @@ pub struct Multigrid {
     pub smoothing_sweeps: usize,
     #[serde(skip)]
     hierarchy: Hierarchy,
+    /// The operator on a rank's block (a decomposed domain), kept across solves.
+    #[cfg(feature = "dim2")]
+    #[serde(skip)]
+    stencil: Stencil,
 }
 
 fn default_tol() -> Real {
@@ -380,7 +385,14 @@ pub fn default_sweeps() -> usize {
 impl Multigrid {
     /// A solver with the given tolerance, cycle cap and smoothing sweeps.
     pub fn new(tolerance: Real, max_iterations: usize, smoothing_sweeps: usize) -> Self {
-        Self { tolerance, max_iterations, smoothing_sweeps, hierarchy: Hierarchy::new(smoothing_sweeps) }
+        Self {
+            tolerance,
+            max_iterations,
+            smoothing_sweeps,
+            hierarchy: Hierarchy::new(smoothing_sweeps),
+            #[cfg(feature = "dim2")]
+            stencil: Stencil::default(),
+        }
     }
 
     /// Checks the parameters.
@@ -429,54 +441,83 @@ impl PressureSolver for Multigrid {
         params_value(self)
     }
     fn decomposed(&self) -> bool {
-        // (the V-cycles on the whole domain's gathered problem, on every rank)
+        // (the V-cycle's levels on the blocks while their cuts are even, as the PCG's)
         true
     }
     fn solve(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
-        problem.solve_whole(x, |problem, x| self.solve_on(problem, x))
+        let (tol, cap) = (self.tolerance, self.max_iterations);
+        self.hierarchy.set_sweeps(self.smoothing_sweeps);
+        #[cfg(feature = "dim2")]
+        if !problem.grid.part.is_whole() {
+            self.stencil.assign(problem);
+            if self.hierarchy.setup_on_block(problem, &mut self.stencil).map_err(Error::Model)? {
+                let (h, op) = (&mut self.hierarchy, &self.stencil);
+                let (mut r32, mut z32) = (Vec::new(), Vec::new());
+                let precondition = |r: &[Real], z: &mut [Real]| {
+                    to_f32(r, &mut r32);
+                    z32.resize(r.len(), 0.0);
+                    h.precondition_block(&r32, &mut z32);
+                    // cells with no coupling come out 0, as `Cycle::run` leaves them
+                    for ((z, &v), &d) in z.iter_mut().zip(&z32).zip(&op.inv_diag) {
+                        *z = if d == 0.0 { 0.0 } else { Real::from(v) };
+                    }
+                };
+                return v_cycles(problem, x, tol, cap, op, precondition);
+            }
+        }
+        problem.solve_whole(x, |problem, x| {
+            self.hierarchy.setup(problem).map_err(Error::Model)?;
+            let (op, precondition) = self.hierarchy.split();
+            v_cycles(problem, x, tol, cap, op, precondition)
+        })
     }
 }
 
-impl Multigrid {
-    /// [`PressureSolver::solve`] on a whole domain.
-    fn solve_on(&mut self, problem: &PoissonProblem, x: &mut [Real]) -> Result<SolveStats> {
-        let stats =
-            |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
-        let b = &problem.rhs;
-        let nx = problem.grid.nx;
-        let bnorm = dot(b, b, nx).sqrt();
-        if bnorm == 0.0 {
-            x.fill(0.0);
-            return Ok(stats(0, 0.0));
-        }
-        self.hierarchy.set_sweeps(self.smoothing_sweeps);
-        self.hierarchy.setup(problem).map_err(Error::Model)?;
-        let n = x.len();
-        let (mut r, mut z) = (vec![0.0; n], vec![0.0; n]);
-        let mut history = vec![];
-        for it in 0..=self.max_iterations {
-            self.hierarchy.operator().residual(x, b, &mut r);
-            if problem.is_singular() {
-                let mean = sum(&r, nx) / n as Real;
-                r.par_iter_mut().for_each(|v| *v -= mean);
-            }
-            let rel = dot(&r, &r, nx).sqrt() / bnorm;
-            history.push(rel);
-            if rel <= self.tolerance {
-                return Ok(stats(it, rel));
-            }
-            if it == self.max_iterations || !rel.is_finite() {
-                break;
-            }
-            self.hierarchy.precondition(&r, &mut z);
-            x.par_iter_mut().zip(z.par_iter()).for_each(|(x, z)| *x += z);
-        }
-        Err(Error::SolverDiverged {
-            solver: "multigrid".into(),
-            tolerance: self.tolerance,
-            iterations: history.len() - 1,
-            residual: *history.last().unwrap_or(&Real::NAN),
-            history: history.iter().step_by(10).map(|h| format!("{h:.2e}")).collect::<Vec<_>>().join(" "),
-        })
+/// V-cycles to tolerance on `problem`'s grid (a whole domain, or a rank's block: x's halo
+/// exchanged before the residual, the sums over every rank's owned cells): p ← p + M (b −
+/// A p) with the operator `op` and the V-cycle `precondition` (z = M r).
+fn v_cycles(
+    problem: &PoissonProblem,
+    x: &mut [Real],
+    tolerance: Real,
+    max_iterations: usize,
+    op: &Stencil,
+    mut precondition: impl FnMut(&[Real], &mut [Real]),
+) -> Result<SolveStats> {
+    let stats = |iterations, residual| SolveStats { iterations, residual, incompatibility: problem.incompatibility };
+    let grid = &problem.grid;
+    let b = &problem.rhs;
+    let bnorm = grid.dot(Lattice::Cell, b, b).sqrt();
+    if bnorm == 0.0 {
+        x.fill(0.0);
+        return Ok(stats(0, 0.0));
     }
+    let n = x.len();
+    let (mut r, mut z) = (vec![0.0; n], vec![0.0; n]);
+    let mut history = vec![];
+    for it in 0..=max_iterations {
+        grid.exchange(&mut [(Lattice::Cell, x)]);
+        op.residual(x, b, &mut r);
+        if problem.is_singular() {
+            let mean = grid.sum(Lattice::Cell, &r) / grid.domain_cells() as Real;
+            r.par_iter_mut().for_each(|v| *v -= mean);
+        }
+        let rel = grid.dot(Lattice::Cell, &r, &r).sqrt() / bnorm;
+        history.push(rel);
+        if rel <= tolerance {
+            return Ok(stats(it, rel));
+        }
+        if it == max_iterations || !rel.is_finite() {
+            break;
+        }
+        precondition(&r, &mut z);
+        x.par_iter_mut().zip(z.par_iter()).for_each(|(x, z)| *x += z);
+    }
+    Err(Error::SolverDiverged {
+        solver: "multigrid".into(),
+        tolerance,
+        iterations: history.len() - 1,
+        residual: *history.last().unwrap_or(&Real::NAN),
+        history: history.iter().step_by(10).map(|h| format!("{h:.2e}")).collect::<Vec<_>>().join(" "),
+    })
 }

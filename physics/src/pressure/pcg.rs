@@ -358,25 +358,10 @@ impl PressureSolver for Pcg {
             self.stencil.assign(problem);
             let g = &problem.grid;
             #[cfg(feature = "dim2")]
-            if g.part.coarsened().is_some() {
-                // the halo's couplings and diagonal the owners' (the transfers' weights, the
-                // residual restricted from the cells next to the block and the coarse
-                // operator's faces at the cuts read them)
-                let st = &mut self.stencil;
-                g.exchange(&mut [
-                    (Lattice::XFace, &mut st.ax),
-                    (Lattice::YFace, &mut st.ay),
-                    (Lattice::Cell, &mut st.diag),
-                    (Lattice::Cell, &mut st.inv_diag),
-                ]);
-                let mut dirichlet = problem.dirichlet.map(|d| d as u8 as Real);
-                g.part.max(&mut dirichlet);
-                let dirichlet = dirichlet.map(|d| d > 0.0);
-                if self.multigrid.setup_blocks(&self.stencil, &g.part, g.domain, dirichlet).map_err(Error::Model)? {
-                    let mg = &mut self.multigrid;
-                    let precondition = |r: &[F], z: &mut [F]| mg.precondition_block(r, z);
-                    return pcg_multigrid(problem, x, tol, cap, &self.stencil, precondition, &mut self.scratch);
-                }
+            if self.multigrid.setup_on_block(problem, &mut self.stencil).map_err(Error::Model)? {
+                let mg = &mut self.multigrid;
+                let precondition = |r: &[F], z: &mut [F]| mg.precondition_block(r, z);
+                return pcg_multigrid(problem, x, tol, cap, &self.stencil, precondition, &mut self.scratch);
             }
             self.multigrid.setup(&problem.gathered()).map_err(Error::Model)?;
             let mg = &mut self.multigrid;

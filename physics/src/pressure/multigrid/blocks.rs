@@ -31,6 +31,7 @@ use multifield_core::grid::Lattice;
 use multifield_core::halo::{storage_shape, Layout};
 use multifield_core::math::{Index, Real};
 use multifield_core::part::{Part, Word};
+use multifield_core::poisson::PoissonProblem;
 
 /// One level of the V-cycle on a rank's block.
 #[derive(Debug, Default)]
@@ -98,6 +99,27 @@ fn widen_stencil(coarse: &Stencil, at: [usize; 2], part: &Part, to: &mut Stencil
 }
 
 impl Hierarchy {
+    /// Sets up the V-cycle on a rank's block of `problem` ([`Hierarchy::setup_blocks`]) from
+    /// `stencil`, the block's operator ([`Stencil::assign`]), once its halo couplings and
+    /// diagonal are taken from their owners (the transfers' weights, the residual
+    /// restricted from the cells next to the block and the coarse operator's faces at the
+    /// cuts read them). `Ok(false)`: the levels cannot be on the blocks.
+    pub fn setup_on_block(&mut self, problem: &PoissonProblem, stencil: &mut Stencil) -> Result<bool, String> {
+        let g = &problem.grid;
+        if g.part.coarsened().is_none() {
+            return Ok(false);
+        }
+        g.exchange(&mut [
+            (Lattice::XFace, &mut stencil.ax),
+            (Lattice::YFace, &mut stencil.ay),
+            (Lattice::Cell, &mut stencil.diag),
+            (Lattice::Cell, &mut stencil.inv_diag),
+        ]);
+        let mut dirichlet = problem.dirichlet.map(|d| d as u8 as Real);
+        g.part.max(&mut dirichlet);
+        self.setup_blocks(stencil, &g.part, g.domain, dirichlet.map(|d| d > 0.0))
+    }
+
     /// Sets up the V-cycle of a decomposed domain of `domain` cells (its sides `dirichlet`)
     /// on rank `part`'s block: `fine` is the block's operator, its halo couplings and
     /// diagonal the owners'. Returns `Ok(false)` when no level can be on the blocks (the
@@ -108,7 +130,7 @@ impl Hierarchy {
         part: &Part,
         domain: Index,
         dirichlet: [bool; 4],
-    ) -> std::result::Result<bool, String> {
+    ) -> Result<bool, String> {
         let levels = multigrid_levels(domain);
         let mut parts = vec![part.clone()];
         let Some(mut below) = part.coarsened().filter(|_| levels >= 1) else {
