@@ -10,8 +10,9 @@
 //! block level each red-black sweep goes colour by colour with the halo exchanged before
 //! each colour ([`relax_colour`]); the residual is restricted to the block's coarse cells,
 //! which have one halo cell at a cut (half the fine halo): re-padded into the next level's
-//! storage, its two halo layers exchanged; back up, the next level's correction has its
-//! halo exchanged and is copied back for the prolongation. Below the last block level the
+//! storage, its two halo layers exchanged; back up, the next level's correction is copied
+//! back for the prolongation (its first halo layer, the one read, is the owners': the last
+//! colour relaxed it from exchanged neighbours). Below the last block level the
 //! restricted residual is gathered onto every rank, which all run the rest of the cycle
 //! whole (the same small problem everywhere: each rank reads its block's part of the
 //! correction, nothing is sent back).
@@ -233,9 +234,9 @@ fn block_cycle(h: &mut Hierarchy, l: usize, singular: bool, b: &[F], x: &mut [F]
             let mean = (sum / cells as Real) as F;
             nb.iter_mut().for_each(|v| *v -= mean);
         }
-        let next_part = next.part.clone();
+        // (the correction's first halo layer needs no exchange: the last colour relaxed it
+        // from its neighbours, owned or in the second layer, just exchanged: the owners' bits)
         block_cycle(h, l + 1, singular, &nb, &mut nx);
-        next_part.exchange(&mut [(Lattice::Cell, &mut nx)]);
         let BlockLevel { level, .. } = &mut h.blocks[l];
         narrow(&nx, n[0], &mut level.xc, local_n[0], at);
         (h.blocks[l + 1].b, h.blocks[l + 1].x) = (nb, nx);
