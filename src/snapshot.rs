@@ -97,14 +97,14 @@
 //! registry (vorticity: central differences of the cell-centred velocity, one-sided at a
 //! domain edge, wrapped across a periodic side).
 
-use crate::core::case::SnapshotSpec;
+use crate::core::case::{SnapshotLayout, SnapshotSpec};
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::{Grid, Lattice};
 use crate::core::mapping::SampledVelocity;
 #[cfg(feature = "dim2")]
 use crate::core::mapping::Samples;
-use crate::core::math::{Real, DIM};
+use crate::core::math::{Index, Real, DIM};
 use crate::core::monitor::suspension::{self, COLUMNS};
 use crate::core::monitor::Monitored;
 use crate::core::plugin::BodyState;
@@ -313,6 +313,13 @@ impl Snapshot {
     /// The snapshot of the simulation's current state with the quantities of `spec`; an
     /// unknown name is an error.
     pub fn with(sim: &Simulation, spec: &SnapshotSpec) -> Result<Snapshot, Error> {
+        Snapshot::build(sim, spec, false)
+    }
+
+    /// [`Snapshot::with`] with the points of a decomposed run's rank (`local`: those it
+    /// holds, [`Frame::local_points`](crate::core::plugin::Frame::local_points)) or every
+    /// rank's; the cell arrays on the rank's storage.
+    fn build(sim: &Simulation, spec: &SnapshotSpec, local: bool) -> Result<Snapshot, Error> {
         let g = &sim.grid;
         let sample = Sample::of(sim);
         let names: Vec<&str> = sim.fields.iter().map(|f| f.name.as_str()).collect();
@@ -324,7 +331,8 @@ impl Snapshot {
                 let values = sample.cells(quantity(q.as_str(), Place::Field)?, Some(k)).unwrap_or_default();
                 cells.insert(q.to_string(), values);
             }
-            let points = match f.frame.points() {
+            let points = if local { f.frame.local_points(g.part.rank()) } else { f.frame.points() };
+            let points = match points {
                 Some(p) => {
                     let mut values = Arrays::new();
                     for q in &spec.points {
@@ -426,6 +434,59 @@ impl Snapshot {
         self
     }
 
+    /// This rank's block of a decomposed run as a snapshot of its own (`layout: PerRank`):
+    /// its owned cells (the block's cells and origin), its faces from the block's low
+    /// sides to its high ones (the faces at a high cut are the neighbour's, in the halo:
+    /// `faces` must have had their halo exchanged), and the points it holds. Every rank
+    /// calls it.
+    pub fn of_block(sim: &Simulation, spec: &SnapshotSpec) -> Result<Snapshot, Error> {
+        let mut snap = Snapshot::build(sim, spec, true)?;
+        let grid = &sim.grid;
+        let Some((_, block)) = grid.part.block() else {
+            return Ok(snap);
+        };
+        let pads: [usize; DIM] = std::array::from_fn(|a| grid.part.pads(a)[0]);
+        let cells: Index = std::array::from_fn(|a| block.cells[a].len());
+        // the storage nodes of `lattice` from the block's first cell on, `along` more
+        // along each axis
+        let cut = |values: &[Real], lattice: Lattice, per: usize| -> Vec<Real> {
+            let shape = grid.shape(lattice);
+            let take: Index = std::array::from_fn(|a| cells[a] + (lattice.axis() == Some(a)) as usize);
+            let mut out = Vec::with_capacity(take.iter().product::<usize>() * per);
+            let ranges: [std::ops::Range<usize>; DIM] = std::array::from_fn(|a| pads[a]..pads[a] + take[a]);
+            crate::core::halo::for_each(shape, &ranges, |k| out.extend_from_slice(&values[k * per..(k + 1) * per]));
+            out
+        };
+        let n_storage = grid.n_cells();
+        let cut_cells = |arrays: &mut Arrays| {
+            for a in arrays.values_mut() {
+                if !a.is_empty() {
+                    *a = cut(a, Lattice::Cell, a.len() / n_storage);
+                }
+            }
+        };
+        cut_cells(&mut snap.cells);
+        for f in &mut snap.fields {
+            cut_cells(&mut f.cells);
+            if let Some(faces) = &mut f.faces {
+                for (a, values) in faces.iter_mut().enumerate() {
+                    let lattice = Lattice::face(a);
+                    grid.part.exchange(&mut [(lattice, values.as_mut_slice())]);
+                    *values = cut(values, lattice, 1);
+                }
+            }
+        }
+        (snap.nx, snap.ny) = (cells[0], cells[1]);
+        #[cfg(feature = "dim3")]
+        {
+            snap.nz = cells[2];
+        }
+        for a in 0..DIM {
+            snap.origin[a] = grid.origin[a] + grid.h * block.cells[a].start as Real;
+        }
+        Ok(snap)
+    }
+
     /// The statistics of the `Suspension` monitor `name`, if written.
     pub fn suspension(&self, name: &str) -> Option<&SuspensionData> {
         self.suspensions.iter().find(|s| s.name == name)
@@ -518,7 +579,7 @@ impl Snapshot {
                     pg.set_attr("bodies", AttrValue::StringArray(p.bodies.clone()));
                 }
                 for (name, data) in &p.values {
-                    let shape = if data.len() == 3 * p.len() && n > 0 { vec![n, 3] } else { vec![n] };
+                    let shape = if point_vector(name, data.len(), p.len()) { vec![n, 3] } else { vec![n] };
                     put(&mut pg, name, data, &shape, Place::Points);
                 }
                 let d = pg.create_dataset("body");
@@ -900,6 +961,16 @@ fn suspensions_of(sim: &Simulation) -> Vec<SuspensionData> {
     out
 }
 
+/// Whether the point array `name` of `len` values on `n` points is a vector: 3 values a
+/// point, or, with no points (a rank that holds none), a vector quantity.
+fn point_vector(name: &str, len: usize, n: usize) -> bool {
+    if n > 0 {
+        len == 3 * n
+    } else {
+        quantity::find(name, Place::Points).is_ok_and(|q| q.components == 3)
+    }
+}
+
 /// An array of a snapshot as the XDMF lists it: its name and whether it is a vector.
 type Listed = Vec<(String, bool)>;
 
@@ -922,12 +993,95 @@ struct Entry {
     fields: Vec<FieldEntry>,
     /// The running time averages (`/averages/<name>`).
     averages: Listed,
+    /// The ranks' files of a snapshot written per rank (`file` is then their folder);
+    /// empty for one file.
+    pieces: Vec<Piece>,
+}
+
+/// One rank's file of a snapshot written per rank: its block and its points.
+#[derive(Clone, Debug, PartialEq)]
+struct Piece {
+    /// The file, from the snapshots' folder.
+    file: String,
+    /// The block's cells along each axis.
+    cells: Index,
+    /// The block's lower corner.
+    origin: [Real; DIM],
+    /// The point count of each field that has points, in the order of the fields.
+    points: Vec<usize>,
+}
+
+impl Piece {
+    /// The words another rank needs of this one (cells, origin, point counts).
+    fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.cells.iter().for_each(|&n| out.extend_from_slice(&(n as u64).to_le_bytes()));
+        self.origin.iter().for_each(|&x| out.extend_from_slice(&x.to_le_bytes()));
+        self.points.iter().for_each(|&n| out.extend_from_slice(&(n as u64).to_le_bytes()));
+        out
+    }
+
+    /// [`Piece::encode`]'s inverse.
+    fn decode(file: String, bytes: &[u8]) -> Piece {
+        let mut words = bytes.chunks_exact(8).map(|w| <[u8; 8]>::try_from(w).expect("8 bytes"));
+        let cells = std::array::from_fn(|_| u64::from_le_bytes(words.next().expect("a piece's cells")) as usize);
+        let origin = std::array::from_fn(|_| f64::from_le_bytes(words.next().expect("a piece's origin")));
+        let points = words.map(|w| u64::from_le_bytes(w) as usize).collect();
+        Piece { file, cells, origin, points }
+    }
+
+    /// The piece of a rank's snapshot `snap` written as `file`.
+    fn of(snap: &Snapshot, file: String) -> Piece {
+        Piece {
+            file,
+            cells: snap.cells_along(),
+            origin: snap.origin,
+            points: snap.fields.iter().filter_map(|f| f.points.as_ref().map(PointData::len)).collect(),
+        }
+    }
 }
 
 impl Entry {
-    /// The output index in the file name.
+    /// The output index in the file (or folder) name.
     fn index(&self) -> Option<usize> {
-        self.file.strip_prefix("snapshot_")?.strip_suffix(".h5")?.parse().ok()
+        let n = self.file.strip_prefix("snapshot_")?;
+        n.strip_suffix(".h5").unwrap_or(n).parse().ok()
+    }
+
+    /// What the XDMF needs of the folder `path` of a snapshot written per rank, read from
+    /// its files (`rank_<r>.h5`, in rank order).
+    fn read_folder(path: &Path) -> Result<Entry, Error> {
+        let io = |source| Error::Io { path: path.to_path_buf(), source };
+        let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+            .map_err(io)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("rank_")) && p.is_file())
+            .collect();
+        files.sort();
+        let folder = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let mut entry: Option<Entry> = None;
+        let mut pieces = Vec::new();
+        for f in &files {
+            let e = Entry::read(f)?;
+            let file = hdf5_pure::File::open(f).map_err(|e| model_error(f, e))?;
+            let root = file.root().attrs().map_err(|e| model_error(f, e))?;
+            let missing = |what: &str| model_error(f, format!("no valid attribute `{what}`"));
+            let cells = root.get("cells").and_then(AttrValue::to_i64s).ok_or_else(|| missing("cells"))?;
+            let origin = root.get("origin").and_then(AttrValue::to_f64s).ok_or_else(|| missing("origin"))?;
+            if cells.len() != DIM || origin.len() != DIM {
+                return Err(missing("cells"));
+            }
+            pieces.push(Piece {
+                file: format!("{folder}/{}", f.file_name().map(|n| n.to_string_lossy()).unwrap_or_default()),
+                cells: std::array::from_fn(|a| cells[a] as usize),
+                origin: std::array::from_fn(|a| origin[a]),
+                points: e.fields.iter().filter_map(|f| f.points.as_ref().map(|p| p.0)).collect(),
+            });
+            entry.get_or_insert(e);
+        }
+        let mut entry = entry.ok_or_else(|| model_error(path, "no rank_<r>.h5 file in it"))?;
+        (entry.file, entry.pieces) = (folder, pieces);
+        Ok(entry)
     }
 
     /// What the XDMF lists of `snap`, written as `file`.
@@ -947,10 +1101,16 @@ impl Entry {
                 .map(|f| FieldEntry {
                     group: f.group.clone(),
                     cells: listed(&f.cells, n),
-                    points: f.points.as_ref().map(|p| (p.len(), listed(&p.values, p.len()))),
+                    points: f.points.as_ref().map(|p| {
+                        (
+                            p.len(),
+                            p.values.iter().map(|(k, v)| (k.clone(), point_vector(k, v.len(), p.len()))).collect(),
+                        )
+                    }),
                 })
                 .collect(),
             averages: snap.averages.iter().map(|a| (a.name.clone(), a.values.len() == 3 * n && n > 0)).collect(),
+            pieces: Vec::new(),
         }
     }
 
@@ -997,7 +1157,7 @@ impl Entry {
             Err(_) => Listed::new(),
         };
         let file = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        Ok(Entry { file, time, step: step as u64, cells, fields, averages })
+        Ok(Entry { file, time, step: step as u64, cells, fields, averages, pieces: Vec::new() })
     }
 }
 
@@ -1029,37 +1189,19 @@ impl Snapshots {
             ));
         }
         let folder = dir.join(FOLDER);
-        let io = |source| Error::Io { path: folder.clone(), source };
-        let mut kept = Vec::new();
-        // (the other ranks of a decomposed run touch no file)
+        // (the other ranks of a decomposed run touch no file but their own per-rank ones)
         let writes = sim.grid.part.rank() == 0;
-        if writes {
-            std::fs::create_dir_all(&folder).map_err(io)?;
+        let kept = if writes { Self::clean(&folder, sim.steps) } else { Ok(Vec::new()) };
+        // every rank learns whether rank 0 could prepare the folder (and waits for it), and
+        // the number of the next snapshot
+        if sim.grid.part.any(kept.is_err()) {
+            return kept.and(Err(Error::Model("rank 0 could not prepare the snapshots' folder".into())));
         }
-        let entries = if writes { std::fs::read_dir(&folder).map_err(io)?.collect() } else { Vec::new() };
-        for entry in entries {
-            let path = entry.map_err(io)?.path();
-            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            let snapshot = name.starts_with("snapshot_") && name.ends_with(".h5");
-            let ours = snapshot
-                || (name.starts_with(".snapshot_") && name.ends_with(".h5.tmp"))
-                || name.ends_with(".xdmf")
-                || (name.starts_with('.') && name.ends_with(".xdmf.tmp"));
-            if !ours || !path.is_file() {
-                continue;
-            }
-            if snapshot && sim.steps > 0 {
-                // a run continued from a checkpoint keeps the readable snapshots before it
-                if let Some(e) = Entry::read(&path).ok().filter(|e| e.step < sim.steps) {
-                    kept.push(e);
-                    continue;
-                }
-            }
-            std::fs::remove_file(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        }
-        kept.sort_by(|a, b| a.file.cmp(&b.file));
+        let kept = kept?;
         // numbered on: a gap in the numbers (a file removed by hand) is kept, never overwritten
-        let next_index = kept.iter().filter_map(|e| e.index()).max().map_or(0, |k| k + 1);
+        let mut next = [kept.iter().filter_map(|e| e.index()).max().map_or(0.0, |k| (k + 1) as Real)];
+        sim.grid.part.max(&mut next);
+        let next_index = next[0] as usize;
         // the schedule continues on the multiples of the interval, and the exact times after now
         let due = (interval > 0.0).then(|| {
             let first = (sim.time / interval - 1e-9).ceil().max(0.0) * interval;
@@ -1079,6 +1221,48 @@ impl Snapshots {
         })
     }
 
+    /// Prepares the snapshots' `folder`: the files and per-rank folders of an earlier run
+    /// removed, but for a run continued from step `steps` (> 0) the readable snapshots of
+    /// the steps before it, which are returned in order.
+    fn clean(folder: &Path, steps: u64) -> Result<Vec<Entry>, Error> {
+        let io = |source| Error::Io { path: folder.to_path_buf(), source };
+        let mut kept = Vec::new();
+        std::fs::create_dir_all(folder).map_err(io)?;
+        for entry in std::fs::read_dir(folder).map_err(io)? {
+            let path = entry.map_err(io)?.path();
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            if name.starts_with("snapshot_") && path.is_dir() {
+                // a snapshot written per rank
+                if steps > 0 {
+                    if let Some(e) = Entry::read_folder(&path).ok().filter(|e| e.step < steps) {
+                        kept.push(e);
+                        continue;
+                    }
+                }
+                std::fs::remove_dir_all(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+                continue;
+            }
+            let snapshot = name.starts_with("snapshot_") && name.ends_with(".h5");
+            let ours = snapshot
+                || (name.starts_with(".snapshot_") && name.ends_with(".h5.tmp"))
+                || name.ends_with(".xdmf")
+                || (name.starts_with('.') && name.ends_with(".xdmf.tmp"));
+            if !ours || !path.is_file() {
+                continue;
+            }
+            if snapshot && steps > 0 {
+                // a run continued from a checkpoint keeps the readable snapshots before it
+                if let Some(e) = Entry::read(&path).ok().filter(|e| e.step < steps) {
+                    kept.push(e);
+                    continue;
+                }
+            }
+            std::fs::remove_file(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        }
+        kept.sort_by(|a, b| a.file.cmp(&b.file));
+        Ok(kept)
+    }
+
     /// Paths of the snapshots written so far, in order.
     pub fn files(&self) -> Vec<PathBuf> {
         self.written.iter().map(|e| self.dir.join(&e.file)).collect()
@@ -1091,6 +1275,9 @@ impl Snapshots {
 
     /// Writes the snapshot of the current state and rewrites the XDMF.
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
+        if self.spec.layout == SnapshotLayout::PerRank && !sim.grid.part.is_whole() {
+            return self.write_per_rank(sim);
+        }
         let snap = Snapshot::with(sim, &self.spec)?.gathered(&sim.grid);
         let file = file_name(self.next_index);
         self.written.push(Entry::of(&snap, file.clone()));
@@ -1111,6 +1298,45 @@ impl Snapshots {
 }
 
 impl Snapshots {
+    /// [`Snapshots::write`] with `layout: PerRank` on a rank of a decomposed run: its block
+    /// to `snapshot_<n>/rank_<r>.h5`, every rank's block and point counts gathered for the
+    /// XDMF, which rank 0 rewrites once every rank's file is written.
+    fn write_per_rank(&mut self, sim: &Simulation) -> Result<(), Error> {
+        let part = &sim.grid.part;
+        let snap = Snapshot::of_block(sim, &self.spec)?;
+        let index = file_name(self.next_index);
+        let folder = index.strip_suffix(".h5").unwrap_or(&index).to_string();
+        let dir = self.dir.join(&folder);
+        let rank_file = |r: usize| format!("rank_{r:04}.h5");
+        let written = std::fs::create_dir_all(&dir)
+            .map_err(|source| Error::Io { path: dir.clone(), source })
+            .and_then(|_| snap.write(&dir.join(rank_file(part.rank()))));
+        let mine = Piece::of(&snap, String::new()).encode();
+        let mut entry = Entry::of(&snap, folder.clone());
+        entry.pieces = part
+            .comm()
+            .gather_all(&mine)
+            .iter()
+            .enumerate()
+            .map(|(r, bytes)| Piece::decode(format!("{folder}/{}", rank_file(r)), bytes))
+            .collect();
+        self.written.push(entry);
+        let failed = part.any(written.is_err());
+        let xdmf = if !failed && self.writes {
+            write_atomically(&self.xdmf, xdmf(&self.case, &self.grid, &self.written).as_bytes())
+        } else {
+            Ok(())
+        };
+        if failed || part.any(xdmf.is_err()) {
+            self.written.pop();
+            return written.and(xdmf).and(Err(Error::Model(format!(
+                "another rank could not write its part of snapshot {folder} (its message is in its output)"
+            ))));
+        }
+        self.next_index += 1;
+        Ok(())
+    }
+
     /// Whether [`Snapshots::after_step`] writes now.
     pub fn due(&self, sim: &Simulation, last: bool) -> bool {
         let done = self.written.last().is_some_and(|e| e.step == sim.steps);
@@ -1168,7 +1394,36 @@ fn xml_escape(s: &str) -> String {
 /// vectors, origin and spacing in z, y, x order.
 fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
     use std::fmt::Write as _;
-    let (nx, ny, h) = (grid.nx, grid.ny, grid.h);
+    let mut s =
+        String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n");
+    let _ = writeln!(
+        s,
+        "  <Domain>\n    <Grid Name=\"{}\" GridType=\"Collection\" CollectionType=\"Temporal\">",
+        xml_escape(case)
+    );
+    for e in entries {
+        let _ = writeln!(s, "      <Grid Name=\"step {}\" GridType=\"Collection\" CollectionType=\"Spatial\">", e.step);
+        let _ = writeln!(s, "        <Time Value=\"{}\"/>", e.time);
+        if e.pieces.is_empty() {
+            let counts: Vec<usize> = e.fields.iter().filter_map(|f| f.points.as_ref().map(|p| p.0)).collect();
+            let whole = Piece { file: e.file.clone(), cells: grid.n(), origin: grid.origin.into(), points: counts };
+            xdmf_piece(&mut s, e, &whole, grid.h, "");
+        } else {
+            // a snapshot written per rank: each rank's block and points, one dataset
+            for (r, piece) in e.pieces.iter().enumerate() {
+                xdmf_piece(&mut s, e, piece, grid.h, &format!(" rank {r}"));
+            }
+        }
+        s.push_str("      </Grid>\n");
+    }
+    s.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
+    s
+}
+
+/// The XDMF grids of one file of the snapshot `e` (the whole domain, or a rank's block):
+/// the cells' mesh with the cell arrays, and a grid of each field's points.
+fn xdmf_piece(s: &mut String, e: &Entry, piece: &Piece, h: Real, suffix: &str) {
+    use std::fmt::Write as _;
     let item = |dims: &str, number: &str, format: &str, content: &str| {
         format!(
             "<DataItem Dimensions=\"{dims}\" NumberType=\"{number}\" Precision=\"8\" \
@@ -1182,81 +1437,69 @@ fn xdmf(case: &str, grid: &Grid, entries: &[Entry]) -> String {
             xml_escape(name)
         )
     };
-    let mut s =
-        String::from("<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n");
-    let _ = writeln!(
-        s,
-        "  <Domain>\n    <Grid Name=\"{}\" GridType=\"Collection\" CollectionType=\"Temporal\">",
-        xml_escape(case)
-    );
+    let (n, o) = (piece.cells, piece.origin);
     // a 2D grid is a mesh one cell thick; the dimensions list z, y, x
     #[cfg(feature = "dim2")]
     let (cells, nodes, origin) =
-        (format!("1 {ny} {nx}"), format!("2 {} {}", ny + 1, nx + 1), format!("0 {} {}", grid.origin.y, grid.origin.x));
+        (format!("1 {} {}", n[1], n[0]), format!("2 {} {}", n[1] + 1, n[0] + 1), format!("0 {} {}", o[1], o[0]));
     #[cfg(feature = "dim3")]
     let (cells, nodes, origin) = (
-        format!("{} {ny} {nx}", grid.nz),
-        format!("{} {} {}", grid.nz + 1, ny + 1, nx + 1),
-        format!("{} {} {}", grid.origin.z, grid.origin.y, grid.origin.x),
+        format!("{} {} {}", n[2], n[1], n[0]),
+        format!("{} {} {}", n[2] + 1, n[1] + 1, n[0] + 1),
+        format!("{} {} {}", o[2], o[1], o[0]),
     );
     let (scalar, vector) = (cells.clone(), format!("{cells} 3"));
-    for e in entries {
-        let file = xml_escape(&e.file);
-        let hdf = |dims: &str, number: &str, path: &str| item(dims, number, "HDF", &format!("{file}:{path}"));
-        let _ = writeln!(s, "      <Grid Name=\"step {}\" GridType=\"Collection\" CollectionType=\"Spatial\">", e.step);
-        let _ = writeln!(s, "        <Time Value=\"{}\"/>", e.time);
+    let file = xml_escape(&piece.file);
+    let hdf = |dims: &str, number: &str, path: &str| item(dims, number, "HDF", &format!("{file}:{path}"));
+    let _ = writeln!(
+        s,
+        "        <Grid Name=\"grid{suffix}\" GridType=\"Uniform\">\n          \
+         <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"{nodes}\"/>\n          \
+         <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n            {}\n            {}\n          </Geometry>",
+        item("3", "Float", "XML", &origin).replace("<DataItem", "<DataItem Name=\"Origin\""),
+        item("3", "Float", "XML", &format!("{h} {h} {h}")).replace("<DataItem", "<DataItem Name=\"Spacing\""),
+    );
+    let mut arrays: Vec<(String, bool, String)> =
+        e.cells.iter().map(|(q, v)| (q.clone(), *v, format!("/{q}"))).collect();
+    for f in &e.fields {
+        for (q, v) in &f.cells {
+            arrays.push((format!("{}_{q}", f.group), *v, format!("/fields/{}/{q}", f.group)));
+        }
+    }
+    for (a, v) in &e.averages {
+        arrays.push((format!("average_{a}"), *v, format!("/averages/{a}")));
+    }
+    for (name, v, path) in arrays {
+        let (kind, dims) = if v { ("Vector", &vector) } else { ("Scalar", &scalar) };
+        s.push_str(&attribute(&name, kind, "Cell", hdf(dims, "Float", &path)));
+    }
+    s.push_str("        </Grid>\n");
+    let with_points = e.fields.iter().filter_map(|f| f.points.as_ref().map(|(_, listed)| (&f.group, listed)));
+    for ((g, listed), &n) in with_points.zip(&piece.points) {
+        // the points' grid needs their positions
+        if n == 0 || !listed.iter().any(|(q, _)| q == "position") {
+            continue;
+        }
+        let base = format!("/fields/{g}/points");
         let _ = writeln!(
             s,
-            "        <Grid Name=\"grid\" GridType=\"Uniform\">\n          \
-             <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"{nodes}\"/>\n          \
-             <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n            {}\n            {}\n          </Geometry>",
-            item("3", "Float", "XML", &origin).replace("<DataItem", "<DataItem Name=\"Origin\""),
-            item("3", "Float", "XML", &format!("{h} {h} {h}")).replace("<DataItem", "<DataItem Name=\"Spacing\""),
+            "        <Grid Name=\"{} points{suffix}\" GridType=\"Uniform\">\n          \
+             <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\" NodesPerElement=\"1\"/>\n          \
+             <Geometry GeometryType=\"XYZ\">\n            {}\n          </Geometry>",
+            xml_escape(g),
+            hdf(&format!("{n} 3"), "Float", &format!("{base}/position"))
         );
-        let mut cells: Vec<(String, bool, String)> =
-            e.cells.iter().map(|(q, v)| (q.clone(), *v, format!("/{q}"))).collect();
-        for f in &e.fields {
-            for (q, v) in &f.cells {
-                cells.push((format!("{}_{q}", f.group), *v, format!("/fields/{}/{q}", f.group)));
-            }
-        }
-        for (a, v) in &e.averages {
-            cells.push((format!("average_{a}"), *v, format!("/averages/{a}")));
-        }
-        for (name, v, path) in cells {
-            let (kind, dims) = if v { ("Vector", &vector) } else { ("Scalar", &scalar) };
-            s.push_str(&attribute(&name, kind, "Cell", hdf(dims, "Float", &path)));
+        let arrays = listed
+            .iter()
+            .filter(|(q, _)| q != "position")
+            .map(|(q, v)| (q.as_str(), *v, "Float"))
+            .chain([("body", false, "Int")]);
+        for (q, v, number) in arrays {
+            let (kind, dims) = if v { ("Vector", format!("{n} 3")) } else { ("Scalar", format!("{n}")) };
+            s.push_str(&attribute(q, kind, "Node", hdf(&dims, number, &format!("{base}/{q}"))));
         }
         s.push_str("        </Grid>\n");
-        for f in &e.fields {
-            // the points' grid needs their positions
-            let drawn = |(n, l): &&(usize, Listed)| *n > 0 && l.iter().any(|(q, _)| q == "position");
-            let Some((n, listed)) = f.points.as_ref().filter(drawn) else { continue };
-            let g = &f.group;
-            let base = format!("/fields/{g}/points");
-            let _ = writeln!(
-                s,
-                "        <Grid Name=\"{} points\" GridType=\"Uniform\">\n          \
-                 <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\" NodesPerElement=\"1\"/>\n          \
-                 <Geometry GeometryType=\"XYZ\">\n            {}\n          </Geometry>",
-                xml_escape(g),
-                hdf(&format!("{n} 3"), "Float", &format!("{base}/position"))
-            );
-            let arrays = listed
-                .iter()
-                .filter(|(q, _)| q != "position")
-                .map(|(q, v)| (q.as_str(), *v, "Float"))
-                .chain([("body", false, "Int")]);
-            for (q, v, number) in arrays {
-                let (kind, dims) = if v { ("Vector", format!("{n} 3")) } else { ("Scalar", format!("{n}")) };
-                s.push_str(&attribute(q, kind, "Node", hdf(&dims, number, &format!("{base}/{q}"))));
-            }
-            s.push_str("        </Grid>\n");
-        }
-        s.push_str("      </Grid>\n");
     }
-    s.push_str("    </Grid>\n  </Domain>\n</Xdmf>\n");
-    s
 }
 
 #[cfg(all(test, feature = "dim2"))]

@@ -724,6 +724,27 @@ pub struct SnapshotSpec {
     /// the same grid takes them unchanged. Default false.
     #[serde(default, skip_serializing_if = "is_false")]
     pub faces: bool,
+    /// How a run on several ranks writes a snapshot (`mpirun`; one process writes one
+    /// file either way). Default `Gathered`.
+    #[serde(default, skip_serializing_if = "is_gathered")]
+    pub layout: SnapshotLayout,
+}
+
+/// How a decomposed run writes its snapshots (docs/design/mpi.md §6).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SnapshotLayout {
+    /// Rank 0 writes the whole domain in one file, gathered from the ranks' blocks: the
+    /// bytes of a run on one process.
+    #[default]
+    Gathered,
+    /// Each rank writes its block (its owned cells and faces, its points) to
+    /// `snapshots/snapshot_<n>/rank_<r>.h5`; the XDMF ties the blocks of each time into
+    /// one dataset for ParaView and VisIt. No rank holds more than its block.
+    PerRank,
+}
+
+fn is_gathered(l: &SnapshotLayout) -> bool {
+    *l == SnapshotLayout::Gathered
 }
 
 fn names(v: &[&str]) -> Vec<QuantityName> {
@@ -765,6 +786,7 @@ impl SnapshotSpec {
             fields: default_field_quantities(),
             points: default_point_quantities(),
             faces: false,
+            layout: SnapshotLayout::Gathered,
         }
     }
 }

@@ -98,7 +98,7 @@ fn index(s: Index, at: Index) -> usize {
 }
 
 /// Calls `f` with the storage index of every node of the box `r`, x fastest.
-pub(crate) fn for_each(s: Index, r: &[Range<usize>; DIM], mut f: impl FnMut(usize)) {
+pub fn for_each(s: Index, r: &[Range<usize>; DIM], mut f: impl FnMut(usize)) {
     if r.iter().any(|r| r.is_empty()) {
         return;
     }

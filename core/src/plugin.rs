@@ -300,6 +300,14 @@ pub trait Frame: Send + Sync {
     fn points(&self) -> Option<crate::quantity::PointSet> {
         None
     }
+    /// The points rank `rank` writes to its own snapshot file (`layout: PerRank`): those it
+    /// holds. Default: every point on rank 0 and none on the others (a frame on the whole
+    /// domain, or one whose points every rank holds); a frame whose points migrate
+    /// between the ranks returns its own.
+    fn local_points(&self, rank: usize) -> Option<crate::quantity::PointSet> {
+        let all = self.points()?;
+        Some(if rank == 0 { all } else { crate::quantity::PointSet { bodies: all.bodies, ..Default::default() } })
+    }
     /// Downcasting, for checkpoints and tests.
     fn as_any(&self) -> &dyn Any;
     /// Mutable downcasting, for checkpoints and tests.

@@ -312,6 +312,21 @@ impl Lagrangian {
 
     /// The field's points: on a rank's block of a decomposed domain, every rank's in id
     /// order (a collective: every rank calls it).
+    /// The output's view of the points `p` (positions, velocities, volumes, masses,
+    /// stresses, bodies and the models' per-point state).
+    fn point_set(&self, p: &Points) -> PointSet {
+        PointSet {
+            position: p.x.clone(),
+            velocity: p.v.clone(),
+            volume: (0..p.len()).map(|k| p.volume(k)).collect(),
+            mass: p.m.clone(),
+            stress: p.stress.clone(),
+            body: p.body.iter().map(|&b| b as i64 - 1).collect(),
+            bodies: self.bodies.iter().map(|b| b.state.name.clone()).collect(),
+            model_state: p.model_state.clone(),
+        }
+    }
+
     fn all_points(&self) -> Cow<'_, Points> {
         if self.local.part.is_whole() {
             Cow::Borrowed(&self.points)
@@ -1321,17 +1336,12 @@ impl Frame for Lagrangian {
     /// On a rank's block of a decomposed domain, every rank's points in id order (a
     /// collective: every rank calls it).
     fn points(&self) -> Option<PointSet> {
-        let p = &*self.all_points();
-        Some(PointSet {
-            position: p.x.clone(),
-            velocity: p.v.clone(),
-            volume: (0..p.len()).map(|k| p.volume(k)).collect(),
-            mass: p.m.clone(),
-            stress: p.stress.clone(),
-            body: p.body.iter().map(|&b| b as i64 - 1).collect(),
-            bodies: self.bodies.iter().map(|b| b.state.name.clone()).collect(),
-            model_state: p.model_state.clone(),
-        })
+        Some(self.point_set(&self.all_points()))
+    }
+
+    /// This rank's points (they migrate: each rank writes those whose cell it owns).
+    fn local_points(&self, _rank: usize) -> Option<PointSet> {
+        Some(self.point_set(&self.points))
     }
 
     fn max_speed(&self) -> Real {

@@ -9,6 +9,7 @@ mod common;
 mod dkt;
 mod exchange_box;
 mod mass_points;
+mod per_rank;
 mod refusals;
 mod restart;
 mod taylor_green;

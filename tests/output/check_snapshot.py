@@ -3,7 +3,7 @@
 
 Usage: python3 tests/output/check_snapshot.py RUN_DIR   (RUN_DIR holds snapshots/, or is it)
 
-Opens the newest snapshot and checks its attributes (time, step, case, program, grid),
+Opens the newest snapshot (each rank's file of a snapshot written per rank) and checks its attributes (time, step, case, program, grid),
 the shapes of every grid and point array, that no value is NaN, that θ lies in [0, 1]
 and the bulk density is θ ρ⁰, the point count and body ids. Then parses the XDMF sidecar
 (xml.etree) and checks that every time refers to a snapshot whose `time` attribute it
@@ -232,7 +232,9 @@ def check_xdmf(xdmf, folder):
                 continue
             kind = topo.get("TopologyType")
             if kind == "3DCoRectMesh":
-                f = next(iter(files.values()), None)
+                # the file of this grid's arrays (a rank's, for a snapshot written per rank)
+                item = next((i for i in g.iter("DataItem") if i.get("Format") == "HDF"), None)
+                f = files.get(item.text.strip().partition(":")[0]) if item is not None else None
                 if f is not None:
                     nx, ny = (int(c) for c in f.attrs["cells"])
                     if topo.get("Dimensions") != f"2 {ny + 1} {nx + 1}":
@@ -260,16 +262,21 @@ def main():
     folder = sys.argv[1]
     if os.path.isdir(os.path.join(folder, "snapshots")):
         folder = os.path.join(folder, "snapshots")
-    snapshots = sorted(glob.glob(os.path.join(folder, "snapshot_*.h5")))
+    # a snapshot is one file, or (written per rank by a decomposed run) a folder of the
+    # ranks' files
+    snapshots = sorted(glob.glob(os.path.join(folder, "snapshot_*.h5")) +
+                       [d for d in glob.glob(os.path.join(folder, "snapshot_*")) if os.path.isdir(d)])
     xdmfs = glob.glob(os.path.join(folder, "*.xdmf"))
     if not snapshots:
         fail(f"{folder}: no snapshot_*.h5")
     if len(xdmfs) != 1:
         fail(f"{folder}: {len(xdmfs)} .xdmf files, expected 1")
     if not errors:
-        check_snapshot(snapshots[-1])
+        newest = snapshots[-1]
+        for f in sorted(glob.glob(os.path.join(newest, "rank_*.h5"))) if os.path.isdir(newest) else [newest]:
+            check_snapshot(f)
         run_dir = os.path.dirname(os.path.abspath(folder))
-        groups = sum(check_suspension(s, run_dir) for s in snapshots)
+        groups = sum(check_suspension(s, run_dir) for s in snapshots if not os.path.isdir(s))
         if groups:
             print(f"{groups} suspension groups equal to their monitors' CSV rows")
         listed = check_xdmf(xdmfs[0], folder)

@@ -38,9 +38,9 @@
 use super::cholesky::SparseLlt;
 use super::stencil::{Stencil, PARALLEL_CELLS};
 use multifield_core::exact::{reduce, row_sums, GROUP};
+use multifield_core::grid::Lattice;
 use multifield_core::math::{Index, Real, DIM, SIDES};
 use multifield_core::plugin::PressureSolver;
-use multifield_core::grid::Lattice;
 use multifield_core::poisson::{PoissonProblem, SolveStats};
 use multifield_core::registry::{params_value, ParamDoc};
 use multifield_core::{Error, Result};
