@@ -155,16 +155,7 @@ fn snapshots_per_rank_hold_the_serial_values() {
             let compared = compare(np, &folder, &whole);
             assert!(compared > 2 * 250, "np {np}: {compared} points in {f}");
         }
-        // h5py opens every rank file of the last time and every file:/path the XDMF
-        // references, with the stated shapes (tests/output/check_snapshot.py)
-        let h5py = Command::new("python3").args(["-c", "import h5py"]).output().is_ok_and(|o| o.status.success());
-        if h5py {
-            let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/output/check_snapshot.py");
-            let o = Command::new("python3").arg(script).arg(&out).output().unwrap();
-            assert!(o.status.success(), "np {np}: check_snapshot.py: {:?}", text(&o));
-        } else {
-            println!("note: np {np}: h5py not installed (python3 -m pip install h5py): its check skipped");
-        }
+        check_with_h5py(&out, &format!("np {np}"));
         // the XDMF: a grid of each rank's block (and one of its points, for the ranks that
         // hold disk points) in each time, from its file
         let xdmf = std::fs::read_to_string(out.join("snapshots/dkt_seed.xdmf")).unwrap();
@@ -177,4 +168,105 @@ fn snapshots_per_rank_hold_the_serial_values() {
             }
         }
     }
+}
+
+/// A run continued from a checkpoint in the same output directory keeps the snapshots
+/// written per rank before the checkpoint's step, and numbers on: 10 steps of the
+/// Taylor–Green vortex on 2 ranks, then steps 10 to 20 on 3 (a checkpoint restarts on any
+/// rank count). The XDMF lists every time once, in order, each time's grids those of the
+/// ranks that wrote it; the last snapshot holds the serial run's values.
+#[test]
+fn a_restart_keeps_the_snapshots_per_rank_before_it() {
+    let t = "a_restart_keeps_the_snapshots_per_rank_before_it";
+    let dir = scratch(t);
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/taylor_green.ron").display().to_string();
+    let args = |out: &Path, steps: u32, restart: Option<&Path>| -> Vec<String> {
+        let mut a: Vec<String> = ["run", &case, "--out", &out.display().to_string(), "--quiet", "--threads", "1"]
+            .map(str::to_string)
+            .to_vec();
+        for s in [
+            "domain.cells=(64, 64)".to_string(),
+            format!("time.max_steps={steps}"),
+            "output.interval=0".into(),
+            "output.charts=false".into(),
+            "output.checkpoints=Some((interval: 10.0))".into(),
+            "output.snapshots=Some((interval: 0.1, faces: true, layout: PerRank))".into(),
+        ] {
+            a.extend(["--set".to_string(), s]);
+        }
+        if let Some(r) = restart {
+            a.extend(["--restart".to_string(), r.display().to_string()]);
+        }
+        a
+    };
+    let serial = dir.join("serial");
+    let o = Command::new(env!("CARGO_BIN_EXE_multifield")).args(args(&serial, 20, None)).output().unwrap();
+    assert!(o.status.success(), "{:?}", text(&o));
+    let out = dir.join("ranks");
+    let a = args(&out, 10, None);
+    let Some(o) = mpirun(t, 2, &a.iter().map(String::as_str).collect::<Vec<_>>()) else { return };
+    assert!(o.status.success(), "{:?}", text(&o));
+    let before: Vec<String> = snapshot_folders(&out);
+    let checkpoint = out.join("checkpoints/checkpoint_10.bin");
+    let a = args(&out, 20, Some(&checkpoint));
+    let Some(o) = mpirun(t, 3, &a.iter().map(String::as_str).collect::<Vec<_>>()) else { return };
+    assert!(o.status.success(), "{:?}", text(&o));
+    let after = snapshot_folders(&out);
+    // the first run's folders kept but the one of its last step, step 10, which the
+    // continued run writes again (at its start, as with one file a time), numbering on
+    assert!(before.len() >= 2 && after.len() > before.len() && after.starts_with(&before), "{before:?} {after:?}");
+    for (k, f) in after.iter().enumerate() {
+        let files = std::fs::read_dir(out.join("snapshots").join(f)).unwrap().count();
+        let ranks = if k + 1 < before.len() { 2 } else { 3 };
+        assert_eq!(files, ranks, "{f}");
+    }
+    let xdmf = std::fs::read_to_string(out.join("snapshots/taylor_green.xdmf")).unwrap();
+    let times: Vec<f64> = xdmf
+        .match_indices("<Time Value=\"")
+        .map(|(i, m)| xdmf[i + m.len()..].split('"').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(times.len(), after.len());
+    assert!(times.windows(2).all(|w| w[0] < w[1]), "{times:?}");
+    for (k, f) in after.iter().enumerate() {
+        let ranks = if k + 1 < before.len() { 2 } else { 3 };
+        let grid = |r: usize| format!("{f}/rank_{r:04}.h5:/pressure");
+        assert!(xdmf.contains(&grid(ranks - 1)) && !xdmf.contains(&grid(ranks)), "{f}");
+    }
+    check_with_h5py(&out, "after the restart");
+    // the last time, step 20, holds the serial run's values
+    let last = after.last().unwrap();
+    let mut serial_files: Vec<String> = std::fs::read_dir(serial.join("snapshots"))
+        .unwrap()
+        .filter_map(|e| e.unwrap().file_name().to_string_lossy().strip_suffix(".h5").map(str::to_string))
+        .collect();
+    serial_files.sort();
+    let whole = Snapshot::read(&serial.join("snapshots").join(format!("{}.h5", serial_files.last().unwrap()))).unwrap();
+    assert_eq!(whole.step, 20);
+    compare(3, &out.join("snapshots").join(last), &whole);
+}
+
+/// h5py opens every rank file of the last time and every file:/path the XDMF of the run
+/// `out` references, with the stated shapes (tests/output/check_snapshot.py); skipped with
+/// a note where h5py is missing (CI installs it).
+fn check_with_h5py(out: &Path, what: &str) {
+    let h5py = Command::new("python3").args(["-c", "import h5py"]).output().is_ok_and(|o| o.status.success());
+    if !h5py {
+        println!("note: {what}: h5py not installed (python3 -m pip install h5py): its check skipped");
+        return;
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/output/check_snapshot.py");
+    let o = Command::new("python3").arg(script).arg(out).output().unwrap();
+    assert!(o.status.success(), "{what}: check_snapshot.py: {:?}", text(&o));
+}
+
+/// The snapshot folders of a run written per rank, in order.
+fn snapshot_folders(out: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(out.join("snapshots"))
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_dir())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
 }
