@@ -174,9 +174,33 @@ pub fn file_name(step: u64) -> String {
     format!("checkpoint_{step}.bin")
 }
 
-/// The step of a checkpoint's file name (`checkpoint_<step>.bin`).
+/// The step of a checkpoint's file name (`checkpoint_<step>.bin`), or of the folder of a
+/// checkpoint written per rank (`checkpoint_<step>`).
 pub fn step_of(path: &Path) -> Option<u64> {
-    path.file_name()?.to_str()?.strip_prefix("checkpoint_")?.strip_suffix(".bin")?.parse().ok()
+    let n = path.file_name()?.to_str()?.strip_prefix("checkpoint_")?;
+    n.strip_suffix(".bin").unwrap_or(n).parse().ok()
+}
+
+/// The folder of a checkpoint written per rank that `path` names: the folder itself, or one
+/// of its rank files.
+fn rank_folder(path: &Path) -> Option<PathBuf> {
+    if path.is_dir() {
+        return Some(path.to_path_buf());
+    }
+    let in_folder = path.file_name()?.to_str()?.starts_with("rank_")
+        && path.parent()?.file_name()?.to_str()?.starts_with("checkpoint_");
+    in_folder.then(|| path.parent().map(Path::to_path_buf)).flatten()
+}
+
+/// The file of rank `rank` in the folder of a checkpoint written per rank.
+fn rank_file(rank: usize) -> String {
+    format!("rank_{rank:04}.bin")
+}
+
+/// Removes a checkpoint: a file, or the folder of one written per rank.
+fn remove(path: &Path) -> Result<(), Error> {
+    let removed = if path.is_dir() { std::fs::remove_dir_all(path) } else { std::fs::remove_file(path) };
+    removed.map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }
 
 /// The checkpoints of the run directory `run_dir` (complete names only, not the
@@ -195,7 +219,12 @@ pub fn list(run_dir: &Path) -> Vec<(u64, PathBuf)> {
 
 /// The bytes of a checkpoint of `sim` with the runner's state `runner`.
 pub fn encode(sim: &Simulation, runner: &RunnerState) -> Result<Vec<u8>, Error> {
-    let simulation = sim.save_state()?;
+    encode_with(sim, runner, sim.save_state()?)
+}
+
+/// [`encode`] with the simulation's state `simulation` (the whole domain's, or a rank's own,
+/// [`Simulation::save_rank_state`]).
+fn encode_with(sim: &Simulation, runner: &RunnerState, simulation: Vec<u8>) -> Result<Vec<u8>, Error> {
     let case = sim.case.to_ron();
     let payload = Payload {
         step: sim.steps,
@@ -304,7 +333,7 @@ fn decode(path: &Path, bytes: &[u8]) -> Result<Checkpoint, String> {
 const MAY_CHANGE: [&str; 5] = ["time", "output", "description", "monitors", "stop"];
 
 /// The entries in which two cases differ (dotted paths as for `--set`, named list entries
-/// by name), except [`MAY_CHANGE`]; each as "`path` is A in the checkpoint, B here".
+/// by name), except [`MAY_CHANGE`] and `domain.ranks`; each as "`path` is A in the checkpoint, B here".
 pub fn differences(checkpoint: &Case, here: &Case) -> Vec<String> {
     fn walk(path: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
         use serde_json::Value;
@@ -335,6 +364,8 @@ pub fn differences(checkpoint: &Case, here: &Case) -> Vec<String> {
                 }
             }
             _ if a == b => {}
+            // the rank grid changes where a run happens, not its results
+            _ if path == "domain.ranks" => {}
             _ => out.push(format!("`{path}` is {a} in the checkpoint, {b} here")),
         }
     }
@@ -360,7 +391,11 @@ pub fn restore_on(
     path: &Path,
     comm: Option<std::sync::Arc<dyn crate::core::parallel::Comm>>,
 ) -> Result<(Simulation, Checkpoint), Error> {
-    let checkpoint = read(path)?;
+    let folder = rank_folder(path);
+    let checkpoint = match &folder {
+        Some(folder) => read_rank(folder, comm.as_deref())?,
+        None => read(path)?,
+    };
     let mut sim = match comm {
         Some(comm) => Simulation::with_comm(case, comm)?,
         None => Simulation::new(case)?,
@@ -370,7 +405,7 @@ pub fn restore_on(
         let shown = diff.iter().take(6).cloned().collect::<Vec<_>>().join("; ");
         let more = if diff.len() > 6 { format!("; and {} more", diff.len() - 6) } else { String::new() };
         return Err(Error::Model(format!(
-            "checkpoint {} was written by a different case `{}`: {shown}{more}. A restart may change only \
+            "checkpoint {} was written by a different case `{}`: {shown}{more}. A restart may change only domain.ranks, \
              time.*, output.*, description, monitors and stop: restart with the case the checkpoint was written with (its \
              run directory's case.ron, with --set time.end=… to go further), or run the changed case from \
              t = 0 without --restart",
@@ -378,11 +413,46 @@ pub fn restore_on(
             checkpoint.case.name
         )));
     }
-    sim.load_state(&checkpoint.simulation).map_err(|e| bad(path, format!("does not fit the case: {e}")))?;
+    match &folder {
+        Some(folder) => sim
+            .load_rank_state(&checkpoint.simulation)
+            .map_err(|e| Error::Model(format!("checkpoint {}: {e}", folder.display())))?,
+        None => sim.load_state(&checkpoint.simulation).map_err(|e| bad(path, format!("does not fit the case: {e}")))?,
+    }
     if sim.steps != checkpoint.step || sim.time.to_bits() != checkpoint.time.to_bits() {
         return Err(bad(path, "its header and its simulation state disagree on the step".into()));
     }
     Ok((sim, checkpoint))
+}
+
+/// This rank's file of the checkpoint `folder` written per rank (rank 0's without `comm`):
+/// refused on every rank alike when the folder holds another number of rank files than
+/// the run has ranks, or when a rank's file does not read.
+fn read_rank(folder: &Path, comm: Option<&dyn crate::core::parallel::Comm>) -> Result<Checkpoint, Error> {
+    let (rank, ranks) = comm.map_or((0, 1), |c| (c.rank(), c.size()));
+    let files = std::fs::read_dir(folder)
+        .map_err(|source| Error::Io { path: folder.to_path_buf(), source })?
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("rank_"))
+        .count();
+    if files != ranks {
+        return Err(Error::Model(format!(
+            "checkpoint {}: written per rank by {files} ranks, and this run has {ranks}: continue it with \
+             `mpirun -np {files}` (and the rank grid it was written on), or from a checkpoint written with \
+             `layout: Gathered` (the default), which restarts on any number of ranks",
+            folder.display()
+        )));
+    }
+    let mut checkpoint = read(&folder.join(rank_file(rank)));
+    if let Some(c) = comm {
+        if c.any(checkpoint.is_err()) && checkpoint.is_ok() {
+            checkpoint =
+                Err(Error::Model(format!("checkpoint {}: another rank's file does not read", folder.display())));
+        }
+    }
+    let mut checkpoint = checkpoint?;
+    checkpoint.path = folder.to_path_buf();
+    Ok(checkpoint)
 }
 
 /// Next time of a schedule of `interval` after `t` when it cannot be carried over: the
@@ -397,7 +467,7 @@ pub fn next_after(t: Real, interval: Real) -> Real {
 /// checkpoint of the abandoned steps must not be mistaken for one of the new run.
 pub fn discard_after(run_dir: &Path, step: u64) -> Result<(), Error> {
     for (_, path) in list(run_dir).into_iter().filter(|(s, _)| *s > step) {
-        std::fs::remove_file(&path).map_err(|source| Error::Io { path, source })?;
+        remove(&path)?;
     }
     Ok(())
 }
@@ -412,6 +482,8 @@ pub struct Checkpoints {
     /// Whether this process writes the files: one process, or rank 0 of a decomposed run
     /// (every rank gathers its block into the checkpoint and keeps the schedule).
     writes: bool,
+    /// Each rank writes its own state (`layout: PerRank` on several ranks).
+    per_rank: bool,
 }
 
 impl Checkpoints {
@@ -419,17 +491,18 @@ impl Checkpoints {
     /// interval for a new run); `last_step` is the step of a checkpoint the run starts
     /// from. Creates the folder and removes temporary files left by a killed run.
     pub fn create(run_dir: &Path, schedule: Schedule, next: Real, last_step: Option<u64>) -> Result<Self, Error> {
-        Self::create_on(run_dir, schedule, next, last_step, true)
+        Self::create_on(run_dir, schedule, next, last_step, true, false)
     }
 
     /// [`Checkpoints::create`] on a rank of a decomposed run: `writes` on rank 0 only (the
-    /// others touch no file).
+    /// others touch no file but, `per_rank`, their own rank files).
     pub fn create_on(
         run_dir: &Path,
         schedule: Schedule,
         next: Real,
         last_step: Option<u64>,
         writes: bool,
+        per_rank: bool,
     ) -> Result<Self, Error> {
         let folder = run_dir.join(FOLDER);
         if writes {
@@ -440,9 +513,13 @@ impl Checkpoints {
                 if name.starts_with(".checkpoint_") && name.ends_with(".bin.tmp") {
                     let _ = std::fs::remove_file(e.path());
                 }
+                // a per-rank checkpoint a killed run did not complete
+                if name.starts_with(".checkpoint_") && name.ends_with(".tmp") && e.path().is_dir() {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
             }
         }
-        Ok(Self { folder, due: Due::new(next, schedule.interval), last_step, last_path: None, writes })
+        Ok(Self { folder, due: Due::new(next, schedule.interval), last_step, last_path: None, writes, per_rank })
     }
 
     /// Whether a checkpoint is due after a step that ended at `t`; if so, moves the
@@ -465,6 +542,9 @@ impl Checkpoints {
     /// but the newest of them. `runner.next_checkpoint` is set here.
     pub fn write(&mut self, sim: &Simulation, runner: &RunnerState) -> Result<PathBuf, Error> {
         let runner = RunnerState { next_checkpoint: self.due.next(), ..runner.clone() };
+        if self.per_rank {
+            return self.write_per_rank(sim, &runner);
+        }
         // (every rank of a decomposed run: the state is gathered)
         let bytes = encode(sim, &runner)?;
         let path = self.folder.join(file_name(sim.steps));
@@ -482,12 +562,50 @@ impl Checkpoints {
     /// newest of them.
     fn write_file(&self, path: &Path, bytes: &[u8], step: u64) -> Result<(), Error> {
         crate::output::write_atomically(path, bytes)?;
+        self.prune(step)
+    }
+
+    /// Deletes the checkpoints of steps before `step` but the newest of them.
+    fn prune(&self, step: u64) -> Result<(), Error> {
         let run_dir = self.folder.parent().unwrap_or(Path::new("."));
         let earlier: Vec<PathBuf> = list(run_dir).into_iter().filter(|(s, _)| *s < step).map(|(_, p)| p).collect();
         for old in earlier.iter().rev().skip(1) {
-            std::fs::remove_file(old).map_err(|source| Error::Io { path: old.clone(), source })?;
+            remove(old)?;
         }
         Ok(())
+    }
+
+    /// [`Checkpoints::write`] per rank: every rank writes its own state
+    /// ([`Simulation::save_rank_state`]) to `rank_<r>.bin` in `.checkpoint_<step>.tmp/`;
+    /// once every rank has, rank 0 renames the folder `checkpoint_<step>` (a killed run
+    /// leaves whole checkpoints only) and prunes the earlier ones.
+    fn write_per_rank(&mut self, sim: &Simulation, runner: &RunnerState) -> Result<PathBuf, Error> {
+        let part = &sim.grid.part;
+        let step = sim.steps;
+        let (tmp, done) = (self.folder.join(format!(".checkpoint_{step}.tmp")), self.folder.join(file_name(step)));
+        let done = done.with_extension("");
+        let written = encode_with(sim, runner, sim.save_rank_state()?).and_then(|bytes| {
+            std::fs::create_dir_all(&tmp).map_err(|source| Error::Io { path: tmp.clone(), source })?;
+            crate::output::write_atomically(&tmp.join(rank_file(part.rank())), &bytes)
+        });
+        let agreed = |result: Result<(), Error>, what: &str| {
+            if part.any(result.is_err()) {
+                return Err(result.err().unwrap_or_else(|| Error::Model(format!("another rank could not {what}"))));
+            }
+            Ok(())
+        };
+        agreed(written, "write its part of a checkpoint")?;
+        let renamed = if self.writes {
+            (if done.exists() { remove(&done) } else { Ok(()) })
+                .and_then(|_| std::fs::rename(&tmp, &done).map_err(|source| Error::Io { path: done.clone(), source }))
+                .and_then(|_| self.prune(step))
+        } else {
+            Ok(())
+        };
+        agreed(renamed, "complete a checkpoint")?;
+        self.last_step = Some(step);
+        self.last_path = Some(done.clone());
+        Ok(done)
     }
 }
 

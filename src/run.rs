@@ -48,7 +48,7 @@
 //! An error of a solver or a model (or a panic inside one) ends the run as `"failed"`
 //! with the message.
 
-use crate::core::case::Case;
+use crate::core::case::{Case, RankLayout};
 use crate::core::driver::{BodiesCsv, DiagnosticsCsv, Driver, RunState};
 use crate::core::error::Error;
 use crate::core::math::{Real, DIM};
@@ -437,7 +437,8 @@ fn run_simulation(
             None => schedule.interval,
         };
         let last = resumed.as_ref().map(|c| c.step);
-        checkpoints = Some(crate::checkpoint::Checkpoints::create_on(dir, schedule, next, last, writes)?);
+        let per_rank = schedule.layout == RankLayout::PerRank && !sim.grid.part.is_whole();
+        checkpoints = Some(crate::checkpoint::Checkpoints::create_on(dir, schedule, next, last, writes, per_rank)?);
     }
     if writes {
         write_file(&dir.join("case.ron"), &sim.case.to_ron())?;

@@ -97,7 +97,7 @@
 //! registry (vorticity: central differences of the cell-centred velocity, one-sided at a
 //! domain edge, wrapped across a periodic side).
 
-use crate::core::case::{SnapshotLayout, SnapshotSpec};
+use crate::core::case::{RankLayout, SnapshotSpec};
 use crate::core::driver::{Step, Writer};
 use crate::core::error::Error;
 use crate::core::grid::{Grid, Lattice};
@@ -1275,7 +1275,7 @@ impl Snapshots {
 
     /// Writes the snapshot of the current state and rewrites the XDMF.
     fn write(&mut self, sim: &Simulation) -> Result<(), Error> {
-        if self.spec.layout == SnapshotLayout::PerRank && !sim.grid.part.is_whole() {
+        if self.spec.layout == RankLayout::PerRank && !sim.grid.part.is_whole() {
             return self.write_per_rank(sim);
         }
         let snap = Snapshot::with(sim, &self.spec)?.gathered(&sim.grid);

@@ -688,6 +688,10 @@ impl Default for OutputSpec {
 pub struct Schedule {
     /// Simulated time between writes (time).
     pub interval: Real,
+    /// How a run on several ranks writes each checkpoint (`mpirun`; one process writes one
+    /// file either way). Default `Gathered`.
+    #[serde(default, skip_serializing_if = "is_gathered")]
+    pub layout: RankLayout,
 }
 
 /// HDF5 snapshots: when, and which quantities ([`crate::quantity`]; `multifield
@@ -727,24 +731,25 @@ pub struct SnapshotSpec {
     /// How a run on several ranks writes a snapshot (`mpirun`; one process writes one
     /// file either way). Default `Gathered`.
     #[serde(default, skip_serializing_if = "is_gathered")]
-    pub layout: SnapshotLayout,
+    pub layout: RankLayout,
 }
 
-/// How a decomposed run writes its snapshots (docs/design/mpi.md §6).
+/// How a decomposed run writes its snapshots and checkpoints (docs/design/mpi.md §6).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum SnapshotLayout {
+pub enum RankLayout {
     /// Rank 0 writes the whole domain in one file, gathered from the ranks' blocks: the
-    /// bytes of a run on one process.
+    /// bytes of a run on one process (a checkpoint then restarts on any number of ranks).
     #[default]
     Gathered,
-    /// Each rank writes its block (its owned cells and faces, its points) to
-    /// `snapshots/snapshot_<n>/rank_<r>.h5`; the XDMF ties the blocks of each time into
-    /// one dataset for ParaView and VisIt. No rank holds more than its block.
+    /// Each rank writes its own part, no rank holds more than its block: a snapshot's
+    /// block (its owned cells and faces, its points) to `snapshots/snapshot_<n>/rank_<r>.h5`,
+    /// tied into one dataset per time by the XDMF; a checkpoint's state to
+    /// `checkpoints/checkpoint_<step>/rank_<r>.bin`, which restarts on the same ranks.
     PerRank,
 }
 
-fn is_gathered(l: &SnapshotLayout) -> bool {
-    *l == SnapshotLayout::Gathered
+fn is_gathered(l: &RankLayout) -> bool {
+    *l == RankLayout::Gathered
 }
 
 fn names(v: &[&str]) -> Vec<QuantityName> {
@@ -786,7 +791,7 @@ impl SnapshotSpec {
             fields: default_field_quantities(),
             points: default_point_quantities(),
             faces: false,
-            layout: SnapshotLayout::Gathered,
+            layout: RankLayout::Gathered,
         }
     }
 }

@@ -308,6 +308,18 @@ pub trait Frame: Send + Sync {
         let all = self.points()?;
         Some(if rank == 0 { all } else { crate::quantity::PointSet { bodies: all.bodies, ..Default::default() } })
     }
+    /// This rank's own state for a checkpoint written per rank (`output.checkpoints.layout:
+    /// PerRank`): its block's storage and the points it holds, nothing gathered;
+    /// [`Frame::load_rank_state`] on the same rank of the same rank grid continues bit for
+    /// bit. Default: [`Frame::save_state`] (a frame on the whole domain, or one whose state
+    /// every rank holds alike).
+    fn save_rank_state(&self) -> Result<Vec<u8>, String> {
+        self.save_state()
+    }
+    /// Restores what [`Frame::save_rank_state`] wrote. Default: [`Frame::load_state`].
+    fn load_rank_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.load_state(bytes)
+    }
     /// Downcasting, for checkpoints and tests.
     fn as_any(&self) -> &dyn Any;
     /// Mutable downcasting, for checkpoints and tests.

@@ -1035,11 +1035,32 @@ impl Frame for Eulerian {
         })
     }
 
+    /// The block's own θ and face velocities (its storage, halo included).
+    fn save_rank_state(&self) -> Result<Vec<u8>, String> {
+        let w = &self.work;
+        state::encode(&EulerianState {
+            steps: w.steps,
+            theta: Cow::Borrowed(&w.theta),
+            velocity: Cow::Borrowed(&w.velocity),
+        })
+    }
+
+    fn load_rank_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.load(bytes, true)
+    }
+
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.load(bytes, false)
+    }
+}
+
+impl Eulerian {
+    /// [`Frame::load_state`] (`own`: [`Frame::load_rank_state`], the block's own storage).
+    fn load(&mut self, bytes: &[u8], own: bool) -> Result<(), String> {
         let saved: EulerianState = state::decode(bytes, "eulerian state")?;
         let w = &mut self.work;
         let g = w.grid.clone();
-        if g.part.is_whole() {
+        if g.part.is_whole() || own {
             state::copy_into(&mut w.theta, &saved.theta, "eulerian volume fraction")?;
             for a in AXES {
                 let what = format!("eulerian velocity on {}-faces", multifield_core::math::axis_name(a));

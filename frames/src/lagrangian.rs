@@ -1381,8 +1381,41 @@ impl Frame for Lagrangian {
         })
     }
 
+    /// The points this rank holds, with their ids and the models' per-point widths.
+    fn save_rank_state(&self) -> Result<Vec<u8>, String> {
+        state::encode(&LagrangianRankState {
+            state: LagrangianState {
+                points: Cow::Borrowed(&self.points),
+                bodies: self.bodies.iter().map(|b| Cow::Borrowed(&b.state)).collect(),
+            },
+            id: Cow::Borrowed(&self.points.id),
+            widths: Cow::Borrowed(&self.points.widths),
+        })
+    }
+
+    fn load_rank_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let saved: LagrangianRankState = state::decode(bytes, "lagrangian state of a rank")?;
+        let n = saved.state.points.len();
+        if saved.id.len() != n || saved.id.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(format!("{} point ids for {n} points, or not increasing", saved.id.len()));
+        }
+        if saved.widths.len() != saved.state.points.model_state.len() {
+            return Err("the points' model-state widths do not match their arrays".into());
+        }
+        let (id, widths) = (saved.id.into_owned(), saved.widths.into_owned());
+        self.load(saved.state, Some((id, widths)))
+    }
+
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let saved: LagrangianState = state::decode(bytes, "lagrangian state")?;
+        self.load(saved, None)
+    }
+}
+
+impl Lagrangian {
+    /// [`Frame::load_state`] of `saved`, every point of the domain (`own` None: a rank
+    /// keeps those in its block), or a rank's own points with their ids and widths.
+    fn load(&mut self, saved: LagrangianState, own: Option<(Vec<u64>, Vec<usize>)>) -> Result<(), String> {
         let p = saved.points.into_owned();
         let n = p.len();
         let lengths = [p.v.len(), p.m.len(), p.vol0.len(), p.f.len(), p.grad_v.len()];
@@ -1415,6 +1448,13 @@ impl Frame for Lagrangian {
             b.state = s.into_owned();
         }
         let mut p = p;
+        if let Some((id, widths)) = own {
+            (p.id, p.widths) = (id, widths);
+            self.points = p;
+            self.vol.clear();
+            self.x_old.clear();
+            return Ok(());
+        }
         p.id = (0..n as u64).collect();
         self.points = match self.local.part.block() {
             // a rank keeps the points in its block
@@ -1440,6 +1480,15 @@ impl Frame for Lagrangian {
 struct LagrangianState<'a> {
     points: Cow<'a, Points>,
     bodies: Vec<Cow<'a, BodyState>>,
+}
+
+/// A rank's own Lagrangian state ([`Frame::save_rank_state`]): its points (with the ids and
+/// the models' per-point widths, which the serial state leaves out) and the bodies.
+#[derive(Serialize, Deserialize)]
+struct LagrangianRankState<'a> {
+    state: LagrangianState<'a>,
+    id: Cow<'a, [u64]>,
+    widths: Cow<'a, [usize]>,
 }
 
 #[cfg(test)]

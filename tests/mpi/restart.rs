@@ -83,3 +83,75 @@ fn checkpoint_and_restart(t: &str, case: &str) {
         assert!(got == reference, "np {np}: the restarted run's diagnostics.csv differs from the uninterrupted one's");
     }
 }
+
+/// Checkpoints written per rank (`output.checkpoints.layout: PerRank`): `dkt_seed` (an
+/// Eulerian fluid, two resolved disks of material points) at 64 × 256 on 2 × 2 ranks, 10
+/// steps; each rank writes its own state to `checkpoint_10/rank_<r>.bin`. Continued to
+/// step 20 on the same 2 × 2 ranks it writes the uninterrupted serial run's
+/// `diagnostics.csv` and `bodies.csv` byte for byte; on 3 ranks, on another rank grid of 4,
+/// or on one process it is refused before step 0, naming the ranks that wrote it.
+#[test]
+fn a_checkpoint_per_rank_restarts_on_its_ranks_and_refuses_others() {
+    let t = "a_checkpoint_per_rank_restarts_on_its_ranks_and_refuses_others";
+    let dir = scratch(t);
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/dkt_seed.ron").display().to_string();
+    let args = |out: &Path, steps: u32, restart: Option<&Path>, ranks: &str| -> Vec<String> {
+        let mut a: Vec<String> = ["run", &case, "--out", &out.display().to_string(), "--quiet", "--threads", "1"]
+            .map(str::to_string)
+            .to_vec();
+        for s in [
+            "domain.cells=(64, 256)".to_string(),
+            format!("time.max_steps={steps}"),
+            "output.interval=0".into(),
+            "output.charts=false".into(),
+            "output.snapshots=None".into(),
+            "output.checkpoints=Some((interval: 10.0, layout: PerRank))".into(),
+            format!("domain.ranks={ranks}"),
+        ] {
+            a.extend(["--set".to_string(), s]);
+        }
+        if let Some(r) = restart {
+            a.extend(["--restart".to_string(), r.display().to_string()]);
+        }
+        a
+    };
+    let run = |np: usize, a: Vec<String>| {
+        if np == 0 {
+            Some(Command::new(env!("CARGO_BIN_EXE_multifield")).args(&a).output().unwrap())
+        } else {
+            mpirun(t, np, &a.iter().map(String::as_str).collect::<Vec<_>>())
+        }
+    };
+    let serial = dir.join("serial20");
+    let o = run(0, args(&serial, 20, None, "None")).unwrap();
+    assert!(o.status.success(), "{:?}", text(&o));
+    let ranks = dir.join("np4");
+    let Some(o) = run(4, args(&ranks, 10, None, "Some((2, 2))")) else { return };
+    assert!(o.status.success(), "{:?}", text(&o));
+    let folder = ranks.join("checkpoints/checkpoint_10");
+    let mut files: Vec<String> =
+        std::fs::read_dir(&folder).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    files.sort();
+    assert_eq!(files, ["rank_0000.bin", "rank_0001.bin", "rank_0002.bin", "rank_0003.bin"]);
+    // only the complete checkpoint is left in the folder (no temporary one)
+    assert_eq!(std::fs::read_dir(ranks.join("checkpoints")).unwrap().count(), 1);
+    let out = dir.join("restart4");
+    let o = run(4, args(&out, 20, Some(&folder), "Some((2, 2))")).unwrap();
+    assert!(o.status.success(), "{:?}", text(&o));
+    for file in ["diagnostics.csv", "bodies.csv"] {
+        let (a, b) = (std::fs::read(serial.join(file)).unwrap(), std::fs::read(out.join(file)).unwrap());
+        assert_eq!(String::from_utf8_lossy(&b).lines().count(), String::from_utf8_lossy(&a).lines().count());
+        assert!(a == b, "{file}: the run continued on its ranks differs from the uninterrupted serial one");
+    }
+    // another rank count, another grid of 4, one process: refused, naming the writers
+    for (np, grid, says) in [
+        (3, "Some((1, 3))", "written per rank by 4 ranks, and this run has 3"),
+        (4, "Some((1, 4))", "rank grid 2 × 2), and this run has 4 (rank grid 1 × 4)"),
+        (0, "None", "written per rank by 4 ranks, and this run has 1"),
+    ] {
+        let o = run(np, args(&dir.join(format!("refused{np}")), 20, Some(&folder), grid)).unwrap();
+        let (stdout, stderr) = text(&o);
+        assert!(!o.status.success(), "np {np} {grid}: {stdout}");
+        assert!(stderr.contains(says) && stderr.contains("mpirun -np 4"), "np {np} {grid}: {stderr}");
+    }
+}

@@ -26,6 +26,17 @@ struct SimulationState<'a> {
     contact_history: Cow<'a, [u8]>,
 }
 
+/// A rank's own state ([`Simulation::save_rank_state`]): the rank grid it was written on
+/// and the rank's [`SimulationState`] of its block.
+#[derive(Serialize, Deserialize)]
+struct RankState<'a> {
+    rank: usize,
+    ranks: usize,
+    p: Vec<usize>,
+    cuts: Vec<Vec<usize>>,
+    state: Cow<'a, [u8]>,
+}
+
 /// One field in a [`SimulationState`]: its name and frame (checked on loading), its grid
 /// state and its frame's own state ([`Frame::save_state`], opaque to the core).
 #[derive(Serialize, Deserialize)]
@@ -50,11 +61,64 @@ impl Simulation {
     /// every rank's owned nodes, the frames' too): the serial run's bytes, which a restart
     /// on any number of ranks loads. Every rank calls it.
     pub fn save_state(&self) -> Result<Vec<u8>> {
+        self.save(false)
+    }
+
+    /// This rank's own state for a checkpoint written per rank (`output.checkpoints.layout:
+    /// PerRank`): [`Simulation::save_state`] of its block's storage and its frames' own
+    /// state ([`Frame::save_rank_state`]), nothing gathered, with the rank grid it is
+    /// written on. [`Simulation::load_rank_state`] on the same rank of the same rank grid
+    /// continues bit for bit.
+    pub fn save_rank_state(&self) -> Result<Vec<u8>> {
+        let part = &self.grid.part;
+        let (p, cuts) = match part.block() {
+            Some((rg, _)) => (rg.p.to_vec(), rg.cuts.to_vec()),
+            None => (vec![1; DIM], self.grid.n().iter().map(|&n| vec![0, n]).collect()),
+        };
+        let own = RankState { rank: part.rank(), ranks: part.ranks(), p, cuts, state: Cow::Owned(self.save(true)?) };
+        state::encode(&own).map_err(Error::Model)
+    }
+
+    /// Restores what [`Simulation::save_rank_state`] wrote on this rank of this rank grid;
+    /// another rank count or grid is refused, saying which wrote it.
+    pub fn load_rank_state(&mut self, bytes: &[u8]) -> Result<()> {
+        let own: RankState = state::decode(bytes, "a rank's state").map_err(Error::Model)?;
+        let part = &self.grid.part;
+        let here = match part.block() {
+            Some((rg, _)) => (rg.p.to_vec(), rg.cuts.to_vec()),
+            None => (vec![1; DIM], self.grid.n().iter().map(|&n| vec![0, n]).collect()),
+        };
+        if own.ranks != part.ranks() || (own.p.clone(), own.cuts.clone()) != here {
+            let grid = |p: &[usize]| p.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(" × ");
+            return Err(Error::Model(format!(
+                "it was written per rank by {} ranks (rank grid {}), and this run has {} (rank grid {}): continue \
+                 it with `mpirun -np {}` and `domain.ranks: Some(({}))`, or from a checkpoint written with \
+                 `layout: Gathered` (the default), which restarts on any number of ranks",
+                own.ranks,
+                grid(&own.p),
+                part.ranks(),
+                grid(&here.0),
+                own.ranks,
+                own.p.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
+            )));
+        }
+        if own.rank != part.rank() {
+            return Err(Error::Model(format!("rank {} read the file of rank {}", part.rank(), own.rank)));
+        }
+        self.load_state_inner(&own.state, true).map_err(Error::Model)?;
+        self.grid_state_stale = self.alone;
+        Ok(())
+    }
+
+    /// [`Simulation::save_state`] (`own`: [`Simulation::save_rank_state`]'s, the block's
+    /// own storage).
+    fn save(&self, own: bool) -> Result<Vec<u8>> {
         let g = &self.grid;
-        let decomposed = !g.part.is_whole();
+        let decomposed = !g.part.is_whole() && !own;
         let mut fields = Vec::with_capacity(self.fields.len());
         for f in &self.fields {
-            let frame = f.frame.save_state().map_err(|m| Error::Model(format!("field `{}`: {m}", f.name)))?;
+            let frame = if own { f.frame.save_rank_state() } else { f.frame.save_state() };
+            let frame = frame.map_err(|m| Error::Model(format!("field `{}`: {m}", f.name)))?;
             fields.push(FieldCheckpoint {
                 name: Cow::Borrowed(&f.name),
                 model: Cow::Borrowed(f.frame.model()),
@@ -88,16 +152,17 @@ impl Simulation {
     /// same case (same grid and fields; the time control and output may differ). The
     /// message of an error says which part does not fit.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<()> {
-        self.load_state_inner(bytes).map_err(Error::Model)?;
+        self.load_state_inner(bytes, false).map_err(Error::Model)?;
         self.grid_state_stale = self.alone;
         Ok(())
     }
 
-    pub(super) fn load_state_inner(&mut self, bytes: &[u8]) -> std::result::Result<(), String> {
+    /// [`Simulation::load_state`] (`own`: the block's own storage, [`Simulation::load_rank_state`]).
+    pub(super) fn load_state_inner(&mut self, bytes: &[u8], own: bool) -> std::result::Result<(), String> {
         let mut saved: SimulationState = state::decode(bytes, "simulation state")?;
         let mut pressure = vec![0.0; self.grid.n_cells()];
         let g = &self.grid;
-        if g.part.is_whole() {
+        if g.part.is_whole() || own {
             state::copy_into(&mut pressure, &saved.pressure, "pressure")?;
         } else {
             // a rank of a decomposed run: its block of the whole domain's state
@@ -173,7 +238,8 @@ impl Simulation {
                 let q = format!("{}-face mass", axis_name(a));
                 state::within(&s.mass_face[a], m0, Real::INFINITY, &what(&q), "a mass is not negative")?;
             }
-            f.frame.load_state(&c.frame).map_err(|m| format!("field `{name}`: {m}"))?;
+            let loaded = if own { f.frame.load_rank_state(&c.frame) } else { f.frame.load_state(&c.frame) };
+            loaded.map_err(|m| format!("field `{name}`: {m}"))?;
             let bodies = f.frame.bodies();
             if !contact.is_empty() && contact.len() != bodies.len() {
                 let n = contact.len();
