@@ -7,7 +7,7 @@
 //! serial run's (its one file per time) to the bit.
 
 use super::common::{mpirun, scratch, text};
-use multifield::snapshot::Snapshot;
+use multifield::snapshot::{PointData, Snapshot};
 use std::path::Path;
 use std::process::Command;
 
@@ -67,18 +67,7 @@ fn compare(np: usize, folder: &Path, serial: &Snapshot) -> usize {
                 }
             }
             if let Some(p) = &mine.points {
-                for q in 0..p.len() {
-                    let mut v: Vec<u64> = p
-                        .values
-                        .values()
-                        .flat_map(|a| {
-                            let per = a.len() / p.len();
-                            a[q * per..(q + 1) * per].iter().map(|x| x.to_bits()).collect::<Vec<_>>()
-                        })
-                        .collect();
-                    v.push(p.body[q] as u64);
-                    points[k].push(v);
-                }
+                points[k].extend(rows(p));
             }
         }
     }
@@ -86,20 +75,7 @@ fn compare(np: usize, folder: &Path, serial: &Snapshot) -> usize {
     let mut compared = 0;
     for (k, f) in serial.fields.iter().enumerate() {
         let Some(p) = &f.points else { continue };
-        let mut whole: Vec<Vec<u64>> = (0..p.len())
-            .map(|q| {
-                let mut v: Vec<u64> = p
-                    .values
-                    .values()
-                    .flat_map(|a| {
-                        let per = a.len() / p.len();
-                        a[q * per..(q + 1) * per].iter().map(|x| x.to_bits()).collect::<Vec<_>>()
-                    })
-                    .collect();
-                v.push(p.body[q] as u64);
-                v
-            })
-            .collect();
+        let mut whole = rows(p);
         // the same points, each once (the ranks' order is not the serial one)
         whole.sort();
         points[k].sort();
@@ -107,6 +83,24 @@ fn compare(np: usize, folder: &Path, serial: &Snapshot) -> usize {
         compared += whole.len();
     }
     compared
+}
+
+/// Each point's values (every array's, then its body) as bits.
+fn rows(p: &PointData) -> Vec<Vec<u64>> {
+    (0..p.len())
+        .map(|q| {
+            let mut v: Vec<u64> = p
+                .values
+                .values()
+                .flat_map(|a| {
+                    let per = a.len() / p.len();
+                    a[q * per..(q + 1) * per].iter().map(|x| x.to_bits())
+                })
+                .collect();
+            v.push(p.body[q] as u64);
+            v
+        })
+        .collect()
 }
 
 #[test]

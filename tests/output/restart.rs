@@ -605,7 +605,10 @@ fn a_checkpoint_of_another_grid_is_refused() {
             .to_string();
     assert!(e.contains("was written by a different case `taylor_green`"), "{e}");
     assert!(e.contains("`domain.cells` is [16,16] in the checkpoint, [32,32] here"), "{e}");
-    assert!(e.contains("A restart may change only domain.ranks, time.*, output.*, description, monitors and stop"), "{e}");
+    assert!(
+        e.contains("A restart may change only domain.ranks, time.*, output.*, description, monitors and stop"),
+        "{e}"
+    );
     let thicker = taylor_green(&["time.end=0.2", "fields.fluid.density=2.0"]);
     let e = checkpoint::restore(&thicker, &last).err().unwrap().to_string();
     assert!(e.contains("`fields.fluid.density` is 1.0 in the checkpoint, 2.0 here"), "{e}");
