@@ -184,7 +184,7 @@ pub fn step_of(path: &Path) -> Option<u64> {
 /// The folder of a checkpoint written per rank that `path` names: the folder itself, or one
 /// of its rank files.
 fn rank_folder(path: &Path) -> Option<PathBuf> {
-    if path.is_dir() {
+    if path.is_dir() && path.file_name()?.to_str()?.starts_with("checkpoint_") {
         return Some(path.to_path_buf());
     }
     let in_folder = path.file_name()?.to_str()?.starts_with("rank_")
@@ -430,29 +430,37 @@ pub fn restore_on(
 /// the run has ranks, or when a rank's file does not read.
 fn read_rank(folder: &Path, comm: Option<&dyn crate::core::parallel::Comm>) -> Result<Checkpoint, Error> {
     let (rank, ranks) = comm.map_or((0, 1), |c| (c.rank(), c.size()));
-    let files = std::fs::read_dir(folder)
-        .map_err(|source| Error::Io { path: folder.to_path_buf(), source })?
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with("rank_"))
-        .count();
-    if files != ranks {
-        return Err(Error::Model(format!(
-            "checkpoint {}: written per rank by {files} ranks, and this run has {ranks}: continue it with \
-             `mpirun -np {files}` (and the rank grid it was written on), or from a checkpoint written with \
-             `layout: Gathered` (the default), which restarts on any number of ranks",
-            folder.display()
-        )));
-    }
-    let mut checkpoint = read(&folder.join(rank_file(rank)));
-    if let Some(c) = comm {
-        if c.any(checkpoint.is_err()) && checkpoint.is_ok() {
-            checkpoint =
-                Err(Error::Model(format!("checkpoint {}: another rank's file does not read", folder.display())));
+    let mine = || -> Result<Checkpoint, Error> {
+        let files = std::fs::read_dir(folder)
+            .map_err(|source| Error::Io { path: folder.to_path_buf(), source })?
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with("rank_"))
+            .count();
+        if files == 0 {
+            return Err(Error::Model(format!(
+                "checkpoint {}: no rank_<r>.bin file in it (a checkpoint written per rank is a folder of one \
+                 file a rank; give a checkpoint_<step>.bin file or such a folder)",
+                folder.display()
+            )));
         }
+        if files != ranks {
+            return Err(Error::Model(format!(
+                "checkpoint {}: written per rank by {files} ranks, and this run has {ranks}: continue it with \
+                 `mpirun -np {files}` (and the rank grid it was written on), or from a checkpoint written with \
+                 `layout: Gathered` (the default), which restarts on any number of ranks",
+                folder.display()
+            )));
+        }
+        let mut checkpoint = read(&folder.join(rank_file(rank)))?;
+        checkpoint.path = folder.to_path_buf();
+        Ok(checkpoint)
+    };
+    let checkpoint = mine();
+    // every rank learns whether every rank could read its file
+    if comm.is_some_and(|c| c.any(checkpoint.is_err())) && checkpoint.is_ok() {
+        return Err(Error::Model(format!("checkpoint {}: another rank's file does not read", folder.display())));
     }
-    let mut checkpoint = checkpoint?;
-    checkpoint.path = folder.to_path_buf();
-    Ok(checkpoint)
+    checkpoint
 }
 
 /// Next time of a schedule of `interval` after `t` when it cannot be carried over: the
@@ -584,7 +592,7 @@ impl Checkpoints {
         let step = sim.steps;
         let (tmp, done) = (self.folder.join(format!(".checkpoint_{step}.tmp")), self.folder.join(file_name(step)));
         let done = done.with_extension("");
-        let written = encode_with(sim, runner, sim.save_rank_state()?).and_then(|bytes| {
+        let written = sim.save_rank_state().and_then(|state| encode_with(sim, runner, state)).and_then(|bytes| {
             std::fs::create_dir_all(&tmp).map_err(|source| Error::Io { path: tmp.clone(), source })?;
             crate::output::write_atomically(&tmp.join(rank_file(part.rank())), &bytes)
         });

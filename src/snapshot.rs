@@ -436,9 +436,8 @@ impl Snapshot {
 
     /// This rank's block of a decomposed run as a snapshot of its own (`layout: PerRank`):
     /// its owned cells (the block's cells and origin), its faces from the block's low
-    /// sides to its high ones (the faces at a high cut are the neighbour's, in the halo:
-    /// `faces` must have had their halo exchanged), and the points it holds. Every rank
-    /// calls it.
+    /// sides to its high ones (the faces at a high cut are the neighbour's: the face
+    /// velocities' halo is exchanged here), and the points it holds. Every rank calls it.
     pub fn of_block(sim: &Simulation, spec: &SnapshotSpec) -> Result<Snapshot, Error> {
         let mut snap = Snapshot::build(sim, spec, true)?;
         let grid = &sim.grid;
@@ -469,10 +468,11 @@ impl Snapshot {
         for f in &mut snap.fields {
             cut_cells(&mut f.cells);
             if let Some(faces) = &mut f.faces {
+                let mut arrays: Vec<(Lattice, &mut [Real])> =
+                    faces.iter_mut().enumerate().map(|(a, v)| (Lattice::face(a), v.as_mut_slice())).collect();
+                grid.part.exchange(&mut arrays);
                 for (a, values) in faces.iter_mut().enumerate() {
-                    let lattice = Lattice::face(a);
-                    grid.part.exchange(&mut [(lattice, values.as_mut_slice())]);
-                    *values = cut(values, lattice, 1);
+                    *values = cut(values, Lattice::face(a), 1);
                 }
             }
         }
@@ -1030,10 +1030,10 @@ impl Piece {
         Piece { file, cells, origin, points }
     }
 
-    /// The piece of a rank's snapshot `snap` written as `file`.
-    fn of(snap: &Snapshot, file: String) -> Piece {
+    /// The piece of a rank's snapshot `snap` (its file named by the ranks that read it).
+    fn of(snap: &Snapshot) -> Piece {
         Piece {
-            file,
+            file: String::new(),
             cells: snap.cells_along(),
             origin: snap.origin,
             points: snap.fields.iter().filter_map(|f| f.points.as_ref().map(PointData::len)).collect(),
@@ -1311,7 +1311,7 @@ impl Snapshots {
         let written = std::fs::create_dir_all(&dir)
             .map_err(|source| Error::Io { path: dir.clone(), source })
             .and_then(|_| snap.write(&dir.join(rank_file(part.rank()))));
-        let mine = Piece::of(&snap, String::new()).encode();
+        let mine = Piece::of(&snap).encode();
         let mut entry = Entry::of(&snap, folder.clone());
         entry.pieces = part
             .comm()

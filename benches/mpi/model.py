@@ -33,14 +33,14 @@ def per_step(a, b, p, i_p, i_h, i_c, nu):
     # of u^½ (4), Crank–Nicolson's CG 2(I_c + 1), the predicted velocity (2), the PCG
     # (I_p + 1), the pressure (1), the corrected velocity (2), θ's two Heun stages (4):
     # 24 + 2(I_h + I_c) + I_p in all. The V-cycle (I_p + 1 a step) exchanges whole two-layer
-    # f32 halos: on block level l (E/2^l values a layer) 4ν times, and once more for the
-    # right-hand side below the finest; the set-up (once a step) each block level's
-    # couplings, diagonal and its inverse (4 arrays of two f64 layers)
-    levels = [(4 * nu + (l > 0)) / 2**l for l in range(l_d)]
+    # f32 halos: on block level l (E/2^l values a layer) 4ν − 1 times (below the finest one
+    # of them the right-hand side's); the set-up (once a step) each block level's couplings,
+    # diagonal and its inverse (4 arrays of two f64 layers)
+    levels = [(4 * nu - 1) / 2**l for l in range(l_d)]
     v_cycle = 4 * H * e * sum(levels)
     setup = 8 * H * e * 4 * sum(1 / 2**l for l in range(l_d))
     big_b = 8 * e * (24 + 2 * (i_h + i_c) + i_p) + v_cycle * (i_p + 1) + setup
-    x = 9 + i_h + i_c + (i_p + 1) * (1 + (4 * nu + 1) * l_d - 1) + l_d
+    x = 9 + i_h + i_c + (i_p + 1) * (4 * nu - 1) * l_d + l_d
     # and a pure-Neumann problem's mean on each block level below the finest, per V-cycle
     r = 4 + 2 * i_p + 4 * (3 + 2 * i_h) + 6 + (i_p + 1) * (l_d - 1)
     side = int(round(math.sqrt(p)))

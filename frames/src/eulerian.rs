@@ -1017,11 +1017,7 @@ impl Frame for Eulerian {
         let w = &self.work;
         let g = &w.grid;
         if g.part.is_whole() {
-            return state::encode(&EulerianState {
-                steps: w.steps,
-                theta: Cow::Borrowed(&w.theta),
-                velocity: Cow::Borrowed(&w.velocity),
-            });
+            return self.save_rank_state();
         }
         let mut velocity = FaceVelocity::default();
         for a in AXES {

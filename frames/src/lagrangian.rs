@@ -310,8 +310,6 @@ impl Lagrangian {
         self.simd
     }
 
-    /// The field's points: on a rank's block of a decomposed domain, every rank's in id
-    /// order (a collective: every rank calls it).
     /// The output's view of the points `p` (positions, velocities, volumes, masses,
     /// stresses, bodies and the models' per-point state).
     fn point_set(&self, p: &Points) -> PointSet {
@@ -327,6 +325,8 @@ impl Lagrangian {
         }
     }
 
+    /// The field's points: on a rank's block of a decomposed domain, every rank's in id
+    /// order (a collective: every rank calls it).
     fn all_points(&self) -> Cow<'_, Points> {
         if self.local.part.is_whole() {
             Cow::Borrowed(&self.points)

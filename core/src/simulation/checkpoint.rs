@@ -71,23 +71,36 @@ impl Simulation {
     /// continues bit for bit.
     pub fn save_rank_state(&self) -> Result<Vec<u8>> {
         let part = &self.grid.part;
-        let (p, cuts) = match part.block() {
-            Some((rg, _)) => (rg.p.to_vec(), rg.cuts.to_vec()),
-            None => (vec![1; DIM], self.grid.n().iter().map(|&n| vec![0, n]).collect()),
-        };
+        let (p, cuts) = self.rank_grid();
         let own = RankState { rank: part.rank(), ranks: part.ranks(), p, cuts, state: Cow::Owned(self.save(true)?) };
         state::encode(&own).map_err(Error::Model)
     }
 
-    /// Restores what [`Simulation::save_rank_state`] wrote on this rank of this rank grid;
-    /// another rank count or grid is refused, saying which wrote it.
-    pub fn load_rank_state(&mut self, bytes: &[u8]) -> Result<()> {
-        let own: RankState = state::decode(bytes, "a rank's state").map_err(Error::Model)?;
-        let part = &self.grid.part;
-        let here = match part.block() {
+    /// The ranks along each axis and the cuts of this run's rank grid (one block of the
+    /// whole domain on one process).
+    fn rank_grid(&self) -> (Vec<usize>, Vec<Vec<usize>>) {
+        match self.grid.part.block() {
             Some((rg, _)) => (rg.p.to_vec(), rg.cuts.to_vec()),
             None => (vec![1; DIM], self.grid.n().iter().map(|&n| vec![0, n]).collect()),
-        };
+        }
+    }
+
+    /// Restores what [`Simulation::save_rank_state`] wrote on this rank of this rank grid;
+    /// another rank count or grid is refused, saying which wrote it. Every rank calls it and
+    /// learns whether every rank could (a rank's failure fails them all).
+    pub fn load_rank_state(&mut self, bytes: &[u8]) -> Result<()> {
+        let loaded = self.load_rank_state_here(bytes);
+        if self.grid.part.any(loaded.is_err()) && loaded.is_ok() {
+            return Err(Error::Model("another rank's state does not load (its message is in its output)".into()));
+        }
+        loaded
+    }
+
+    /// [`Simulation::load_rank_state`] on this rank alone.
+    fn load_rank_state_here(&mut self, bytes: &[u8]) -> Result<()> {
+        let own: RankState = state::decode(bytes, "a rank's state").map_err(Error::Model)?;
+        let part = &self.grid.part;
+        let here = self.rank_grid();
         if own.ranks != part.ranks() || (own.p.clone(), own.cuts.clone()) != here {
             let grid = |p: &[usize]| p.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(" × ");
             return Err(Error::Model(format!(
@@ -247,7 +260,9 @@ impl Simulation {
             }
             state::finite(&contact[..], &what("contact force and torque of body"))?;
             check_bodies(&bodies, grid).map_err(|m| what(&m))?;
-            if let Some(points) = f.frame.points() {
+            // (a rank's own points when loading its own state: no rank waits on another)
+            let points = if own { f.frame.local_points(grid.part.rank()) } else { f.frame.points() };
+            if let Some(points) = points {
                 check_points(&points, grid).map_err(|m| what(&m))?;
                 check_model_state(&points, &f.stress).map_err(|m| what(&m))?;
             }

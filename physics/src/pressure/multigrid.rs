@@ -205,11 +205,6 @@ impl Hierarchy {
         self.ops.iter().map(|op| op.n()).collect()
     }
 
-    /// The finest operator (valid after [`Hierarchy::setup`]).
-    pub fn operator(&self) -> &Stencil {
-        &self.ops[0]
-    }
-
     fn build(&mut self, n: Index, periodic: [bool; DIM], dirichlet: [bool; SIDES]) {
         self.ops.clear();
         self.cycle.levels.clear();

@@ -218,7 +218,9 @@ impl Pcg {
         }
     }
 
-    /// Sizes of the multigrid levels of the last solve, finest first (empty without multigrid).
+    /// Sizes of the multigrid levels of the last solve, finest first (empty without
+    /// multigrid): the whole domain's levels (on a rank of a decomposed run, those below
+    /// the levels on the blocks).
     pub fn multigrid_levels(&self) -> Vec<Index> {
         self.multigrid.level_sizes()
     }
@@ -336,7 +338,8 @@ impl PressureSolver for Pcg {
         "pcg"
     }
     fn decomposed(&self) -> bool {
-        // (the multigrid V-cycle's finest level on the block, the coarser ones whole)
+        // (the multigrid V-cycle's levels on the blocks while their cuts are even, the
+        // coarser ones whole on every rank)
         true
     }
     fn params(&self) -> serde_json::Value {

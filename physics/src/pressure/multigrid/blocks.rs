@@ -211,7 +211,11 @@ fn block_cycle(h: &mut Hierarchy, l: usize, singular: bool, b: &[F], x: &mut [F]
             exchange(x);
         }
         relax_colour(op, b, x, 0, k == 0);
-        exchange(x);
+        // from zero colour 0 is b/d on every cell: below the finest level, where b's two
+        // halo layers were exchanged (and 1/d at set-up), its halo is the owners' already
+        if k > 0 || l == 0 {
+            exchange(x);
+        }
         relax_colour(op, b, x, 1, false);
     }
     exchange(x);
@@ -259,8 +263,13 @@ fn block_cycle(h: &mut Hierarchy, l: usize, singular: bool, b: &[F], x: &mut [F]
     let BlockLevel { part, op, level, .. } = &mut h.blocks[l];
     let exchange = |z: &mut [F]| part.exchange(&mut [(Lattice::Cell, z)]);
     level.prolong_add(x);
-    for _ in 0..sweeps {
-        exchange(x);
+    for k in 0..sweeps {
+        // the prolongation keeps the first halo layer the owners' (x there was exchanged
+        // before the restriction, its parents and weights are the owners'), and the owned
+        // cells of colour 1 read no further
+        if k > 0 {
+            exchange(x);
+        }
         relax_colour(op, b, x, 1, false);
         exchange(x);
         relax_colour(op, b, x, 0, false);
