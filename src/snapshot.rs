@@ -487,6 +487,123 @@ impl Snapshot {
         Ok(snap)
     }
 
+    /// The snapshot a folder of rank files holds (`layout: PerRank`), put together: each
+    /// rank's cells and faces at its block's place in the domain (the union of the blocks,
+    /// which must tile a box once), the ranks' points one after the other in rank order
+    /// (not the one-process run's point order). The values are the ranks', to the bit.
+    pub fn read_folder(path: &Path) -> Result<Snapshot, Error> {
+        let io = |source| Error::Io { path: path.to_path_buf(), source };
+        let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+            .map_err(io)?
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("rank_")))
+            .collect();
+        files.sort();
+        let pieces = files.iter().map(|f| Snapshot::read(f)).collect::<Result<Vec<_>, _>>()?;
+        let Some(first) = pieces.first() else {
+            return Err(model_error(path, "no rank_<r>.h5 file in it (not a snapshot written per rank)"));
+        };
+        let h = first.spacing;
+        let bad = |what: String| model_error(path, what);
+        // the blocks' corners and extents in cells of the first one's spacing
+        let corner = |p: &Snapshot, a: usize| ((p.origin[a] - first.origin[a]) / h).round() as isize;
+        let lo: [isize; DIM] = std::array::from_fn(|a| pieces.iter().map(|p| corner(p, a)).min().unwrap_or(0));
+        let hi: [isize; DIM] = std::array::from_fn(|a| {
+            pieces.iter().map(|p| corner(p, a) + p.cells_along()[a] as isize).max().unwrap_or(0)
+        });
+        let n: Index = std::array::from_fn(|a| (hi[a] - lo[a]) as usize);
+        let cells: usize = n.iter().product();
+        let mut whole = first.clone();
+        (whole.nx, whole.ny) = (n[0], n[1]);
+        #[cfg(feature = "dim3")]
+        {
+            whole.nz = n[2];
+        }
+        whole.origin = std::array::from_fn(|a| first.origin[a] + h * lo[a] as Real);
+        let fresh = |arrays: &mut Arrays, own: usize| {
+            for a in arrays.values_mut() {
+                *a = vec![0.0; a.len() / own.max(1) * cells];
+            }
+        };
+        let own = first.cells_along().iter().product();
+        fresh(&mut whole.cells, own);
+        for f in &mut whole.fields {
+            fresh(&mut f.cells, own);
+            if let Some(faces) = &mut f.faces {
+                for (a, v) in faces.iter_mut().enumerate() {
+                    let mut m = n;
+                    m[a] += 1;
+                    *v = vec![0.0; m.iter().product()];
+                }
+            }
+            if let Some(p) = &mut f.points {
+                p.values.values_mut().for_each(Vec::clear);
+                p.body.clear();
+            }
+        }
+        let mut covered = vec![0u8; cells];
+        for (piece, file) in pieces.iter().zip(&files) {
+            let b = piece.cells_along();
+            let start: [usize; DIM] = std::array::from_fn(|a| (corner(piece, a) - lo[a]) as usize);
+            let box_of = |extra: Option<usize>| -> [std::ops::Range<usize>; DIM] {
+                std::array::from_fn(|a| start[a]..start[a] + b[a] + (extra == Some(a)) as usize)
+            };
+            let mut at = Vec::with_capacity(b.iter().product());
+            crate::core::halo::for_each(n, &box_of(None), |k| at.push(k));
+            at.iter().for_each(|&k| covered[k] += 1);
+            let put = |into: &mut Arrays, from: &Arrays| -> Result<(), Error> {
+                for (name, w) in into.iter_mut() {
+                    let v = from.get(name).ok_or_else(|| bad(format!("{}: no array {name}", file.display())))?;
+                    let per = w.len() / cells;
+                    if v.len() != per * at.len() {
+                        return Err(bad(format!("{}: {name} has {} values", file.display(), v.len())));
+                    }
+                    for (q, &k) in at.iter().enumerate() {
+                        w[k * per..(k + 1) * per].copy_from_slice(&v[q * per..(q + 1) * per]);
+                    }
+                }
+                Ok(())
+            };
+            put(&mut whole.cells, &piece.cells)?;
+            if piece.fields.len() != whole.fields.len() {
+                return Err(bad(format!("{}: another list of fields", file.display())));
+            }
+            for (f, g) in whole.fields.iter_mut().zip(&piece.fields) {
+                put(&mut f.cells, &g.cells)?;
+                if let (Some(faces), Some(mine)) = (&mut f.faces, &g.faces) {
+                    for (a, (w, v)) in faces.iter_mut().zip(mine).enumerate() {
+                        let mut m = n;
+                        m[a] += 1;
+                        let mut q = 0;
+                        crate::core::halo::for_each(m, &box_of(Some(a)), |k| {
+                            if let Some(&x) = v.get(q) {
+                                w[k] = x;
+                            }
+                            q += 1;
+                        });
+                        if q != v.len() {
+                            return Err(bad(format!("{}: {} faces along axis {a}", file.display(), v.len())));
+                        }
+                    }
+                }
+                if let (Some(p), Some(mine)) = (&mut f.points, &g.points) {
+                    for (name, w) in p.values.iter_mut() {
+                        w.extend_from_slice(mine.values.get(name).map_or(&[][..], Vec::as_slice));
+                    }
+                    p.body.extend_from_slice(&mine.body);
+                    if p.bodies.is_empty() {
+                        p.bodies = mine.bodies.clone();
+                    }
+                }
+            }
+        }
+        if covered.iter().any(|&c| c != 1) {
+            return Err(bad("its rank files' blocks do not tile a box once".into()));
+        }
+        Ok(whole)
+    }
+
     /// The statistics of the `Suspension` monitor `name`, if written.
     pub fn suspension(&self, name: &str) -> Option<&SuspensionData> {
         self.suspensions.iter().find(|s| s.name == name)
@@ -692,7 +809,12 @@ impl Snapshot {
 
     /// Reads a snapshot file back: every dataset of the root, of each field's group and
     /// of its points.
+    /// A folder of a snapshot written per rank (`snapshot_<n>/`, `layout: PerRank`) is read
+    /// whole: its rank files put together ([`Snapshot::read_folder`]).
     pub fn read(path: &Path) -> Result<Snapshot, Error> {
+        if path.is_dir() {
+            return Snapshot::read_folder(path);
+        }
         let err = |e: hdf5_pure::Error| model_error(path, e);
         let file = hdf5_pure::File::open(path).map_err(err)?;
         let root = file.root().attrs().map_err(err)?;

@@ -148,6 +148,20 @@ fn snapshots_per_rank_hold_the_serial_values() {
             // the two disks' points (about 290 each at 6.4 cells a diameter, 3² a cell)
             let compared = compare(np, &folder, &whole);
             assert!(compared > 2 * 250, "np {np}: {compared} points in {f}");
+            // read whole (`Snapshot::read` of the folder): the serial cells and faces, the
+            // serial points in the ranks' order
+            let read = Snapshot::read(&folder).unwrap();
+            assert_eq!((read.cells_along(), read.origin), (whole.cells_along(), whole.origin), "np {np}: {f}");
+            assert!(read.cells == whole.cells, "np {np}: {f}: the mixture's cells");
+            for (mine, theirs) in read.fields.iter().zip(&whole.fields) {
+                assert!(mine.cells == theirs.cells && mine.faces == theirs.faces, "np {np}: {f}: {}", mine.group);
+                if let (Some(a), Some(b)) = (&mine.points, &theirs.points) {
+                    let (mut a, mut b) = (rows(a), rows(b));
+                    a.sort();
+                    b.sort();
+                    assert!(a == b, "np {np}: {f}: the points of {}", mine.group);
+                }
+            }
         }
         check_with_h5py(&out, &format!("np {np}"));
         // the XDMF: a grid of each rank's block (and one of its points, for the ranks that

@@ -418,3 +418,26 @@ fn h5dump_and_h5py_open_the_snapshots() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("pressure_typo"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A folder read as a snapshot written per rank (`layout: PerRank`) must hold rank files
+/// whose blocks tile a box once: an empty folder, and two copies of one block, are refused
+/// naming the folder.
+#[test]
+fn a_folder_of_rank_files_is_read_whole_or_refused() {
+    let dir = out_dir("per_rank_folder");
+    let folder = dir.join("snapshot_000000");
+    std::fs::create_dir_all(&folder).unwrap();
+    let e = Snapshot::read(&folder).unwrap_err().to_string();
+    assert!(e.contains("snapshot_000000") && e.contains("no rank_<r>.h5 file in it"), "{e}");
+    // one whole snapshot as the only rank file: read back as itself
+    let case = case(0.005, 0.002);
+    let run_dir = dir.join("run");
+    run(&case, &run_dir, &RunOptions::quiet()).unwrap();
+    let file = snapshot_files(&run_dir).pop().unwrap();
+    std::fs::copy(&file, folder.join("rank_0000.h5")).unwrap();
+    assert_eq!(Snapshot::read(&folder).unwrap(), Snapshot::read(&file).unwrap());
+    // the same block twice
+    std::fs::copy(&file, folder.join("rank_0001.h5")).unwrap();
+    let e = Snapshot::read(&folder).unwrap_err().to_string();
+    assert!(e.contains("do not tile a box once"), "{e}");
+}
