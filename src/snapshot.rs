@@ -407,31 +407,32 @@ impl Snapshot {
         }
         let shape = grid.shape(Lattice::Cell);
         let cells = grid.n_cells();
-        let gather = |arrays: &mut Arrays| {
-            for a in arrays.values_mut() {
-                // (an array a quantity does not give is empty on every rank)
-                if !a.is_empty() {
-                    *a = part.gather_per(Lattice::Cell, shape, a, a.len() / cells);
-                }
-            }
-        };
-        gather(&mut self.cells);
-        for f in &mut self.fields {
-            gather(&mut f.cells);
-            if let Some(faces) = &mut f.faces {
-                for (a, values) in faces.iter_mut().enumerate() {
-                    let lattice = Lattice::face(a);
-                    *values = part.gather(lattice, grid.shape(lattice), values);
-                }
+        // (an array a quantity does not give is empty on every rank)
+        for a in self.cell_arrays_mut().filter(|a| !a.is_empty()) {
+            *a = part.gather_per(Lattice::Cell, shape, a, a.len() / cells);
+        }
+        for faces in self.fields.iter_mut().filter_map(|f| f.faces.as_mut()) {
+            for (a, values) in faces.iter_mut().enumerate() {
+                let lattice = Lattice::face(a);
+                *values = part.gather(lattice, grid.shape(lattice), values);
             }
         }
-        let n = grid.domain;
+        self.set_cells_along(grid.domain);
+        self
+    }
+
+    /// Every cell array: the mixture's and each field's.
+    fn cell_arrays_mut(&mut self) -> impl Iterator<Item = &mut Vec<Real>> {
+        self.cells.values_mut().chain(self.fields.iter_mut().flat_map(|f| f.cells.values_mut()))
+    }
+
+    /// Sets the cells along each axis.
+    fn set_cells_along(&mut self, n: Index) {
         (self.nx, self.ny) = (n[0], n[1]);
         #[cfg(feature = "dim3")]
         {
             self.nz = n[2];
         }
-        self
     }
 
     /// This rank's block of a decomposed run as a snapshot of its own (`layout: PerRank`):
@@ -457,16 +458,10 @@ impl Snapshot {
             out
         };
         let n_storage = grid.n_cells();
-        let cut_cells = |arrays: &mut Arrays| {
-            for a in arrays.values_mut() {
-                if !a.is_empty() {
-                    *a = cut(a, Lattice::Cell, a.len() / n_storage);
-                }
-            }
-        };
-        cut_cells(&mut snap.cells);
+        for a in snap.cell_arrays_mut().filter(|a| !a.is_empty()) {
+            *a = cut(a, Lattice::Cell, a.len() / n_storage);
+        }
         for f in &mut snap.fields {
-            cut_cells(&mut f.cells);
             if let Some(faces) = &mut f.faces {
                 let mut arrays: Vec<(Lattice, &mut [Real])> =
                     faces.iter_mut().enumerate().map(|(a, v)| (Lattice::face(a), v.as_mut_slice())).collect();
@@ -476,11 +471,7 @@ impl Snapshot {
                 }
             }
         }
-        (snap.nx, snap.ny) = (cells[0], cells[1]);
-        #[cfg(feature = "dim3")]
-        {
-            snap.nz = cells[2];
-        }
+        snap.set_cells_along(cells);
         for a in 0..DIM {
             snap.origin[a] = grid.origin[a] + grid.h * block.cells[a].start as Real;
         }
@@ -515,21 +506,13 @@ impl Snapshot {
         let n: Index = std::array::from_fn(|a| (hi[a] - lo[a]) as usize);
         let cells: usize = n.iter().product();
         let mut whole = first.clone();
-        (whole.nx, whole.ny) = (n[0], n[1]);
-        #[cfg(feature = "dim3")]
-        {
-            whole.nz = n[2];
-        }
+        whole.set_cells_along(n);
         whole.origin = std::array::from_fn(|a| first.origin[a] + h * lo[a] as Real);
-        let fresh = |arrays: &mut Arrays, own: usize| {
-            for a in arrays.values_mut() {
-                *a = vec![0.0; a.len() / own.max(1) * cells];
-            }
-        };
-        let own = first.cells_along().iter().product();
-        fresh(&mut whole.cells, own);
+        let own: usize = first.cells_along().iter().product();
+        for a in whole.cell_arrays_mut() {
+            *a = vec![0.0; a.len() / own.max(1) * cells];
+        }
         for f in &mut whole.fields {
-            fresh(&mut f.cells, own);
             if let Some(faces) = &mut f.faces {
                 for (a, v) in faces.iter_mut().enumerate() {
                     let mut m = n;

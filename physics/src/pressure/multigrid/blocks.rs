@@ -99,6 +99,17 @@ fn widen_stencil(coarse: &Stencil, at: [usize; 2], part: &Part, to: &mut Stencil
     }
 }
 
+/// Takes the halo couplings, diagonal and inverse diagonal of a level's operator `st` on
+/// `part`'s block from their owners.
+fn owners_halo(part: &Part, st: &mut Stencil) {
+    part.exchange(&mut [
+        (Lattice::XFace, &mut st.ax),
+        (Lattice::YFace, &mut st.ay),
+        (Lattice::Cell, &mut st.diag),
+        (Lattice::Cell, &mut st.inv_diag),
+    ]);
+}
+
 impl Hierarchy {
     /// Sets up the V-cycle on a rank's block of `problem` ([`Hierarchy::setup_blocks`]) from
     /// `stencil`, the block's operator ([`Stencil::assign`]), once its halo couplings and
@@ -110,12 +121,7 @@ impl Hierarchy {
         if g.part.coarsened().is_none() {
             return Ok(false);
         }
-        g.exchange(&mut [
-            (Lattice::XFace, &mut stencil.ax),
-            (Lattice::YFace, &mut stencil.ay),
-            (Lattice::Cell, &mut stencil.diag),
-            (Lattice::Cell, &mut stencil.inv_diag),
-        ]);
+        owners_halo(&g.part, stencil);
         let mut dirichlet = problem.dirichlet.map(|d| d as u8 as Real);
         g.part.max(&mut dirichlet);
         self.setup_blocks(stencil, &g.part, g.domain, dirichlet.map(|d| d > 0.0))
@@ -125,7 +131,7 @@ impl Hierarchy {
     /// on rank `part`'s block: `fine` is the block's operator, its halo couplings and
     /// diagonal the owners'. Returns `Ok(false)` when no level can be on the blocks (the
     /// domain has no coarser level, or the cuts are odd): the caller gathers the problem.
-    pub fn setup_blocks(
+    fn setup_blocks(
         &mut self,
         fine: &Stencil,
         part: &Part,
@@ -153,13 +159,7 @@ impl Hierarchy {
             if let Some(up) = above.last() {
                 let at = offset(&up.part, &bl.part);
                 widen_stencil(&up.coarse, at, &bl.part, &mut bl.local);
-                let st = &mut bl.local;
-                bl.part.exchange(&mut [
-                    (Lattice::XFace, &mut st.ax),
-                    (Lattice::YFace, &mut st.ay),
-                    (Lattice::Cell, &mut st.diag),
-                    (Lattice::Cell, &mut st.inv_diag),
-                ]);
+                owners_halo(&bl.part, &mut bl.local);
             }
             let op = if l == 0 { fine } else { &bl.local };
             let key = (op.n(), op.periodic);
